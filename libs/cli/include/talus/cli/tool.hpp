@@ -1,0 +1,61 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+#include <cstddef>
+#include <functional>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "talus/io/file_header.hpp"
+#include "talus/io/settings_yaml.hpp"
+
+namespace talus::cli {
+
+/// What a tool was asked to do, after the command line and settings were read.
+struct Invocation {
+  std::vector<std::string> inputs;  ///< positional input files
+  std::string output;               ///< -o (empty if the tool needs none)
+  std::string config_path;          ///< -c (empty if none)
+  std::string settings_yaml;        ///< effective settings, defaults included
+  std::string command_line;         ///< the invocation, for provenance
+
+  /// Provenance for an output file of `tool`.
+  io::Provenance provenance(const std::string& tool, std::uint64_t seed) const;
+};
+
+/// An extra flag or option of one tool (beyond the shared conventions).
+struct ExtraFlag {
+  std::string name;  ///< e.g. "--info"
+  std::string doc;
+  bool* value;
+};
+struct ExtraOption {
+  std::string name;  ///< e.g. "--export-mesh"
+  std::string doc;
+  std::string* value;
+};
+
+/// The shared command-line conventions of every Talus tool (docs/cli.md):
+///   TOOL [-c SETTINGS.yaml] [--set key=value …] [INPUT …] -o OUTPUT
+/// with --help, --version, --print-config, --log-level/-q/-v.
+struct ToolSpec {
+  std::string name;          ///< "terrain-gen"
+  std::string summary;       ///< one line for --help
+  std::string inputs_doc;    ///< what the positional inputs are
+  bool needs_output = true;  ///< -o is required (unless --print-config or a tool flag says otherwise)
+  std::size_t min_inputs = 0;
+  std::size_t max_inputs = std::numeric_limits<std::size_t>::max();
+  io::SettingsBody settings;  ///< binds the tool's settings object
+  std::vector<ExtraFlag> flags;
+  std::vector<ExtraOption> options;
+  /// Checks the invocation before run (e.g. flags that make -o optional); may throw.
+  std::function<void(const Invocation&)> check;
+  /// Does the work. Throws core::Error subclasses for failures.
+  std::function<void(const Invocation&)> run;
+};
+
+/// Parses the command line, reads settings, runs the tool and maps every failure to a
+/// one-line message "TOOL: error: …" on stderr and a documented exit code. Never throws.
+int run_tool(int argc, char** argv, const ToolSpec& spec);
+
+}  // namespace talus::cli

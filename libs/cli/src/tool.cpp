@@ -1,0 +1,107 @@
+#include "talus/cli/tool.hpp"
+
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <filesystem>
+#include <new>
+
+#include "talus/core/error.hpp"
+#include "talus/core/log.hpp"
+#include "talus/core/version.hpp"
+
+namespace talus::cli {
+
+io::Provenance Invocation::provenance(const std::string& tool, std::uint64_t seed) const {
+  io::Provenance p;
+  p.tool = tool;
+  p.tool_version = std::string(core::version());
+  p.settings_yaml = settings_yaml;
+  p.command_line = command_line;
+  p.seed = seed;
+  for (const auto& input : inputs) p.inputs += input + "\n";
+  return p;
+}
+
+namespace {
+
+int fail(const ToolSpec& spec, core::ExitCode code, const std::string& message) {
+  std::fprintf(stderr, "%s: error: %s\n", spec.name.c_str(), message.c_str());
+  return static_cast<int>(code);
+}
+
+}  // namespace
+
+int run_tool(int argc, char** argv, const ToolSpec& spec) {
+  core::set_log_prefix(spec.name);
+  CLI::App app{spec.summary, spec.name};
+  app.get_formatter()->column_width(34);
+  Invocation inv;
+  std::vector<std::string> overrides;
+  bool print_config = false;
+  bool quiet = false;
+  bool verbose = false;
+  std::string log_level = "warn";
+
+  app.set_version_flag("--version", std::string(spec.name) + " (Talus) " + std::string(core::version()));
+  app.add_option("-c,--config", inv.config_path, "YAML settings file")->option_text("FILE");
+  app.add_option("--set", overrides, "override one setting, e.g. --set roughness.sigma=0.2 (repeatable)")
+      ->option_text("KEY=VALUE")
+      ->take_all()
+      ->expected(1);
+  app.add_option("-o,--output", inv.output, "output file (written under a temporary name, renamed when complete)")
+      ->option_text("FILE");
+  app.add_flag("--print-config", print_config, "print the effective settings (defaults included) and exit");
+  app.add_option("--log-level", log_level, "error, warn, info or debug (default warn)")->option_text("LEVEL");
+  app.add_flag("-q,--quiet", quiet, "log errors only");
+  app.add_flag("-v,--verbose", verbose, "log progress (same as --log-level info)");
+  for (const auto& f : spec.flags) app.add_flag(f.name, *f.value, f.doc);
+  for (const auto& o : spec.options) app.add_option(o.name, *o.value, o.doc);
+  app.add_option("inputs", inv.inputs, spec.inputs_doc.empty() ? "input files" : spec.inputs_doc)
+      ->option_text("INPUT ...");
+  app.footer("Exit codes: 0 success, 1 runtime failure, 2 usage error, 3 bad input. See docs/cli.md.");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::Success& e) {
+    return app.exit(e);  // --help, --version
+  } catch (const CLI::ParseError& e) {
+    return fail(spec, core::ExitCode::usage, std::string(e.what()) + " (see --help)");
+  }
+
+  for (int i = 0; i < argc; ++i) inv.command_line += (i ? " " : "") + std::string(argv[i]);
+
+  try {
+    core::LogLevel level = core::LogLevel::warn;
+    if (!core::parse_log_level(log_level, level))
+      throw core::UsageError("--log-level must be error, warn, info or debug, got '" + log_level + "'");
+    if (verbose) level = core::LogLevel::info;
+    if (quiet) level = core::LogLevel::error;
+    core::set_log_level(level);
+
+    if (!inv.config_path.empty()) io::read_settings_file(inv.config_path, overrides, spec.settings);
+    else io::read_settings("", "--set", overrides, spec.settings);
+    inv.settings_yaml = io::write_settings(spec.settings, false);
+    if (print_config) {
+      std::fputs(io::write_settings(spec.settings, true).c_str(), stdout);
+      return 0;
+    }
+    if (inv.inputs.size() < spec.min_inputs)
+      throw core::UsageError("expected at least " + std::to_string(spec.min_inputs) + " input file(s) (see --help)");
+    if (inv.inputs.size() > spec.max_inputs)
+      throw core::UsageError("expected at most " + std::to_string(spec.max_inputs) + " input file(s), got " +
+                             std::to_string(inv.inputs.size()));
+    if (spec.check) spec.check(inv);
+    else if (spec.needs_output && inv.output.empty())
+      throw core::UsageError("no output file given (-o FILE)");
+    spec.run(inv);
+    return 0;
+  } catch (const core::Error& e) {
+    return fail(spec, e.code(), e.what());
+  } catch (const std::bad_alloc&) {
+    return fail(spec, core::ExitCode::runtime_failure, "out of memory");
+  } catch (const std::exception& e) {
+    return fail(spec, core::ExitCode::runtime_failure, std::string("internal error: ") + e.what());
+  }
+}
+
+}  // namespace talus::cli

@@ -1,0 +1,72 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <initializer_list>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace talus::core {
+
+/// A settings struct declares each of its fields once, with its unit and meaning, by
+/// accepting a SettingsVisitor:
+///
+///     void visit(SettingsVisitor& v) {
+///       v.field("sigma", sigma_m, "m", "standard deviation of the elevation shifts");
+///     }
+///
+/// The same declaration then reads YAML (unknown keys are errors), applies --set
+/// overrides, prints the effective settings with units and descriptions, and records
+/// provenance. Units are SI; angles given in degrees say "deg" in the unit and the key.
+class SettingsVisitor {
+ public:
+  virtual ~SettingsVisitor() = default;
+
+  virtual void field(std::string_view key, double& value, std::string_view unit,
+                     std::string_view doc) = 0;
+  /// An optional number: absent (null) unless given.
+  virtual void field(std::string_view key, std::optional<double>& value, std::string_view unit,
+                     std::string_view doc) = 0;
+  virtual void field(std::string_view key, std::int64_t& value, std::string_view unit,
+                     std::string_view doc) = 0;
+  virtual void field(std::string_view key, std::uint64_t& value, std::string_view unit,
+                     std::string_view doc) = 0;
+  virtual void field(std::string_view key, bool& value, std::string_view doc) = 0;
+  virtual void field(std::string_view key, std::string& value, std::string_view doc) = 0;
+  virtual void field(std::string_view key, std::array<double, 3>& value, std::string_view unit,
+                     std::string_view doc) = 0;
+  virtual void field(std::string_view key, std::vector<double>& value, std::string_view unit,
+                     std::string_view doc) = 0;
+  virtual void field(std::string_view key, std::vector<std::string>& value,
+                     std::string_view doc) = 0;
+  /// A polygon or polyline: a list of [x, y] pairs.
+  virtual void field(std::string_view key, std::vector<std::array<double, 2>>& value,
+                     std::string_view unit, std::string_view doc) = 0;
+  /// A string restricted to `allowed` (the first allowed value is not implied as default).
+  virtual void choice(std::string_view key, std::string& value,
+                      std::initializer_list<std::string_view> allowed, std::string_view doc) = 0;
+  /// A nested group of settings.
+  virtual void section(std::string_view key, std::string_view doc,
+                       const std::function<void(SettingsVisitor&)>& body) = 0;
+
+  /// A list of settings structs (materials, zones, barrier lines …).
+  struct ListAccess {
+    std::function<std::size_t()> size;
+    std::function<void(std::size_t)> resize;
+    std::function<void(std::size_t, SettingsVisitor&)> visit_item;
+  };
+  virtual void list(std::string_view key, std::string_view doc, const ListAccess& items) = 0;
+
+  /// Convenience for std::vector<T> where T has `void visit(SettingsVisitor&)`.
+  template <class T>
+  void list_of(std::string_view key, std::string_view doc, std::vector<T>& items) {
+    list(key, doc,
+         ListAccess{[&items] { return items.size(); }, [&items](std::size_t n) { items.resize(n); },
+                    [&items](std::size_t i, SettingsVisitor& v) { items[i].visit(v); }});
+  }
+};
+
+}  // namespace talus::core

@@ -1,0 +1,106 @@
+#include "talus/io/mesh_io.hpp"
+
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+
+#include <assimp/Importer.hpp>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "talus/core/error.hpp"
+#include "talus/io/atomic_output.hpp"
+
+namespace talus::io {
+
+ImportedMesh import_mesh(const std::string& path, const MeshImportOptions& options) {
+  if (!std::filesystem::is_regular_file(path)) throw core::InputError(path, "cannot open mesh file");
+  if (std::filesystem::file_size(path) == 0) throw core::InputError(path, "empty mesh file");
+  Assimp::Importer importer;
+  // Points and lines are removed; polygons are split into triangles.
+  importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
+  const aiScene* scene = importer.ReadFile(
+      path, aiProcess_Triangulate | aiProcess_PreTransformVertices | aiProcess_SortByPType);
+  if (!scene || !scene->mRootNode) {
+    std::string why = importer.GetErrorString();
+    if (why.empty()) why = "unreadable mesh";
+    throw core::InputError(path, "cannot read mesh: " + why);
+  }
+  ImportedMesh out;
+  auto& mesh = out.mesh;
+  for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
+    const aiMesh* src = scene->mMeshes[m];
+    if (!(src->mPrimitiveTypes & aiPrimitiveType_TRIANGLE)) continue;
+    ++out.source_meshes;
+    const auto base = static_cast<std::int32_t>(mesh.vertices.size());
+    for (unsigned v = 0; v < src->mNumVertices; ++v) {
+      const aiVector3D& p = src->mVertices[v];
+      geometry::Vec3 q(p.x, p.y, p.z);
+      if (options.up == UpAxis::y) q = geometry::Vec3(p.x, -p.z, p.y);
+      q *= options.scale;
+      if (!q.allFinite()) throw core::InputError(path, "non-finite vertex coordinate");
+      mesh.vertices.push_back(q);
+    }
+    for (unsigned f = 0; f < src->mNumFaces; ++f) {
+      const aiFace& face = src->mFaces[f];
+      if (face.mNumIndices != 3) continue;
+      mesh.triangles.push_back({base + static_cast<std::int32_t>(face.mIndices[0]),
+                                base + static_cast<std::int32_t>(face.mIndices[1]),
+                                base + static_cast<std::int32_t>(face.mIndices[2])});
+    }
+  }
+  if (mesh.triangles.empty()) throw core::InputError(path, "mesh has no triangles");
+  if (options.weld) {
+    double tol = options.weld_tolerance;
+    if (tol <= 0.0) tol = 1e-9 * std::max(mesh.bounds().extent().norm(), 1e-300);
+    const std::size_t before = mesh.triangles.size();
+    out.welded_vertices = geometry::weld_vertices(mesh, tol);
+    out.dropped_triangles = before - mesh.triangles.size();
+    if (mesh.triangles.empty()) throw core::InputError(path, "every triangle is degenerate");
+  }
+  return out;
+}
+
+void export_mesh(const std::string& path, const geometry::TriangleMesh& mesh,
+                 const std::vector<std::int32_t>& face_values) {
+  const std::string ext = std::filesystem::path(path).extension().string();
+  AtomicOutput out(path);
+  {
+    std::ofstream file(out.temp_path(), std::ios::binary);
+    if (ext == ".obj") {
+      char line[128];
+      for (const auto& p : mesh.vertices) {
+        std::snprintf(line, sizeof line, "v %.17g %.17g %.17g\n", p.x(), p.y(), p.z());
+        file << line;
+      }
+      for (const auto& t : mesh.triangles) file << "f " << t[0] + 1 << ' ' << t[1] + 1 << ' ' << t[2] + 1 << '\n';
+    } else if (ext == ".ply") {
+      const bool with_values = !face_values.empty();
+      if (with_values && face_values.size() != mesh.triangles.size())
+        throw core::RuntimeError(path + ": face value count does not match triangles");
+      file << "ply\nformat binary_little_endian 1.0\ncomment written by Talus\n"
+           << "element vertex " << mesh.vertices.size() << "\n"
+           << "property double x\nproperty double y\nproperty double z\n"
+           << "element face " << mesh.triangles.size() << "\n"
+           << "property list uchar int vertex_indices\n";
+      if (with_values) file << "property int material\n";
+      file << "end_header\n";
+      // Talus supports little-endian hosts only (checked at configure time).
+      for (const auto& p : mesh.vertices) file.write(reinterpret_cast<const char*>(p.data()), 3 * sizeof(double));
+      for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+        const unsigned char n = 3;
+        file.write(reinterpret_cast<const char*>(&n), 1);
+        file.write(reinterpret_cast<const char*>(mesh.triangles[t].data()), 3 * sizeof(std::int32_t));
+        if (with_values) file.write(reinterpret_cast<const char*>(&face_values[t]), sizeof(std::int32_t));
+      }
+    } else {
+      throw core::UsageError(path + ": mesh export supports .obj and .ply");
+    }
+    file.flush();
+    if (!file) throw core::RuntimeError(path + ": cannot write mesh");
+  }
+  out.commit();
+}
+
+}  // namespace talus::io

@@ -1,0 +1,457 @@
+#include "talus/io/settings_yaml.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <type_traits>
+#include <cstdio>
+#include <fstream>
+#include <limits>
+#include <set>
+#include <sstream>
+
+#include "talus/core/error.hpp"
+
+namespace talus::io {
+namespace {
+
+using core::InputError;
+using core::SettingsVisitor;
+
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diag = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diag = up;
+    }
+  }
+  return row[b.size()];
+}
+
+// Reads one mapping node into a settings struct, remembering the keys it consumed.
+class Reader final : public SettingsVisitor {
+ public:
+  Reader(YAML::Node node, std::string source, std::string prefix)
+      : node_(std::move(node)), source_(std::move(source)), prefix_(std::move(prefix)) {}
+
+  void field(std::string_view key, double& value, std::string_view, std::string_view) override {
+    if (auto n = take(key)) value = to_double(*n, key);
+  }
+  void field(std::string_view key, std::optional<double>& value, std::string_view,
+             std::string_view) override {
+    if (auto found = take(key)) {
+      const YAML::Node& n = *found;
+      if (n.IsNull()) value.reset();
+      else value = to_double(n, key);
+    }
+  }
+  void field(std::string_view key, std::int64_t& value, std::string_view, std::string_view) override {
+    if (auto n = take(key)) value = to_integer<std::int64_t>(*n, key, "an integer");
+  }
+  void field(std::string_view key, std::uint64_t& value, std::string_view, std::string_view) override {
+    if (auto n = take(key)) value = to_integer<std::uint64_t>(*n, key, "a non-negative integer");
+  }
+  void field(std::string_view key, bool& value, std::string_view) override {
+    if (auto found = take(key)) {
+      const YAML::Node& n = *found;
+      try {
+        if (!n.IsScalar()) throw YAML::Exception(n.Mark(), "");
+        value = n.as<bool>();
+      } catch (const YAML::Exception&) {
+        fail(n, key, "expected true or false, got " + describe(n));
+      }
+    }
+  }
+  void field(std::string_view key, std::string& value, std::string_view) override {
+    if (auto n = take(key)) value = to_string(*n, key);
+  }
+  void field(std::string_view key, std::array<double, 3>& value, std::string_view,
+             std::string_view) override {
+    if (auto found = take(key)) {
+      const YAML::Node& n = *found;
+      if (!n.IsSequence() || n.size() != 3) fail(n, key, "expected a list of 3 numbers");
+      for (std::size_t i = 0; i < 3; ++i) value[i] = to_double(n[i], key);
+    }
+  }
+  void field(std::string_view key, std::vector<double>& value, std::string_view,
+             std::string_view) override {
+    if (auto found = take(key)) {
+      const YAML::Node& n = *found;
+      if (!n.IsSequence()) fail(n, key, "expected a list of numbers");
+      value.clear();
+      for (const auto& item : n) value.push_back(to_double(item, key));
+    }
+  }
+  void field(std::string_view key, std::vector<std::string>& value, std::string_view) override {
+    if (auto found = take(key)) {
+      const YAML::Node& n = *found;
+      value.clear();
+      if (n.IsScalar()) {
+        value.push_back(to_string(n, key));
+        return;
+      }
+      if (!n.IsSequence()) fail(n, key, "expected a list of strings");
+      for (const auto& item : n) value.push_back(to_string(item, key));
+    }
+  }
+  void field(std::string_view key, std::vector<std::array<double, 2>>& value, std::string_view,
+             std::string_view) override {
+    if (auto found = take(key)) {
+      const YAML::Node& n = *found;
+      if (!n.IsSequence()) fail(n, key, "expected a list of [x, y] points");
+      value.clear();
+      for (const auto& item : n) {
+        if (!item.IsSequence() || item.size() != 2) fail(item, key, "expected an [x, y] point");
+        value.push_back({to_double(item[0], key), to_double(item[1], key)});
+      }
+    }
+  }
+  void choice(std::string_view key, std::string& value, std::initializer_list<std::string_view> allowed,
+              std::string_view) override {
+    if (auto found = take(key)) {
+      const YAML::Node& n = *found;
+      const std::string text = to_string(n, key);
+      std::string list;
+      for (auto a : allowed) {
+        if (a == text) {
+          value = text;
+          return;
+        }
+        list += (list.empty() ? "" : ", ") + std::string(a);
+      }
+      fail(n, key, "'" + text + "' is not one of: " + list);
+    }
+  }
+  void section(std::string_view key, std::string_view,
+               const std::function<void(SettingsVisitor&)>& body) override {
+    auto found = take(key);
+    if (!found || found->IsNull()) {
+      // Absent section: visit with an empty map so defaults stay; nothing to check.
+      Reader inner(YAML::Node(YAML::NodeType::Map), source_, path(key));
+      body(inner);
+      return;
+    }
+    const YAML::Node& n = *found;
+    if (!n.IsMap()) fail(n, key, "expected a mapping of settings");
+    Reader inner(n, source_, path(key));
+    body(inner);
+    inner.check_unknown();
+  }
+  void list(std::string_view key, std::string_view, const ListAccess& items) override {
+    auto found = take(key);
+    if (!found || found->IsNull()) {
+      // Absent list: keep the defaults, but still visit them so nested defaults settle.
+      for (std::size_t i = 0; i < items.size(); ++i) {
+        Reader inner(YAML::Node(YAML::NodeType::Map), source_, path(key));
+        items.visit_item(i, inner);
+      }
+      return;
+    }
+    const YAML::Node& n = *found;
+    if (!n.IsSequence()) fail(n, key, "expected a list");
+    items.resize(n.size());
+    for (std::size_t i = 0; i < n.size(); ++i) {
+      const YAML::Node item = n[i];
+      const std::string item_path = path(key) + "[" + std::to_string(i) + "]";
+      if (!item.IsMap()) fail(item, key, "item " + std::to_string(i) + ": expected a mapping");
+      Reader inner(item, source_, item_path);
+      items.visit_item(i, inner);
+      inner.check_unknown();
+    }
+  }
+
+  // Any key of this mapping nobody asked for is an error: a typo never runs silently.
+  void check_unknown() const {
+    if (!node_.IsMap()) return;
+    for (const auto& kv : node_) {
+      const std::string key = kv.first.as<std::string>();
+      if (seen_.count(key)) continue;
+      std::string hint;
+      std::size_t best = 3;
+      for (const auto& known : seen_all_) {
+        const std::size_t d = edit_distance(key, known);
+        if (d < best) {
+          best = d;
+          hint = " (did you mean '" + known + "'?)";
+        }
+      }
+      throw InputError(location(kv.first), "unknown key '" + path(key) + "'" + hint);
+    }
+  }
+
+ private:
+  // The node under `key`, or nothing when the key is absent.
+  std::optional<YAML::Node> take(std::string_view key) {
+    const std::string k(key);
+    seen_all_.insert(k);
+    if (!node_.IsMap()) return std::nullopt;
+    // Const lookup: a missing key gives an undefined node instead of inserting one.
+    const YAML::Node& map = node_;
+    YAML::Node n = map[k];
+    if (!n.IsDefined()) return std::nullopt;
+    seen_.insert(k);
+    return n;
+  }
+  std::string path(std::string_view key) const {
+    return prefix_.empty() ? std::string(key) : prefix_ + "." + std::string(key);
+  }
+  std::string location(const YAML::Node& n) const {
+    const auto mark = n.Mark();
+    if (mark.line < 0) return source_;
+    return source_ + ":" + std::to_string(mark.line + 1);
+  }
+  static std::string describe(const YAML::Node& n) {
+    if (n.IsScalar()) return "'" + n.Scalar() + "'";
+    if (n.IsSequence()) return "a list";
+    if (n.IsMap()) return "a mapping";
+    return "nothing";
+  }
+  [[noreturn]] void fail(const YAML::Node& n, std::string_view key, const std::string& what) const {
+    throw InputError(location(n), path(key) + ": " + what);
+  }
+  double to_double(const YAML::Node& n, std::string_view key) const {
+    if (!n.IsScalar()) fail(n, key, "expected a number, got " + describe(n));
+    const std::string& text = n.Scalar();
+    char* end = nullptr;
+    const double v = std::strtod(text.c_str(), &end);
+    if (text.empty() || end != text.c_str() + text.size())
+      fail(n, key, "expected a number, got " + describe(n));
+    if (!std::isfinite(v)) fail(n, key, "must be finite, got " + describe(n));
+    return v;
+  }
+  template <class T>
+  T to_integer(const YAML::Node& n, std::string_view key, const char* what) const {
+    if (!n.IsScalar()) fail(n, key, std::string("expected ") + what + ", got " + describe(n));
+    const std::string& text = n.Scalar();
+    if (text.empty() || (std::is_unsigned_v<T> && text[0] == '-'))
+      fail(n, key, std::string("expected ") + what + ", got " + describe(n));
+    errno = 0;
+    char* end = nullptr;
+    T v{};
+    if constexpr (std::is_unsigned_v<T>) v = std::strtoull(text.c_str(), &end, 10);
+    else v = std::strtoll(text.c_str(), &end, 10);
+    if (errno == ERANGE || end != text.c_str() + text.size())
+      fail(n, key, std::string("expected ") + what + ", got " + describe(n));
+    return v;
+  }
+  std::string to_string(const YAML::Node& n, std::string_view key) const {
+    if (!n.IsScalar()) fail(n, key, "expected a string, got " + describe(n));
+    return n.Scalar();
+  }
+
+  YAML::Node node_;
+  std::string source_;
+  std::string prefix_;
+  std::set<std::string> seen_;
+  std::set<std::string> seen_all_;
+};
+
+// Emits the effective settings.
+class Writer final : public SettingsVisitor {
+ public:
+  Writer(YAML::Emitter& out, bool comments) : out_(out), comments_(comments) {}
+
+  void field(std::string_view key, double& value, std::string_view unit, std::string_view doc) override {
+    out_ << YAML::Key << std::string(key) << YAML::Value << number(value);
+    comment(unit, doc);
+  }
+  void field(std::string_view key, std::optional<double>& value, std::string_view unit,
+             std::string_view doc) override {
+    out_ << YAML::Key << std::string(key) << YAML::Value;
+    if (value) out_ << number(*value);
+    else out_ << YAML::Null;
+    comment(unit, doc);
+  }
+  void field(std::string_view key, std::int64_t& value, std::string_view unit, std::string_view doc) override {
+    out_ << YAML::Key << std::string(key) << YAML::Value << value;
+    comment(unit, doc);
+  }
+  void field(std::string_view key, std::uint64_t& value, std::string_view unit, std::string_view doc) override {
+    out_ << YAML::Key << std::string(key) << YAML::Value << value;
+    comment(unit, doc);
+  }
+  void field(std::string_view key, bool& value, std::string_view doc) override {
+    out_ << YAML::Key << std::string(key) << YAML::Value << value;
+    comment({}, doc);
+  }
+  void field(std::string_view key, std::string& value, std::string_view doc) override {
+    out_ << YAML::Key << std::string(key) << YAML::Value << YAML::DoubleQuoted << value;
+    comment({}, doc);
+  }
+  void field(std::string_view key, std::array<double, 3>& value, std::string_view unit,
+             std::string_view doc) override {
+    out_ << YAML::Key << std::string(key) << YAML::Value << YAML::Flow << YAML::BeginSeq;
+    for (double v : value) out_ << number(v);
+    out_ << YAML::EndSeq;
+    comment(unit, doc);
+  }
+  void field(std::string_view key, std::vector<double>& value, std::string_view unit,
+             std::string_view doc) override {
+    out_ << YAML::Key << std::string(key) << YAML::Value << YAML::Flow << YAML::BeginSeq;
+    for (double v : value) out_ << number(v);
+    out_ << YAML::EndSeq;
+    comment(unit, doc);
+  }
+  void field(std::string_view key, std::vector<std::string>& value, std::string_view doc) override {
+    out_ << YAML::Key << std::string(key) << YAML::Value << YAML::Flow << YAML::BeginSeq;
+    for (const auto& v : value) out_ << YAML::DoubleQuoted << v;
+    out_ << YAML::EndSeq;
+    comment({}, doc);
+  }
+  void field(std::string_view key, std::vector<std::array<double, 2>>& value, std::string_view unit,
+             std::string_view doc) override {
+    out_ << YAML::Key << std::string(key) << YAML::Value << YAML::Flow << YAML::BeginSeq;
+    for (const auto& p : value) out_ << YAML::Flow << YAML::BeginSeq << number(p[0]) << number(p[1]) << YAML::EndSeq;
+    out_ << YAML::EndSeq;
+    comment(unit, doc);
+  }
+  void choice(std::string_view key, std::string& value, std::initializer_list<std::string_view> allowed,
+              std::string_view doc) override {
+    out_ << YAML::Key << std::string(key) << YAML::Value << value;
+    std::string options = std::string(doc) + " (one of:";
+    for (auto a : allowed) options += " " + std::string(a);
+    comment({}, options + ")");
+  }
+  void section(std::string_view key, std::string_view doc,
+               const std::function<void(SettingsVisitor&)>& body) override {
+    if (comments_ && !doc.empty()) out_ << YAML::Comment(std::string(doc));
+    out_ << YAML::Key << std::string(key) << YAML::Value << YAML::BeginMap;
+    body(*this);
+    out_ << YAML::EndMap;
+  }
+  void list(std::string_view key, std::string_view doc, const ListAccess& items) override {
+    if (comments_ && !doc.empty()) out_ << YAML::Comment(std::string(doc));
+    out_ << YAML::Key << std::string(key) << YAML::Value << YAML::BeginSeq;
+    for (std::size_t i = 0; i < items.size(); ++i) {
+      out_ << YAML::BeginMap;
+      items.visit_item(i, *this);
+      out_ << YAML::EndMap;
+    }
+    out_ << YAML::EndSeq;
+  }
+
+ private:
+  // Shortest text that reads back as the same double.
+  static std::string number(double v) {
+    char buffer[40];
+    for (int precision = 6; precision <= 17; ++precision) {
+      std::snprintf(buffer, sizeof buffer, "%.*g", precision, v);
+      if (std::strtod(buffer, nullptr) == v) break;
+    }
+    return buffer;
+  }
+  void comment(std::string_view unit, std::string_view doc) {
+    if (!comments_) return;
+    std::string text;
+    if (!unit.empty()) text = "[" + std::string(unit) + "] ";
+    text += doc;
+    if (!text.empty()) out_ << YAML::Comment(text);
+  }
+  YAML::Emitter& out_;
+  bool comments_;
+};
+
+// Applies one "a.b[2].c=value" override to the YAML tree.
+void apply_override(YAML::Node& root, const std::string& text) {
+  const auto eq = text.find('=');
+  if (eq == std::string::npos || eq == 0)
+    throw core::UsageError("--set expects key=value, got '" + text + "'");
+  const std::string key = text.substr(0, eq);
+  const std::string value = text.substr(eq + 1);
+  YAML::Node parsed;
+  try {
+    parsed = YAML::Load(value);
+  } catch (const YAML::Exception& e) {
+    throw core::UsageError("--set " + key + ": cannot parse value '" + value + "'");
+  }
+  // Split on '.' and on [index].
+  std::vector<std::string> parts;
+  std::string current;
+  for (char c : key) {
+    if (c == '.' || c == '[') {
+      if (!current.empty()) parts.push_back(current);
+      current.clear();
+      if (c == '[') current = "[";
+    } else if (c == ']') {
+      parts.push_back(current + "]");
+      current.clear();
+    } else {
+      current += c;
+    }
+  }
+  if (!current.empty()) parts.push_back(current);
+  if (parts.empty()) throw core::UsageError("--set: empty key in '" + text + "'");
+
+  // yaml-cpp nodes are references: walk by reassigning handles.
+  std::vector<YAML::Node> chain{root};
+  for (std::size_t i = 0; i < parts.size(); ++i) {
+    YAML::Node node = chain.back();
+    const std::string& part = parts[i];
+    const bool last = i + 1 == parts.size();
+    if (part.front() == '[') {
+      std::size_t index = 0;
+      try {
+        index = std::stoul(part.substr(1, part.size() - 2));
+      } catch (...) {
+        throw core::UsageError("--set " + key + ": bad list index " + part);
+      }
+      if (!node.IsSequence() || index >= node.size())
+        throw core::UsageError("--set " + key + ": no list item " + part);
+      if (last) node[index] = parsed;
+      else chain.push_back(node[index]);
+    } else {
+      if (node.IsNull()) node = YAML::Node(YAML::NodeType::Map);
+      if (!node.IsMap()) throw core::UsageError("--set " + key + ": '" + part + "' is not in a mapping");
+      if (last) node[part] = parsed;
+      else {
+        if (!node[part]) node[part] = YAML::Node(YAML::NodeType::Map);
+        chain.push_back(node[part]);
+      }
+    }
+  }
+}
+
+}  // namespace
+
+void read_settings(const std::string& yaml_text, const std::string& source,
+                   const std::vector<std::string>& overrides, const SettingsBody& body) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::ParserException& e) {
+    throw InputError(source + ":" + std::to_string(e.mark.line + 1), "YAML syntax error: " + e.msg);
+  }
+  if (root.IsNull()) root = YAML::Node(YAML::NodeType::Map);
+  if (!root.IsMap()) throw InputError(source, "expected a mapping of settings at the top level");
+  for (const auto& o : overrides) apply_override(root, o);
+  Reader reader(root, source, "");
+  body(reader);
+  reader.check_unknown();
+}
+
+void read_settings_file(const std::string& path, const std::vector<std::string>& overrides,
+                        const SettingsBody& body) {
+  std::ifstream in(path);
+  if (!in) throw InputError(path, "cannot open settings file");
+  std::stringstream text;
+  text << in.rdbuf();
+  read_settings(text.str(), path, overrides, body);
+}
+
+std::string write_settings(const SettingsBody& body, bool comments) {
+  YAML::Emitter out;
+  out << YAML::BeginMap;
+  Writer writer(out, comments);
+  body(writer);
+  out << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
+}
+
+}  // namespace talus::io

@@ -1,0 +1,123 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "talus/core/settings.hpp"
+#include "talus/geometry/triangle_mesh.hpp"
+#include "talus/geometry/types.hpp"
+
+namespace talus::terrain {
+
+using geometry::Aabb;
+using geometry::Vec3;
+
+/// A regular lattice of grid points: point (i, j) lies at (x0 + i·dx, y0 + j·dy),
+/// i in [0, nx), j in [0, ny). Coordinates are local (after the origin shift).
+struct GridSpec {
+  double x0 = 0.0;  ///< m
+  double y0 = 0.0;  ///< m
+  double dx = 1.0;  ///< m, > 0
+  double dy = 1.0;  ///< m, > 0
+  std::int32_t nx = 0;  ///< grid points along x
+  std::int32_t ny = 0;  ///< grid points along y
+  std::size_t point_count() const { return static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny); }
+  std::size_t cell_count() const {
+    return nx < 2 || ny < 2 ? 0 : static_cast<std::size_t>(nx - 1) * static_cast<std::size_t>(ny - 1);
+  }
+  /// Row-major index of point (i, j).
+  std::size_t index(std::int32_t i, std::int32_t j) const {
+    return static_cast<std::size_t>(j) * static_cast<std::size_t>(nx) + static_cast<std::size_t>(i);
+  }
+};
+
+/// Elevations on a grid (m). NaN marks no data.
+struct DemGrid {
+  GridSpec spec;
+  std::vector<double> z;  ///< point_count() values, index spec.index(i, j)
+};
+
+/// How each DEM cell is split into two triangles.
+enum class Diagonal : std::uint8_t {
+  fixed,        ///< reference cut: every cell along the same diagonal (biases lateral drift)
+  alternating,  ///< checkerboard of the two diagonals (unbiased, the default)
+  random,       ///< each cell's diagonal drawn from the seeded terrain_diagonals stream
+};
+
+/// Ground material: the distributions of SPEC §4 drawn per impact.
+struct Material {
+  std::string name = "default";
+  double restitution_mean = 0.95;          ///< scaled restitution R_v mean (-)
+  double restitution_sd = 0.05;            ///< R_v standard deviation (-)
+  double restitution_scale = 12.0;         ///< K of SF = 1/(1+(V_in/K)²) (m/s)
+  double friction_angle_mean_deg = 10.0;   ///< mean friction angle (deg)
+  double friction_coefficient_sd = 0.05;   ///< sd of the friction coefficient tan φ (-)
+  double lateral_tilt_sd_deg = 0.0;        ///< sd of the lateral ground tilt at impact (deg)
+  void visit(core::SettingsVisitor& v);
+};
+
+/// Ground roughness: realization i shifts every grid point (or TIN vertex) vertically by
+/// σ·N(0,1), the normal being draw k (point index) of stream (seed, terrain_roughness, i).
+struct Roughness {
+  double sigma = 0.0;         ///< m; 0 = smooth
+  std::uint64_t seed = 1;     ///< terrain seed
+};
+
+/// The immutable terrain model stored in a terrain file: base geometry, materials and
+/// roughness model. Either a grid-based TRN (vertex k = grid point k, triangles of cell
+/// c = j·(nx−1)+i are 2c and 2c+1) or a general TIN (may have vertical walls and
+/// overhangs).
+struct Terrain {
+  std::optional<GridSpec> grid;          ///< set for a grid-based TRN
+  std::vector<std::uint8_t> cell_diagonal;  ///< grid only: per cell, 0 = (i,j)-(i+1,j+1) cut, 1 = (i+1,j)-(i,j+1) cut
+  geometry::TriangleMesh mesh;           ///< base surface (m, local coordinates), triangles CCW from above/outside
+  std::vector<std::int32_t> material_of_triangle;  ///< index into materials, one per triangle
+  std::vector<Material> materials;
+  Roughness roughness;
+  Vec3 origin_shift = Vec3::Zero();      ///< add to local coordinates to get the input (projected) coordinates (m)
+  std::string name;                       ///< free text (e.g. "bench-slope")
+};
+
+/// One realization of a terrain, ready for contact queries. Building it from a grid
+/// terrain costs one pass over the points (the roughness draws) and no search structure;
+/// from a TIN it builds a bounding-volume hierarchy.
+class Surface {
+ public:
+  /// Realization `index` of `terrain` (roughness applied); nullopt = the smooth base.
+  static Surface realize(const Terrain& terrain, std::optional<std::uint32_t> index);
+  /// A surface from a bare mesh (single material 0), e.g. for tests.
+  static Surface from_mesh(geometry::TriangleMesh mesh);
+
+  Surface(Surface&&) noexcept;
+  Surface& operator=(Surface&&) noexcept;
+  ~Surface();
+
+  const geometry::TriangleMesh& mesh() const;
+  std::int32_t material(std::size_t triangle) const;
+  const Aabb& bounds() const;
+  /// True for a grid-based TRN (a height field); a TIN may have overhangs.
+  bool is_height_field() const;
+
+  /// Appends to `out` the triangles whose bounding boxes overlap `box` (maybe a few more,
+  /// never fewer). O(cells under the box) on a grid; O(log n + k) on a TIN.
+  void triangles_in_box(const Aabb& box, std::vector<std::int32_t>& out) const;
+  /// The highest surface point vertically below or above (x, y): elevation (m) and the
+  /// triangle it lies on; nullopt outside the terrain.
+  struct Hit {
+    double z = 0.0;
+    std::int32_t triangle = -1;
+  };
+  std::optional<Hit> height_at(double x, double y) const;
+  /// Unit normal of a triangle (pointing up/out).
+  Vec3 normal(std::size_t triangle) const;
+
+ private:
+  struct Impl;
+  explicit Surface(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace talus::terrain

@@ -1,0 +1,82 @@
+#include "talus/io/mesh_io.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "talus/core/error.hpp"
+#include "talus/io/atomic_output.hpp"
+
+namespace talus::io {
+namespace {
+
+std::string temp_file(const std::string& name) {
+  return (std::filesystem::temp_directory_path() / ("talus_mesh_test_" + name)).string();
+}
+
+// An ASCII STL stores each triangle's vertices separately: welding must share them.
+TEST(MeshImport, StlIsWeldedAndYUpRotated) {
+  const std::string path = temp_file("quad.stl");
+  write_text_file(path, R"(solid quad
+facet normal 0 1 0
+ outer loop
+  vertex 0 0 0
+  vertex 1 0 0
+  vertex 1 0 -1
+ endloop
+endfacet
+facet normal 0 1 0
+ outer loop
+  vertex 0 0 0
+  vertex 1 0 -1
+  vertex 0 0 -1
+ endloop
+endfacet
+endsolid quad
+)");
+  MeshImportOptions options;
+  options.up = UpAxis::y;
+  const ImportedMesh m = import_mesh(path, options);
+  EXPECT_EQ(m.mesh.vertices.size(), 4u);
+  EXPECT_EQ(m.welded_vertices, 2u);
+  ASSERT_EQ(m.mesh.triangles.size(), 2u);
+  // y-up input: the quad lies in the input's x-z plane, facing +y, so in z-up it faces +z.
+  EXPECT_GT(m.mesh.area_normal(0).z(), 0.0);
+  std::filesystem::remove(path);
+}
+
+TEST(MeshImport, ErrorsNameTheFile) {
+  const std::string empty = temp_file("empty.obj");
+  write_text_file(empty, "");
+  try {
+    import_mesh(empty);
+    FAIL();
+  } catch (const core::InputError& e) {
+    EXPECT_EQ(e.source(), empty);
+  }
+  const std::string points = temp_file("points.obj");
+  write_text_file(points, "v 0 0 0\nv 1 0 0\nv 0 1 0\n");
+  EXPECT_THROW(import_mesh(points), core::InputError);
+  EXPECT_THROW(import_mesh(temp_file("missing.obj")), core::InputError);
+  std::filesystem::remove(empty);
+  std::filesystem::remove(points);
+}
+
+TEST(MeshExport, ObjRoundTrips) {
+  geometry::TriangleMesh mesh;
+  mesh.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0.25}};
+  mesh.triangles = {{0, 1, 2}};
+  const std::string path = temp_file("tri.obj");
+  export_mesh(path, mesh);
+  const ImportedMesh back = import_mesh(path);
+  ASSERT_EQ(back.mesh.vertices.size(), 3u);
+  EXPECT_EQ(back.mesh.vertices[2].z(), 0.25);
+  const std::string ply = temp_file("tri.ply");
+  export_mesh(ply, mesh, {4});
+  EXPECT_EQ(import_mesh(ply).mesh.triangles.size(), 1u);
+  std::filesystem::remove(path);
+  std::filesystem::remove(ply);
+}
+
+}  // namespace
+}  // namespace talus::io

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
 #pragma once
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -81,38 +82,54 @@ struct Terrain {
   std::string name;                       ///< free text (e.g. "bench-slope")
 };
 
-/// One realization of a terrain, ready for contact queries. Building it from a grid
-/// terrain costs one pass over the points (the roughness draws) and no search structure;
-/// from a TIN it builds a bounding-volume hierarchy.
+/// One realization of a terrain, ready for contact queries by one realization's engine.
+///
+/// On a grid terrain the perturbed elevations are computed lazily, tile by tile, the first
+/// time a query touches them: a block that crosses a few hundred cells of a 4-million-point
+/// DEM pays for those cells only. Realization i is a pure function of (terrain seed, i), so
+/// laziness never changes a value. Because of that cache, one Surface must not be queried
+/// from several threads at once (each realization has its own Surface).
+/// On a TIN, construction perturbs every vertex and builds a bounding-volume hierarchy.
 class Surface {
  public:
   /// Realization `index` of `terrain` (roughness applied); nullopt = the smooth base.
+  /// `terrain` must outlive the Surface.
   static Surface realize(const Terrain& terrain, std::optional<std::uint32_t> index);
-  /// A surface from a bare mesh (single material 0), e.g. for tests.
+  /// A TIN surface from a bare mesh (material 0 everywhere), e.g. for tests.
   static Surface from_mesh(geometry::TriangleMesh mesh);
 
   Surface(Surface&&) noexcept;
   Surface& operator=(Surface&&) noexcept;
   ~Surface();
 
-  const geometry::TriangleMesh& mesh() const;
-  std::int32_t material(std::size_t triangle) const;
+  std::size_t triangle_count() const;
+  std::size_t vertex_count() const;
+  /// Vertex indices of triangle t, counter-clockwise seen from above (grid) or outside.
+  std::array<std::int32_t, 3> triangle(std::size_t t) const;
+  /// Realized position of vertex v (m).
+  Vec3 vertex(std::size_t v) const;
+  std::array<Vec3, 3> triangle_vertices(std::size_t t) const;
+  /// Unit normal of triangle t (pointing up on a grid, outward on a TIN).
+  Vec3 normal(std::size_t t) const;
+  std::int32_t material(std::size_t t) const;
+  /// Bounds (m): x and y exact; z covers every realization (base ± 8.6σ, the largest
+  /// value a Box–Muller draw from 53-bit uniforms can take).
   const Aabb& bounds() const;
-  /// True for a grid-based TRN (a height field); a TIN may have overhangs.
+  /// True for a grid-based TRN (a height field); a TIN may have walls and overhangs.
   bool is_height_field() const;
 
-  /// Appends to `out` the triangles whose bounding boxes overlap `box` (maybe a few more,
+  /// Appends to `out` the triangles whose bounding boxes may overlap `box` (a few more,
   /// never fewer). O(cells under the box) on a grid; O(log n + k) on a TIN.
   void triangles_in_box(const Aabb& box, std::vector<std::int32_t>& out) const;
-  /// The highest surface point vertically below or above (x, y): elevation (m) and the
-  /// triangle it lies on; nullopt outside the terrain.
+  /// The highest surface point on the vertical through (x, y): elevation (m) and its
+  /// triangle; nullopt where the vertical misses the terrain.
   struct Hit {
     double z = 0.0;
     std::int32_t triangle = -1;
   };
   std::optional<Hit> height_at(double x, double y) const;
-  /// Unit normal of a triangle (pointing up/out).
-  Vec3 normal(std::size_t triangle) const;
+  /// Every triangle, realized (for export and tests; costs the whole terrain).
+  geometry::TriangleMesh to_mesh() const;
 
  private:
   struct Impl;

@@ -46,8 +46,7 @@ int run_tool(int argc, char** argv, const ToolSpec& spec) {
   app.add_option("-c,--config", inv.config_path, "YAML settings file")->option_text("FILE");
   app.add_option("--set", overrides, "override one setting, e.g. --set roughness.sigma=0.2 (repeatable)")
       ->option_text("KEY=VALUE")
-      ->take_all()
-      ->expected(1);
+      ->allow_extra_args(false);  // one KEY=VALUE per --set; later words are inputs
   app.add_option("-o,--output", inv.output, "output file (written under a temporary name, renamed when complete)")
       ->option_text("FILE");
   app.add_flag("--print-config", print_config, "print the effective settings (defaults included) and exit");

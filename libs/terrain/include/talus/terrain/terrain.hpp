@@ -93,7 +93,15 @@ struct Terrain {
 class Surface {
  public:
   /// Realization `index` of `terrain` (roughness applied); nullopt = the smooth base.
-  /// `terrain` must outlive the Surface.
+  /// `terrain` must outlive the Surface. Vertex k of realization i has
+  /// z = base z_k + σ·RandomStream(roughness.seed, Stream::terrain_roughness, i).normal(k).
+  /// Grid: vertex k = grid point k at (x0 + i·dx, y0 + j·dy); triangles of cell
+  /// c = j·(nx−1)+i are, with p00 = (i,j), p10 = (i+1,j), p01 = (i,j+1), p11 = (i+1,j+1):
+  ///   cell_diagonal[c] = 0: 2c = (p00, p10, p11), 2c+1 = (p00, p11, p01);
+  ///   cell_diagonal[c] = 1: 2c = (p00, p10, p01), 2c+1 = (p10, p11, p01).
+  /// Cheap on a grid (nothing is realized until queried); O(n log n) on a TIN.
+  /// Throws core::InputError (source: terrain.name) when the terrain is inconsistent
+  /// (array sizes, vertex ids out of range, σ negative or not finite).
   static Surface realize(const Terrain& terrain, std::optional<std::uint32_t> index);
   /// A TIN surface from a bare mesh (material 0 everywhere), e.g. for tests.
   static Surface from_mesh(geometry::TriangleMesh mesh);
@@ -117,6 +125,11 @@ class Surface {
   const Aabb& bounds() const;
   /// True for a grid-based TRN (a height field); a TIN may have walls and overhangs.
   bool is_height_field() const;
+  /// Grid with roughness only: the number of tiles (32 × 32 points) realized so far and
+  /// in all; 0 when nothing is perturbed (a TIN, σ = 0 or the smooth base). For tests
+  /// and benchmarks of the laziness.
+  std::size_t tiles_realized() const;
+  std::size_t tile_count() const;
 
   /// Appends to `out` the triangles whose bounding boxes may overlap `box` (a few more,
   /// never fewer). O(cells under the box) on a grid; O(log n + k) on a TIN.

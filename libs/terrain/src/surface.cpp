@@ -1,0 +1,393 @@
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "bvh.hpp"
+#include "talus/core/error.hpp"
+#include "talus/core/random.hpp"
+#include "talus/terrain/terrain.hpp"
+
+namespace talus::terrain {
+namespace {
+
+// Largest |N| a Box–Muller draw can reach: u1 >= 2^-53 gives sqrt(-2 ln 2^-53) = 8.5716.
+constexpr double kMaxNormal = 8.6;
+
+// Tiles of kTile × kTile grid points, stored contiguously so a query near a block touches
+// a handful of memory pages.
+constexpr std::int32_t kTileShift = 5;
+constexpr std::int32_t kTile = 1 << kTileShift;
+constexpr std::int32_t kTileMask = kTile - 1;
+constexpr std::size_t kTilePoints = static_cast<std::size_t>(kTile) * kTile;
+
+std::string count_text(std::size_t n) { return std::to_string(n); }
+
+}  // namespace
+
+struct Surface::Impl {
+  // Either a grid (height field, lazily realized tiles) or a TIN (eager, BVH).
+  bool grid_mode = false;
+  std::unique_ptr<Terrain> owned;  // from_mesh keeps its own terrain
+  const Terrain* terrain = nullptr;
+  Aabb bounds;
+
+  // --- grid ---
+  GridSpec spec;
+  bool perturbed = false;
+  double sigma = 0.0;
+  core::RandomStream stream{0, core::Stream::terrain_roughness, 0};
+  std::int32_t tiles_x = 0;
+  std::int32_t tiles_y = 0;
+  mutable std::unique_ptr<double[]> tile_z;       // tiles_x·tiles_y·kTilePoints, written on demand
+  mutable std::vector<std::uint8_t> tile_ready;   // one flag per tile
+  mutable std::size_t tiles_done = 0;
+
+  // --- TIN ---
+  std::vector<Vec3> vertices;  // realized
+  detail::Bvh bvh;
+
+  std::size_t triangle_count() const {
+    return grid_mode ? 2 * spec.cell_count() : terrain->mesh.triangles.size();
+  }
+
+  // Realized elevation of grid point (i, j).
+  double z(std::int32_t i, std::int32_t j) const {
+    if (!perturbed) return terrain->mesh.vertices[spec.index(i, j)].z();
+    const auto tile = static_cast<std::size_t>((j >> kTileShift) * tiles_x + (i >> kTileShift));
+    if (!tile_ready[tile]) realize_tile(tile);
+    return tile_z[tile * kTilePoints + static_cast<std::size_t>((j & kTileMask) * kTile + (i & kTileMask))];
+  }
+
+  void realize_tile(std::size_t tile) const {
+    const auto tx = static_cast<std::int32_t>(tile % static_cast<std::size_t>(tiles_x));
+    const auto ty = static_cast<std::int32_t>(tile / static_cast<std::size_t>(tiles_x));
+    const std::int32_t i0 = tx * kTile;
+    const std::int32_t j0 = ty * kTile;
+    const std::int32_t i1 = std::min(i0 + kTile, spec.nx);
+    const std::int32_t j1 = std::min(j0 + kTile, spec.ny);
+    double normals[kTile];
+    double* out = tile_z.get() + tile * kTilePoints;
+    for (std::int32_t j = j0; j < j1; ++j) {
+      const std::size_t first = spec.index(i0, j);
+      const auto n = static_cast<std::size_t>(i1 - i0);
+      // Draw k of the stream belongs to point k whatever the tiling: laziness never
+      // changes a value.
+      stream.normals(first, normals, n);
+      double* row = out + static_cast<std::size_t>(j - j0) * kTile;
+      for (std::size_t a = 0; a < n; ++a) row[a] = terrain->mesh.vertices[first + a].z() + sigma * normals[a];
+    }
+    tile_ready[tile] = 1;
+    ++tiles_done;
+  }
+
+  Vec3 grid_point(std::int32_t i, std::int32_t j) const {
+    return {spec.x0 + i * spec.dx, spec.y0 + j * spec.dy, z(i, j)};
+  }
+
+  std::array<std::int32_t, 3> grid_triangle(std::size_t t) const {
+    const std::size_t c = t / 2;
+    const auto cells_x = static_cast<std::size_t>(spec.nx - 1);
+    const auto i = static_cast<std::int32_t>(c % cells_x);
+    const auto j = static_cast<std::int32_t>(c / cells_x);
+    const auto p00 = static_cast<std::int32_t>(spec.index(i, j));
+    const std::int32_t p10 = p00 + 1;
+    const std::int32_t p01 = p00 + spec.nx;
+    const std::int32_t p11 = p01 + 1;
+    const bool second = (t % 2) == 1;
+    if (terrain->cell_diagonal[c] == 0) {
+      // Cut (i,j)–(i+1,j+1): lower-right then upper-left triangle.
+      return second ? std::array{p00, p11, p01} : std::array{p00, p10, p11};
+    }
+    // Cut (i+1,j)–(i,j+1): lower-left then upper-right triangle.
+    return second ? std::array{p10, p11, p01} : std::array{p00, p10, p01};
+  }
+
+  Vec3 vertex(std::size_t v) const {
+    if (!grid_mode) return vertices[v];
+    const auto nx = static_cast<std::size_t>(spec.nx);
+    return grid_point(static_cast<std::int32_t>(v % nx), static_cast<std::int32_t>(v / nx));
+  }
+
+  std::array<std::int32_t, 3> triangle(std::size_t t) const {
+    return grid_mode ? grid_triangle(t) : terrain->mesh.triangles[t];
+  }
+
+  std::array<Vec3, 3> triangle_vertices(std::size_t t) const {
+    const auto tri = triangle(t);
+    return {vertex(static_cast<std::size_t>(tri[0])), vertex(static_cast<std::size_t>(tri[1])),
+            vertex(static_cast<std::size_t>(tri[2]))};
+  }
+
+  void grid_in_box(const Aabb& box, std::vector<std::int32_t>& out) const {
+    // Cell i spans [x0 + i dx, x0 + (i+1) dx]; it overlaps [lo, hi] iff
+    // (lo − x0)/dx − 1 <= i <= (hi − x0)/dx. The 1e-9 cell slack keeps cells that touch the
+    // box exactly despite rounding (a few more, never fewer).
+    constexpr double slack = 1e-9;
+    const double fx_lo = (box.lo.x() - spec.x0) / spec.dx - 1.0 - slack;
+    const double fx_hi = (box.hi.x() - spec.x0) / spec.dx + slack;
+    const double fy_lo = (box.lo.y() - spec.y0) / spec.dy - 1.0 - slack;
+    const double fy_hi = (box.hi.y() - spec.y0) / spec.dy + slack;
+    const double max_i = spec.nx - 2;
+    const double max_j = spec.ny - 2;
+    if (!(fx_hi >= 0.0 && fy_hi >= 0.0 && fx_lo <= max_i && fy_lo <= max_j)) return;  // also NaN
+    const auto i_lo = static_cast<std::int32_t>(std::max(0.0, std::ceil(fx_lo)));
+    const auto i_hi = static_cast<std::int32_t>(std::min(max_i, std::floor(fx_hi)));
+    const auto j_lo = static_cast<std::int32_t>(std::max(0.0, std::ceil(fy_lo)));
+    const auto j_hi = static_cast<std::int32_t>(std::min(max_j, std::floor(fy_hi)));
+    const double zlo = box.lo.z();
+    const double zhi = box.hi.z();
+    for (std::int32_t j = j_lo; j <= j_hi; ++j) {
+      for (std::int32_t i = i_lo; i <= i_hi; ++i) {
+        const double z00 = z(i, j);
+        const double z10 = z(i + 1, j);
+        const double z01 = z(i, j + 1);
+        const double z11 = z(i + 1, j + 1);
+        const std::size_t c = static_cast<std::size_t>(j) * static_cast<std::size_t>(spec.nx - 1) +
+                              static_cast<std::size_t>(i);
+        // The two triangles' vertex elevations, in the order of grid_triangle.
+        double a0, a1, a2, b0, b1, b2;
+        if (terrain->cell_diagonal[c] == 0) {
+          a0 = z00, a1 = z10, a2 = z11, b0 = z00, b1 = z11, b2 = z01;
+        } else {
+          a0 = z00, a1 = z10, a2 = z01, b0 = z10, b1 = z11, b2 = z01;
+        }
+        const auto t0 = static_cast<std::int32_t>(2 * c);
+        if (std::min({a0, a1, a2}) <= zhi && std::max({a0, a1, a2}) >= zlo) out.push_back(t0);
+        if (std::min({b0, b1, b2}) <= zhi && std::max({b0, b1, b2}) >= zlo) out.push_back(t0 + 1);
+      }
+    }
+  }
+
+  std::optional<Hit> grid_height(double x, double y) const {
+    const double fx = (x - spec.x0) / spec.dx;
+    const double fy = (y - spec.y0) / spec.dy;
+    const double max_i = spec.nx - 1;
+    const double max_j = spec.ny - 1;
+    if (!(fx >= 0.0 && fy >= 0.0 && fx <= max_i && fy <= max_j)) return std::nullopt;  // also NaN
+    // The last row/column of points belongs to the last cell.
+    const auto i = static_cast<std::int32_t>(std::min(std::floor(fx), max_i - 1.0));
+    const auto j = static_cast<std::int32_t>(std::min(std::floor(fy), max_j - 1.0));
+    const double u = fx - i;
+    const double v = fy - j;
+    const std::size_t c = static_cast<std::size_t>(j) * static_cast<std::size_t>(spec.nx - 1) +
+                          static_cast<std::size_t>(i);
+    const double z00 = z(i, j);
+    const double z10 = z(i + 1, j);
+    const double z01 = z(i, j + 1);
+    const double z11 = z(i + 1, j + 1);
+    const auto t0 = static_cast<std::int32_t>(2 * c);
+    if (terrain->cell_diagonal[c] == 0) {
+      if (u >= v) return Hit{z00 + u * (z10 - z00) + v * (z11 - z10), t0};
+      return Hit{z00 + v * (z01 - z00) + u * (z11 - z01), t0 + 1};
+    }
+    if (u + v <= 1.0) return Hit{z00 + u * (z10 - z00) + v * (z01 - z00), t0};
+    return Hit{z11 + (1.0 - u) * (z01 - z11) + (1.0 - v) * (z10 - z11), t0 + 1};
+  }
+
+  std::optional<Hit> tin_height(double x, double y) const {
+    double best = -std::numeric_limits<double>::infinity();
+    std::int32_t best_t = -1;
+    bvh.vertical(
+        x, y, [&] { return best; },
+        [&](std::int32_t t) {
+          const auto p = triangle_vertices(static_cast<std::size_t>(t));
+          // Signed doubled areas of the sub-triangles in plan; the point is inside when
+          // none has the opposite sign of the whole (either orientation: an overhang's
+          // underside is clockwise from above).
+          const double area = (p[1].x() - p[0].x()) * (p[2].y() - p[0].y()) -
+                              (p[2].x() - p[0].x()) * (p[1].y() - p[0].y());
+          if (area == 0.0) return;  // a vertical wall: its top edge belongs to a neighbour
+          const double w0 = (p[1].x() - x) * (p[2].y() - y) - (p[2].x() - x) * (p[1].y() - y);
+          const double w1 = (p[2].x() - x) * (p[0].y() - y) - (p[0].x() - x) * (p[2].y() - y);
+          const double w2 = area - w0 - w1;
+          const bool inside = area > 0.0 ? (w0 >= 0.0 && w1 >= 0.0 && w2 >= 0.0)
+                                         : (w0 <= 0.0 && w1 <= 0.0 && w2 <= 0.0);
+          if (!inside) return;
+          const double zh = (w0 * p[0].z() + w1 * p[1].z() + w2 * p[2].z()) / area;
+          if (zh > best || (zh == best && t < best_t)) {
+            best = zh;
+            best_t = t;
+          }
+        });
+    if (best_t < 0) return std::nullopt;
+    return Hit{best, best_t};
+  }
+};
+
+Surface::Surface(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Surface::Surface(Surface&&) noexcept = default;
+Surface& Surface::operator=(Surface&&) noexcept = default;
+Surface::~Surface() = default;
+
+namespace {
+
+void check_tin(const Terrain& terrain) {
+  const std::string source = terrain.name.empty() ? "terrain" : terrain.name;
+  const auto nv = static_cast<std::int64_t>(terrain.mesh.vertices.size());
+  for (std::size_t t = 0; t < terrain.mesh.triangles.size(); ++t) {
+    for (std::int32_t v : terrain.mesh.triangles[t]) {
+      if (v < 0 || v >= nv) {
+        throw core::InputError(source, "triangle " + count_text(t) + " refers to vertex " + std::to_string(v) +
+                                           " of " + count_text(terrain.mesh.vertices.size()));
+      }
+    }
+  }
+}
+
+}  // namespace
+
+Surface Surface::realize(const Terrain& terrain, std::optional<std::uint32_t> index) {
+  const std::string source = terrain.name.empty() ? "terrain" : terrain.name;
+  auto impl = std::make_unique<Impl>();
+  impl->terrain = &terrain;
+  const double sigma = terrain.roughness.sigma;
+  if (!(sigma >= 0.0 && std::isfinite(sigma))) {
+    throw core::InputError(source, "roughness sigma must be finite and >= 0, got " + core::format_number(sigma));
+  }
+  const std::size_t triangles =
+      terrain.grid ? 2 * terrain.grid->cell_count() : terrain.mesh.triangles.size();
+  if (!terrain.material_of_triangle.empty() && terrain.material_of_triangle.size() != triangles) {
+    throw core::InputError(source, "material_of_triangle has " + count_text(terrain.material_of_triangle.size()) +
+                                       " entries for " + count_text(triangles) + " triangles");
+  }
+  if (terrain.grid) {
+    const GridSpec& spec = *terrain.grid;
+    if (spec.nx < 2 || spec.ny < 2) throw core::InputError(source, "grid needs at least 2 x 2 points");
+    if (terrain.mesh.vertices.size() != spec.point_count()) {
+      throw core::InputError(source, "grid terrain has " + count_text(terrain.mesh.vertices.size()) +
+                                         " vertices for " + count_text(spec.point_count()) + " grid points");
+    }
+    if (terrain.cell_diagonal.size() != spec.cell_count()) {
+      throw core::InputError(source, "grid terrain has " + count_text(terrain.cell_diagonal.size()) +
+                                         " cell diagonals for " + count_text(spec.cell_count()) + " cells");
+    }
+    if (!terrain.mesh.triangles.empty() && terrain.mesh.triangles.size() != 2 * spec.cell_count()) {
+      throw core::InputError(source, "grid terrain has " + count_text(terrain.mesh.triangles.size()) +
+                                         " triangles for " + count_text(2 * spec.cell_count()) + " expected");
+    }
+    if (spec.point_count() > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()) / 2) {
+      throw core::InputError(source, "grid too large for 32-bit triangle ids");
+    }
+    impl->grid_mode = true;
+    impl->spec = spec;
+    impl->sigma = sigma;
+    impl->perturbed = index.has_value() && sigma > 0.0;
+    Aabb box;
+    for (const Vec3& p : terrain.mesh.vertices) {
+      box.lo.z() = std::min(box.lo.z(), p.z());
+      box.hi.z() = std::max(box.hi.z(), p.z());
+    }
+    box.lo.x() = spec.x0;
+    box.lo.y() = spec.y0;
+    box.hi.x() = spec.x0 + (spec.nx - 1) * spec.dx;
+    box.hi.y() = spec.y0 + (spec.ny - 1) * spec.dy;
+    box.lo.z() -= kMaxNormal * sigma;
+    box.hi.z() += kMaxNormal * sigma;
+    impl->bounds = box;
+    if (impl->perturbed) {
+      impl->stream = core::RandomStream(terrain.roughness.seed, core::Stream::terrain_roughness, *index);
+      impl->tiles_x = (spec.nx + kTile - 1) / kTile;
+      impl->tiles_y = (spec.ny + kTile - 1) / kTile;
+      const auto tiles = static_cast<std::size_t>(impl->tiles_x) * static_cast<std::size_t>(impl->tiles_y);
+      // Left uninitialised: the pages of tiles never touched are never committed.
+      impl->tile_z = std::make_unique_for_overwrite<double[]>(tiles * kTilePoints);
+      impl->tile_ready.assign(tiles, 0);
+    }
+    return Surface(std::move(impl));
+  }
+
+  check_tin(terrain);
+  impl->vertices = terrain.mesh.vertices;
+  if (index.has_value() && sigma > 0.0) {
+    const core::RandomStream stream(terrain.roughness.seed, core::Stream::terrain_roughness, *index);
+    std::vector<double> n(impl->vertices.size());
+    stream.normals(0, n.data(), n.size());
+    for (std::size_t k = 0; k < n.size(); ++k) impl->vertices[k].z() += sigma * n[k];
+  }
+  Aabb box = terrain.mesh.bounds();
+  if (!box.empty()) {
+    box.lo.z() -= kMaxNormal * sigma;
+    box.hi.z() += kMaxNormal * sigma;
+  }
+  impl->bounds = box;
+  std::vector<Aabb> boxes(terrain.mesh.triangles.size());
+  for (std::size_t t = 0; t < boxes.size(); ++t) {
+    for (std::int32_t v : terrain.mesh.triangles[t]) boxes[t].add(impl->vertices[static_cast<std::size_t>(v)]);
+  }
+  impl->bvh.build(boxes);
+  return Surface(std::move(impl));
+}
+
+Surface Surface::from_mesh(geometry::TriangleMesh mesh) {
+  auto owned = std::make_unique<Terrain>();
+  owned->mesh = std::move(mesh);
+  owned->materials.push_back(Material{});
+  owned->name = "mesh";
+  Surface s = realize(*owned, std::nullopt);
+  s.impl_->owned = std::move(owned);
+  return s;
+}
+
+std::size_t Surface::triangle_count() const { return impl_->triangle_count(); }
+
+std::size_t Surface::vertex_count() const {
+  return impl_->grid_mode ? impl_->spec.point_count() : impl_->vertices.size();
+}
+
+std::array<std::int32_t, 3> Surface::triangle(std::size_t t) const { return impl_->triangle(t); }
+
+Vec3 Surface::vertex(std::size_t v) const { return impl_->vertex(v); }
+
+std::array<Vec3, 3> Surface::triangle_vertices(std::size_t t) const { return impl_->triangle_vertices(t); }
+
+Vec3 Surface::normal(std::size_t t) const {
+  const auto p = impl_->triangle_vertices(t);
+  return (p[1] - p[0]).cross(p[2] - p[0]).normalized();
+}
+
+std::int32_t Surface::material(std::size_t t) const {
+  const auto& m = impl_->terrain->material_of_triangle;
+  return m.empty() ? 0 : m[t];
+}
+
+const Aabb& Surface::bounds() const { return impl_->bounds; }
+
+bool Surface::is_height_field() const { return impl_->grid_mode; }
+
+std::size_t Surface::tiles_realized() const { return impl_->tiles_done; }
+
+std::size_t Surface::tile_count() const {
+  return static_cast<std::size_t>(impl_->tiles_x) * static_cast<std::size_t>(impl_->tiles_y);
+}
+
+void Surface::triangles_in_box(const Aabb& box, std::vector<std::int32_t>& out) const {
+  if (impl_->grid_mode) {
+    impl_->grid_in_box(box, out);
+    return;
+  }
+  const Impl& s = *impl_;
+  s.bvh.overlapping(box, [&](std::int32_t t) {
+    // The leaf box is a union; keep only triangles whose own box overlaps.
+    Aabb tb;
+    for (const Vec3& p : s.triangle_vertices(static_cast<std::size_t>(t))) tb.add(p);
+    if (tb.overlaps(box)) out.push_back(t);
+  });
+}
+
+std::optional<Surface::Hit> Surface::height_at(double x, double y) const {
+  return impl_->grid_mode ? impl_->grid_height(x, y) : impl_->tin_height(x, y);
+}
+
+geometry::TriangleMesh Surface::to_mesh() const {
+  geometry::TriangleMesh mesh;
+  const std::size_t nv = vertex_count();
+  const std::size_t nt = triangle_count();
+  mesh.vertices.reserve(nv);
+  mesh.triangles.reserve(nt);
+  for (std::size_t v = 0; v < nv; ++v) mesh.vertices.push_back(impl_->vertex(v));
+  for (std::size_t t = 0; t < nt; ++t) mesh.triangles.push_back(impl_->triangle(t));
+  return mesh;
+}
+
+}  // namespace talus::terrain

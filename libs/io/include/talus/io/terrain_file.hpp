@@ -1,0 +1,38 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+#include <optional>
+#include <string>
+
+#include "talus/io/file_header.hpp"
+#include "talus/terrain/terrain.hpp"
+
+namespace talus::io {
+
+/// What a terrain file holds besides the terrain model itself.
+struct TerrainFileInfo {
+  SchemaVersion version;                 ///< schema version of the file
+  Provenance provenance;                 ///< tool, settings, command line, inputs, seed
+  std::optional<double> roughness_index; ///< Römkens–Wang R the σ came from (-), if given that way
+};
+
+/// Writes `terrain` as a Talus terrain file (layout in docs/formats.md, "Terrain file"):
+/// the header and provenance, /trn (vertices, triangles, material per triangle — readable
+/// without Talus, e.g. by ParaView through the XDMF sidecar), /grid for a grid TRN (spec,
+/// base elevations, diagonal per cell), /materials, /roughness and /origin_shift. Large
+/// arrays are compressed. Written atomically; the same input gives byte-identical files.
+/// `roughness_index` is recorded when σ was given as R. Checks the terrain first
+/// (core::RuntimeError if it is inconsistent: that is a bug of the caller, not bad input).
+void write_terrain_file(const std::string& path, const terrain::Terrain& terrain,
+                        const Provenance& provenance,
+                        std::optional<double> roughness_index = std::nullopt);
+
+/// Reads a terrain file written by write_terrain_file. Validates everything — kind and
+/// major schema version, dataset shapes, vertex indices and material ids in range, finite
+/// coordinates and parameters, the grid consistent with the TRN — and throws a one-line
+/// core::InputError naming the file and the offending object when anything is wrong.
+terrain::Terrain read_terrain_file(const std::string& path);
+
+/// Same, also returning the schema version, provenance and roughness index.
+terrain::Terrain read_terrain_file(const std::string& path, TerrainFileInfo& info);
+
+}  // namespace talus::io

@@ -1,0 +1,287 @@
+#include "talus/io/terrain_file.hpp"
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "talus/core/error.hpp"
+#include "talus/io/atomic_output.hpp"
+#include "talus/io/hdf5.hpp"
+
+namespace talus::io {
+namespace {
+
+using core::InputError;
+using terrain::GridSpec;
+using terrain::Material;
+using terrain::Terrain;
+
+std::string count_text(std::size_t n) { return std::to_string(n); }
+
+// Material parameters as stored, one dataset per column: name, value accessor, unit, and
+// the smallest allowed value (a standard deviation may be 0, the scale K may not).
+struct MaterialColumn {
+  const char* name;
+  double Material::*field;
+  const char* unit;
+  double min_value;
+  bool min_exclusive;
+};
+constexpr MaterialColumn kMaterialColumns[] = {
+    {"restitution_mean", &Material::restitution_mean, "-", 0.0, false},
+    {"restitution_sd", &Material::restitution_sd, "-", 0.0, false},
+    {"restitution_scale", &Material::restitution_scale, "m/s", 0.0, true},
+    {"friction_angle_mean_deg", &Material::friction_angle_mean_deg, "deg", 0.0, false},
+    {"friction_coefficient_sd", &Material::friction_coefficient_sd, "-", 0.0, false},
+    {"lateral_tilt_sd_deg", &Material::lateral_tilt_sd_deg, "deg", 0.0, false},
+};
+
+// The first inconsistency of a terrain model, or an empty string. Shared by the writer
+// (where it means a caller bug) and the reader (where it means a corrupt file).
+std::string terrain_problem(const Terrain& t) {
+  const auto& mesh = t.mesh;
+  if (t.materials.empty()) return "no materials";
+  if (mesh.vertices.empty()) return "no vertices";
+  for (std::size_t v = 0; v < mesh.vertices.size(); ++v)
+    if (!mesh.vertices[v].allFinite()) return "vertex " + count_text(v) + " is not finite";
+  const auto n = static_cast<std::int64_t>(mesh.vertices.size());
+  for (std::size_t k = 0; k < mesh.triangles.size(); ++k)
+    for (std::int32_t v : mesh.triangles[k])
+      if (v < 0 || v >= n)
+        return "triangle " + count_text(k) + " has vertex index " + std::to_string(v) + " out of range [0, " +
+               std::to_string(n) + ")";
+  const auto materials = static_cast<std::int32_t>(t.materials.size());
+  for (std::size_t k = 0; k < t.material_of_triangle.size(); ++k) {
+    const std::int32_t m = t.material_of_triangle[k];
+    if (m < 0 || m >= materials)
+      return "triangle " + count_text(k) + " has material id " + std::to_string(m) + " out of range [0, " +
+             std::to_string(materials) + ")";
+  }
+  for (const Material& m : t.materials)
+    for (const auto& c : kMaterialColumns) {
+      const double value = m.*(c.field);
+      const bool ok = std::isfinite(value) && (c.min_exclusive ? value > c.min_value : value >= c.min_value);
+      if (!ok)
+        return "material '" + m.name + "': " + c.name + " = " + core::format_number(value) + " must be finite and " +
+               (c.min_exclusive ? "> " : ">= ") + core::format_number(c.min_value);
+    }
+  if (!(t.roughness.sigma >= 0.0 && std::isfinite(t.roughness.sigma)))
+    return "roughness sigma must be finite and >= 0, got " + core::format_number(t.roughness.sigma);
+  if (!t.origin_shift.allFinite()) return "origin_shift is not finite";
+  if (t.grid) {
+    const GridSpec& g = *t.grid;
+    if (g.nx < 2 || g.ny < 2) return "grid needs at least 2 x 2 points";
+    if (!(std::isfinite(g.x0) && std::isfinite(g.y0) && g.dx > 0.0 && g.dy > 0.0 && std::isfinite(g.dx) &&
+          std::isfinite(g.dy)))
+      return "grid origin and spacing must be finite with dx, dy > 0";
+    if (mesh.vertices.size() != g.point_count())
+      return "grid of " + count_text(g.point_count()) + " points has " + count_text(mesh.vertices.size()) + " vertices";
+    if (t.cell_diagonal.size() != g.cell_count())
+      return "grid of " + count_text(g.cell_count()) + " cells has " + count_text(t.cell_diagonal.size()) +
+             " diagonals";
+    for (std::size_t c = 0; c < t.cell_diagonal.size(); ++c)
+      if (t.cell_diagonal[c] > 1) return "cell " + count_text(c) + " has diagonal code " + std::to_string(t.cell_diagonal[c]);
+    if (!mesh.triangles.empty() && mesh.triangles.size() != 2 * g.cell_count())
+      return "grid of " + count_text(g.cell_count()) + " cells has " + count_text(mesh.triangles.size()) + " triangles";
+    if (!t.material_of_triangle.empty() && t.material_of_triangle.size() != 2 * g.cell_count())
+      return "grid of " + count_text(g.cell_count()) + " cells has " + count_text(t.material_of_triangle.size()) +
+             " material ids";
+  } else {
+    if (mesh.triangles.empty()) return "no triangles";
+    if (t.material_of_triangle.size() != mesh.triangles.size())
+      return count_text(mesh.triangles.size()) + " triangles have " + count_text(t.material_of_triangle.size()) +
+             " material ids";
+  }
+  return {};
+}
+
+// The TRN as any reader sees it: for a grid, the triangles of the smooth base surface in
+// the Surface vertex order (so the file and the engine agree by construction).
+void trn_of(const Terrain& t, geometry::TriangleMesh& mesh, std::vector<std::int32_t>& material) {
+  if (!t.grid) {
+    mesh = t.mesh;
+    material = t.material_of_triangle;
+    return;
+  }
+  const terrain::Surface base = terrain::Surface::realize(t, std::nullopt);
+  mesh.vertices = t.mesh.vertices;
+  mesh.triangles.resize(base.triangle_count());
+  for (std::size_t k = 0; k < mesh.triangles.size(); ++k) mesh.triangles[k] = base.triangle(k);
+  material = t.material_of_triangle;
+  material.resize(mesh.triangles.size(), 0);
+}
+
+std::vector<double> flatten(const std::vector<geometry::Vec3>& points) {
+  std::vector<double> out;
+  out.reserve(points.size() * 3);
+  for (const auto& p : points) out.insert(out.end(), {p.x(), p.y(), p.z()});
+  return out;
+}
+
+std::vector<std::int32_t> flatten(const std::vector<std::array<std::int32_t, 3>>& triangles) {
+  std::vector<std::int32_t> out;
+  out.reserve(triangles.size() * 3);
+  for (const auto& t : triangles) out.insert(out.end(), t.begin(), t.end());
+  return out;
+}
+
+std::uint64_t u64(std::size_t n) { return static_cast<std::uint64_t>(n); }
+
+}  // namespace
+
+void write_terrain_file(const std::string& path, const Terrain& terrain, const Provenance& provenance,
+                        std::optional<double> roughness_index) {
+  if (const std::string problem = terrain_problem(terrain); !problem.empty())
+    throw core::RuntimeError(path + ": refusing to write an inconsistent terrain: " + problem);
+  geometry::TriangleMesh trn;
+  std::vector<std::int32_t> material;
+  trn_of(terrain, trn, material);
+
+  AtomicOutput out(path);
+  {
+    const h5::File file = h5::File::create(out.temp_path());
+    const h5::Group root = file.root();
+    write_header(root, "terrain", kTerrainSchema, provenance);
+    root.set_attr("name", terrain.name);
+    root.set_attr("kind", terrain.grid ? "grid" : "tin");
+    root.write("origin_shift", terrain.origin_shift.data(), {3}, "m");
+
+    const h5::Group g_trn = root.create_group("trn");
+    const auto vertices = flatten(trn.vertices);
+    const auto triangles = flatten(trn.triangles);
+    g_trn.write("vertices", vertices.data(), {u64(trn.vertices.size()), 3}, "m", true);
+    g_trn.write("triangles", triangles.data(), {u64(trn.triangles.size()), 3}, {}, true);
+    g_trn.write("material", material.data(), {u64(material.size())}, {}, true);
+
+    if (terrain.grid) {
+      const GridSpec& s = *terrain.grid;
+      const h5::Group g = root.create_group("grid");
+      g.set_attr("x0", s.x0);
+      g.set_attr("y0", s.y0);
+      g.set_attr("dx", s.dx);
+      g.set_attr("dy", s.dy);
+      g.set_attr("nx", std::int64_t{s.nx});
+      g.set_attr("ny", std::int64_t{s.ny});
+      std::vector<double> z(s.point_count());
+      for (std::size_t k = 0; k < z.size(); ++k) z[k] = terrain.mesh.vertices[k].z();
+      g.write("z", z.data(), {u64(s.ny), u64(s.nx)}, "m", true);
+      g.write("diagonal", terrain.cell_diagonal.data(), {u64(s.ny - 1), u64(s.nx - 1)}, {}, true);
+    }
+
+    const h5::Group g_mat = root.create_group("materials");
+    std::vector<std::string> names;
+    for (const auto& m : terrain.materials) names.push_back(m.name);
+    g_mat.write_strings("name", names);
+    for (const auto& c : kMaterialColumns) {
+      std::vector<double> column;
+      for (const auto& m : terrain.materials) column.push_back(m.*(c.field));
+      g_mat.write(c.name, column.data(), {u64(column.size())}, c.unit);
+    }
+
+    const h5::Group g_rough = root.create_group("roughness");
+    g_rough.set_attr("sigma", terrain.roughness.sigma);
+    // The seed is a 64-bit pattern; int64 storage keeps every bit.
+    g_rough.set_attr("seed", static_cast<std::int64_t>(terrain.roughness.seed));
+    if (roughness_index) g_rough.set_attr("roughness_index", *roughness_index);
+    file.flush();
+  }
+  out.commit();
+}
+
+terrain::Terrain read_terrain_file(const std::string& path) {
+  TerrainFileInfo info;
+  return read_terrain_file(path, info);
+}
+
+terrain::Terrain read_terrain_file(const std::string& path, TerrainFileInfo& info) {
+  const h5::File file = h5::File::open(path);
+  const h5::Group root = file.root();
+  info.version = check_header(root, "terrain", kTerrainSchema);
+  info.provenance = read_provenance(root);
+
+  Terrain t;
+  t.name = root.has_attr("name") ? root.attr_string("name") : "";
+  const std::string kind = root.attr_string("kind");
+  if (kind != "grid" && kind != "tin") throw InputError(path, "unknown terrain kind '" + kind + "' (expected grid or tin)");
+  const auto shift = root.read_doubles("origin_shift", {3});
+  t.origin_shift = geometry::Vec3(shift[0], shift[1], shift[2]);
+
+  const h5::Group g_trn = root.open_group("trn");
+  const auto vertices = g_trn.read_doubles("vertices", {0, 3});
+  const auto triangles = g_trn.read_int32("triangles", {0, 3});
+  const std::size_t n_tri = triangles.size() / 3;
+  t.material_of_triangle = g_trn.read_int32("material", {u64(n_tri)});
+  t.mesh.vertices.resize(vertices.size() / 3);
+  for (std::size_t v = 0; v < t.mesh.vertices.size(); ++v)
+    t.mesh.vertices[v] = geometry::Vec3(vertices[3 * v], vertices[3 * v + 1], vertices[3 * v + 2]);
+  t.mesh.triangles.resize(n_tri);
+  for (std::size_t k = 0; k < n_tri; ++k)
+    t.mesh.triangles[k] = {triangles[3 * k], triangles[3 * k + 1], triangles[3 * k + 2]};
+
+  if (kind == "grid") {
+    const h5::Group g = root.open_group("grid");
+    GridSpec s;
+    s.x0 = g.attr_double("x0");
+    s.y0 = g.attr_double("y0");
+    s.dx = g.attr_double("dx");
+    s.dy = g.attr_double("dy");
+    const std::int64_t nx = g.attr_int("nx"), ny = g.attr_int("ny");
+    if (nx < 2 || ny < 2 || nx > (std::int64_t{1} << 30) || ny > (std::int64_t{1} << 30) ||
+        nx * ny > (std::int64_t{1} << 30))
+      throw InputError(path, "/grid has an invalid size " + std::to_string(nx) + " x " + std::to_string(ny));
+    s.nx = static_cast<std::int32_t>(nx);
+    s.ny = static_cast<std::int32_t>(ny);
+    t.grid = s;
+    const auto z = g.read_doubles("z", {u64(s.ny), u64(s.nx)});
+    t.cell_diagonal = g.read_uint8("diagonal", {u64(s.ny - 1), u64(s.nx - 1)});
+    if (t.mesh.vertices.size() != s.point_count())
+      throw InputError(path, "/trn/vertices has " + count_text(t.mesh.vertices.size()) + " rows for a grid of " +
+                                 count_text(s.point_count()) + " points");
+    if (n_tri != 2 * s.cell_count())
+      throw InputError(path, "/trn/triangles has " + count_text(n_tri) + " rows for a grid of " +
+                                 count_text(s.cell_count()) + " cells (expected two per cell)");
+    // NaN is left to the finiteness check below, which names the vertex.
+    for (std::size_t k = 0; k < z.size(); ++k)
+      if (z[k] != t.mesh.vertices[k].z() && !(std::isnan(z[k]) && std::isnan(t.mesh.vertices[k].z())))
+        throw InputError(path, "/grid/z differs from /trn/vertices at point " + count_text(k));
+  }
+
+  const h5::Group g_mat = root.open_group("materials");
+  const auto names = g_mat.read_strings("name");
+  t.materials.resize(names.size());
+  for (std::size_t m = 0; m < names.size(); ++m) t.materials[m].name = names[m];
+  for (const auto& c : kMaterialColumns) {
+    const auto column = g_mat.read_doubles(c.name, {u64(names.size())});
+    for (std::size_t m = 0; m < names.size(); ++m) t.materials[m].*(c.field) = column[m];
+  }
+
+  const h5::Group g_rough = root.open_group("roughness");
+  t.roughness.sigma = g_rough.attr_double("sigma");
+  t.roughness.seed = static_cast<std::uint64_t>(g_rough.attr_int("seed"));
+  info.roughness_index = std::nullopt;
+  if (g_rough.has_attr("roughness_index")) info.roughness_index = g_rough.attr_double("roughness_index");
+
+  if (const std::string problem = terrain_problem(t); !problem.empty())
+    throw InputError(path, "corrupt terrain file: " + problem);
+  if (t.grid) {
+    // The stored TRN must be the one the grid implies, vertex positions and triangle
+    // vertex order included: the engine rebuilds it from /grid, other readers use /trn.
+    geometry::TriangleMesh expected;
+    std::vector<std::int32_t> unused;
+    try {
+      trn_of(t, expected, unused);
+    } catch (const core::Error& e) {
+      throw InputError(path, std::string("corrupt terrain file: ") + e.what());
+    }
+    const terrain::Surface base = terrain::Surface::realize(t, std::nullopt);
+    for (std::size_t v = 0; v < t.mesh.vertices.size(); ++v)
+      if (base.vertex(v) != t.mesh.vertices[v])
+        throw InputError(path, "/trn/vertices row " + count_text(v) + " is not at its grid position");
+    for (std::size_t k = 0; k < n_tri; ++k)
+      if (expected.triangles[k] != t.mesh.triangles[k])
+        throw InputError(path, "/trn/triangles row " + count_text(k) + " does not match the grid and /grid/diagonal");
+  }
+  return t;
+}
+
+}  // namespace talus::io

@@ -1,0 +1,62 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "talus/core/random.hpp"
+#include "talus/dda/model.hpp"
+#include "talus/dda/state.hpp"
+#include "talus/terrain/terrain.hpp"
+
+namespace talus::dda {
+
+/// The fixed ground of a realization: one terrain realization and its materials
+/// (indexed by Surface::material). Both must outlive every step that uses them.
+struct Ground {
+  const terrain::Surface* surface = nullptr;
+  std::span<const terrain::Material> materials;
+};
+
+/// The initial state of a realization: the block at `release`, per-impact draws from
+/// `impact_stream` (core::Stream::impact of the realization). Throws core::InputError
+/// ("release") on a non-finite release or a zero main direction.
+State start(const Model& model, const Release& release, core::RandomStream impact_stream);
+
+/// Advances `state` by one accepted step (or ends it; see State::end). Phases: flight
+/// test (exact parabola when no contact is possible), contact detection, assembly,
+/// open–close iteration with solves, update. Never throws for numerical trouble: that
+/// ends the realization with a failure reason. Throws core::InputError ("terrain") if a
+/// triangle names a material that `ground` lacks. Does nothing once ended.
+void step(const Model& model, const Ground& ground, State& state);
+
+/// Per-realization result.
+struct Summary {
+  EndReason end = EndReason::running;
+  double time = 0.0;                     ///< simulated time at the end (s)
+  std::uint64_t steps = 0;
+  Vec3 final_position = Vec3::Zero();    ///< centroid (m)
+  double runout = 0.0;     ///< along the main direction from the release point (m)
+  double lateral = 0.0;    ///< across it, positive to the left of the main direction (m)
+  double max_speed = 0.0;  ///< centroid (m/s)
+  double max_jump_height = 0.0;  ///< centroid above the terrain surface (m)
+  std::uint64_t impacts = 0;
+  Counters counters;
+  PhaseTimes times;
+  std::vector<TrajectorySample> trajectory;  ///< empty unless trajectory_interval > 0
+};
+
+/// Summary of `state` (runout and lateral from the release point).
+Summary summarize(const State& state);
+
+/// Runs one realization to its end: start, step until ended, summarize. A pure function
+/// of its arguments (same bits at any thread count).
+Summary run(const Model& model, const Ground& ground, const Release& release,
+            core::RandomStream impact_stream);
+
+/// Kinetic energy ½ vᵀMv of the state (J).
+double kinetic_energy(const Model& model, const State& state);
+/// Kinetic plus gravitational potential energy (z = 0 reference) (J).
+double mechanical_energy(const Model& model, const State& state);
+
+}  // namespace talus::dda

@@ -1,0 +1,83 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "talus/dda/settings.hpp"
+#include "talus/geometry/polyhedron.hpp"
+#include "talus/geometry/types.hpp"
+
+namespace talus::dda {
+
+using geometry::Mat3;
+using geometry::Vec3;
+using Mat12 = Eigen::Matrix<double, 12, 12>;
+using Vec12 = Eigen::Matrix<double, 12, 1>;
+using Mat6 = Eigen::Matrix<double, 6, 6>;
+
+/// One face of the block in its body frame (centroid at the origin).
+struct BlockFace {
+  std::vector<std::int32_t> vertices;  ///< CCW seen from outside
+  Vec3 normal = Vec3::Zero();          ///< outward unit normal (body frame)
+  Vec3 u = Vec3::Zero();               ///< in-plane unit axis (body frame)
+  Vec3 v = Vec3::Zero();               ///< normal × u
+  double offset = 0.0;                 ///< normal · x for points x of the face plane (m)
+  std::vector<Eigen::Vector2d> polygon;  ///< vertices in (u, v) coordinates (m)
+};
+
+/// One edge of the block: the two vertices and whether the solid is convex there
+/// (only convex edges can touch terrain edge to edge).
+struct BlockEdge {
+  std::int32_t a = 0;
+  std::int32_t b = 0;
+  bool convex = true;
+};
+
+/// The immutable description of one block and the numerical settings: everything a
+/// realization reads and never writes. Build it with Model::build.
+struct Model {
+  Settings settings;
+  DofPath dof = DofPath::rigid6;
+  RestitutionLaw restitution = RestitutionLaw::scaled;
+
+  std::vector<Vec3> vertices;   ///< body frame: polyhedron vertices minus the centroid (m)
+  std::vector<BlockFace> faces;
+  std::vector<BlockEdge> edges;
+  double volume = 0.0;          ///< m³
+  double mass = 0.0;            ///< kg
+  Mat3 second_moments = Mat3::Zero();  ///< ρ-free ∫ r rᵀ dV about the centroid, body frame (m⁵)
+  Mat3 inertia = Mat3::Zero();  ///< inertia tensor about the centroid, body frame (kg m²)
+  double radius = 0.0;          ///< circumscribed radius about the centroid (m)
+  /// Elastic matrix (Pa) mapping (εx εy εz γyz γzx γxy) to (σx σy σz τyz τzx τxy).
+  Mat6 elasticity = Mat6::Zero();
+
+  /// Validates `settings` and `block` and builds the model. Throws core::InputError
+  /// (source "dda settings" or "block") with a one-line reason on bad values, an open,
+  /// inside-out or degenerate polyhedron.
+  static Model build(const Settings& settings, const geometry::Polyhedron& block);
+
+  /// Largest vertex displacement allowed in one contact step (m).
+  double max_step_displacement() const { return settings.max_displacement_ratio * 2.0 * radius; }
+  /// Deepest closed-contact penetration before the run fails (m).
+  double penetration_limit() const { return settings.penetration_limit_ratio * 2.0 * radius; }
+};
+
+/// The 3×12 displacement matrix T(r) of SPEC §4 at the point r = x − x₀ (world frame,
+/// relative to the centroid): u(x) = T(r)·D. The first six columns are the rigid part.
+Eigen::Matrix<double, 3, 12> displacement_matrix(const Vec3& r);
+
+/// The 12×12 DDA mass matrix ρ∫T(r)ᵀT(r)dV of a block whose world-frame second moments
+/// about its centroid are `second_moments` (m⁵) and volume `volume` (m³), density ρ
+/// (kg/m³). Exact for the polyhedron because T is linear in r (simplex integration gives
+/// the moments). Its top-left 6×6 block is diag(m, m, m, J).
+Mat12 mass_matrix(double density, double volume, const Mat3& second_moments);
+
+/// Isotropic elastic matrix in the (εx εy εz γyz γzx γxy) order (Pa).
+Mat6 isotropic_elasticity(double young_modulus, double poisson_ratio);
+
+/// Rotation matrix of the rotation vector θ (rad): exact (Rodrigues), not I + [θ]×.
+Mat3 rotation_matrix(const Vec3& theta);
+
+}  // namespace talus::dda

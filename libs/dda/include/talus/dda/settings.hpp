@@ -1,0 +1,60 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+#include <cstdint>
+#include <string>
+
+#include "talus/core/settings.hpp"
+
+namespace talus::dda {
+
+/// Which unknowns a block carries.
+enum class DofPath : std::uint8_t {
+  rigid6,  ///< translation + rotation (the fast default)
+  full12,  ///< SPEC §4: translation, rotation and six constant strains
+};
+
+/// How the impact–rebound law limits the DDA rebound (docs/dda.md).
+enum class RestitutionLaw : std::uint8_t {
+  off,               ///< the raw DDA rebound is kept
+  scaled,            ///< |V_out| ≤ R_v·SF·|V_in| on the whole velocity (SPEC §4)
+  normal_component,  ///< |V_out·n| ≤ R_v·SF·|V_in·n| on the normal component only
+};
+
+/// Numerical and physical settings of the engine, with defaults (SI units). A driver may
+/// override them (YAML, --set) through visit(); Model::build validates them.
+struct Settings {
+  std::string dof = "rigid6";               ///< "rigid6" or "full12"
+  double time_step = 1e-3;                  ///< nominal Δt (s)
+  double min_time_step = 1e-7;              ///< smallest Δt the step control may cut to (s)
+  /// Largest vertex displacement per contact step as a fraction of the block's
+  /// circumscribed diameter (-). Scaled from the block, not the terrain (docs/dda.md).
+  double max_displacement_ratio = 0.02;
+  double dynamic_coefficient = 1.0;         ///< velocity carried to the next step (-), 1 = fully dynamic
+  double penalty_stiffness = 1e12;          ///< normal contact spring (N/m)
+  double shear_stiffness_ratio = 2.5;       ///< normal over shear spring stiffness h₂ (-)
+  std::int64_t max_open_close_iterations = 8;  ///< before the step is cut (×0.3) and redone
+  /// A closed contact deeper than this fraction of the block diameter ends the run as a
+  /// numerical failure (-).
+  double penetration_limit_ratio = 0.05;
+  double gravity = 9.81;                    ///< m/s², along −z
+
+  std::string restitution = "scaled";       ///< "scaled", "normal_component" or "off"
+  /// An episode whose normal approach speed is below this is rolling/sliding, not an
+  /// impact: no restitution limit, no draws (m/s).
+  double impact_min_normal_speed = 0.5;
+
+  double rest_kinetic_energy = 1e-3;        ///< rest threshold on kinetic energy per unit mass (J/kg)
+  double rest_dwell = 0.5;                  ///< time below the threshold that means rest (s)
+  std::int64_t max_steps = 35000;           ///< step limit (accepted steps)
+  double trajectory_interval = 0.0;         ///< sampled trajectory spacing (s), 0 = none
+
+  double density = 2800.0;                  ///< block density (kg/m³)
+  double young_modulus = 3.0e10;            ///< block E (Pa), full12 only
+  double poisson_ratio = 0.2;               ///< block ν (-), full12 only
+
+  bool time_phases = false;                 ///< time each phase with steady_clock (costs ~0.1 µs/step)
+
+  void visit(core::SettingsVisitor& v);
+};
+
+}  // namespace talus::dda

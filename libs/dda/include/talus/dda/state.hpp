@@ -1,0 +1,142 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <string_view>
+#include <vector>
+
+#include "talus/core/random.hpp"
+#include "talus/dda/model.hpp"
+
+namespace talus::dda {
+
+/// Why a realization ended (part of the run-file format: never renumber).
+enum class EndReason : std::uint8_t {
+  running = 0,        ///< not ended yet
+  rest = 1,           ///< kinetic energy below the threshold for the dwell time
+  left_terrain = 2,   ///< the centroid left the terrain's plan bounds or fell below it
+  step_limit = 3,     ///< max_steps accepted steps
+  non_finite = 4,     ///< a non-finite value appeared (numerical failure)
+  no_convergence = 5, ///< open–close did not settle even at the smallest Δt (numerical failure)
+  penetration = 6,    ///< a contact penetrated beyond the limit (numerical failure)
+};
+std::string_view to_string(EndReason reason);
+/// True for the three numerical-failure reasons.
+bool is_failure(EndReason reason);
+
+enum class ContactKind : std::uint8_t {
+  vertex_face,  ///< block vertex against a terrain triangle
+  face_vertex,  ///< terrain vertex against a block face
+  edge_edge,    ///< block edge crossing a terrain edge
+};
+enum class ContactMode : std::uint8_t { open, locked, sliding };
+
+/// One block–terrain contact. The geometric part is recomputed each step; the mode and
+/// anchors persist while the same pair of features stays in contact.
+struct Contact {
+  ContactKind kind = ContactKind::vertex_face;
+  std::int32_t block_feature = -1;    ///< vertex, face or edge index of the block
+  std::int64_t terrain_feature = -1;  ///< triangle, vertex, or edge (v_lo·2³² + v_hi)
+  std::int32_t triangle = -1;         ///< a terrain triangle of the contact (its material)
+  Vec3 point = Vec3::Zero();          ///< block-side point at the step start (world, m)
+  Vec3 normal = Vec3::UnitZ();        ///< unit normal from the terrain toward the block
+  double gap = 0.0;                   ///< signed normal distance at the step start (m), < 0 = penetration
+
+  ContactMode mode = ContactMode::open;
+  /// Penetration found when the contact was first detected (m, ≤ 0): the spring acts on
+  /// the gap below it, so pushing out a penetration never injects energy.
+  double gap_offset = 0.0;
+  bool anchored = false;
+  Vec3 body_anchor = Vec3::Zero();    ///< block material point of a locked contact (body frame, m)
+  Vec3 ground_anchor = Vec3::Zero();  ///< terrain point of a locked contact (world, m)
+  Vec3 slip_direction = Vec3::Zero(); ///< unit tangential slip direction of a sliding contact
+  double normal_force = 0.0;          ///< at the end of the last accepted step (N)
+};
+
+/// Wall-clock seconds spent per phase (filled when Settings::time_phases is on).
+struct PhaseTimes {
+  double flight = 0.0;      ///< flight test and exact parabola steps
+  double detect = 0.0;      ///< contact detection
+  double assemble = 0.0;    ///< mass, gravity, inertia terms
+  double open_close = 0.0;  ///< contact terms and state judgement (excluding solves)
+  double solve = 0.0;       ///< dense solves
+  double update = 0.0;      ///< geometry, velocity, episodes, bookkeeping
+};
+
+/// Event counters (always on, cheap).
+struct Counters {
+  std::uint64_t steps = 0;            ///< accepted steps
+  std::uint64_t flight_steps = 0;     ///< accepted steps advanced on the exact parabola
+  std::uint64_t contact_steps = 0;    ///< accepted steps with contact search
+  std::uint64_t redone_steps = 0;     ///< steps redone with a smaller Δt
+  std::uint64_t open_close_iterations = 0;
+  std::uint64_t contacts = 0;         ///< contact candidates found, summed over steps
+  std::uint64_t offset_contacts = 0;  ///< contacts first found already penetrated
+  std::uint64_t impacts_rescaled = 0; ///< rebounds the restitution law reduced
+};
+
+/// The contact episode in progress (an impact when its approach speed is high enough).
+struct Episode {
+  bool active = false;
+  bool impact = false;           ///< restitution law applies at its end
+  Vec3 velocity_in = Vec3::Zero();  ///< centroid velocity at the start (m/s)
+  Vec3 normal = Vec3::UnitZ();   ///< ground normal at the start, tilted laterally
+  double restitution = 1.0;      ///< R_v drawn for this impact (-)
+  double tilt_deg = 0.0;         ///< lateral tilt drawn for this impact (deg)
+  double restitution_scale = 12.0;  ///< K of the material hit (m/s)
+};
+
+struct TrajectorySample {
+  double time = 0.0;               ///< s
+  Vec3 position = Vec3::Zero();    ///< centroid (m)
+  Vec3 velocity = Vec3::Zero();    ///< centroid (m/s)
+  double height = 0.0;             ///< centroid above the terrain surface (m), NaN off terrain
+  double energy = 0.0;             ///< kinetic + potential (J), potential from z = 0
+};
+
+/// Release conditions of one realization.
+struct Release {
+  Vec3 position = Vec3::Zero();  ///< centroid (m)
+  Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();  ///< body → world
+  Vec3 velocity = Vec3::Zero();          ///< centroid velocity (m/s)
+  Vec3 angular_velocity = Vec3::Zero();  ///< world frame (rad/s)
+  /// Horizontal main slope direction for runout and lateral displacement (normalized).
+  Eigen::Vector2d main_direction = Eigen::Vector2d::UnitX();
+};
+
+/// Everything of one realization that changes: a checkpoint is a copy of it.
+struct State {
+  double time = 0.0;                  ///< s
+  double dt = 0.0;                    ///< Δt of the next step (s)
+  Vec3 position = Vec3::Zero();       ///< centroid (m)
+  Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();
+  Mat3 stretch = Mat3::Identity();    ///< full12: body-frame deformation U (x = c + R U r_body)
+  /// [v (m/s), ω (rad/s), strain rates (1/s)] in the world frame; rigid6 uses the first six.
+  Vec12 velocity = Vec12::Zero();
+
+  std::vector<Vec3> world_vertices;   ///< block vertices at `time` (m)
+  std::vector<Contact> contacts;      ///< contacts of the last accepted step
+  double clear_until = -1.0;          ///< no terrain contact is possible before this time (s)
+  Episode episode;
+  double friction = 0.0;              ///< friction coefficient in force (drawn per impact)
+  bool friction_drawn = false;
+  core::RandomSequence impacts_rng{core::RandomStream(0, core::Stream::impact, 0)};
+
+  // Realization bookkeeping.
+  Release release;
+  std::uint64_t impacts = 0;
+  double max_speed = 0.0;             ///< centroid (m/s)
+  double max_jump_height = 0.0;       ///< centroid above the terrain (m)
+  double rest_time = 0.0;             ///< time spent below the rest threshold (s)
+  EndReason end = EndReason::running;
+  Counters counters;
+  PhaseTimes times;
+  std::vector<TrajectorySample> trajectory;
+  double next_sample_time = 0.0;
+
+  // Scratch buffers, kept to avoid allocations per step.
+  std::vector<std::int32_t> scratch_triangles;
+  std::vector<Contact> scratch_contacts;
+};
+
+}  // namespace talus::dda

@@ -1,0 +1,243 @@
+// SPDX-License-Identifier: MIT
+#include "contacts.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <numeric>
+
+namespace talus::dda::detail {
+
+namespace {
+
+struct TriangleData {
+  std::int32_t index;
+  std::array<std::int32_t, 3> ids;
+  std::array<Vec3, 3> p;
+  Vec3 normal;
+  geometry::Aabb box;
+};
+
+struct TerrainEdge {
+  std::int32_t a, b;       // vertex ids, a < b
+  Vec3 pa, pb;
+  Vec3 normal_sum;         // sum of the normals of the candidate triangles sharing it
+  std::int32_t triangle;   // one of them (material)
+  int count;
+  bool flat;
+};
+
+// Point in polygon (crossing number) in the face's (u, v) coordinates.
+bool inside_polygon(const std::vector<Eigen::Vector2d>& poly, const Eigen::Vector2d& q) {
+  bool inside = false;
+  const std::size_t n = poly.size();
+  for (std::size_t i = 0, j = n - 1; i < n; j = i++) {
+    const Eigen::Vector2d& a = poly[i];
+    const Eigen::Vector2d& b = poly[j];
+    if ((a.y() > q.y()) != (b.y() > q.y())) {
+      const double x = a.x() + (q.y() - a.y()) / (b.y() - a.y()) * (b.x() - a.x());
+      if (q.x() < x) inside = !inside;
+    }
+  }
+  return inside;
+}
+
+// Closest points of segments p0-p1 and q0-q1: parameters s (on p) and t (on q) of the
+// infinite lines; callers keep only crossings strictly inside both segments.
+bool line_parameters(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1, double& s, double& t) {
+  const Vec3 d1 = p1 - p0, d2 = q1 - q0, r = p0 - q0;
+  const double a = d1.dot(d1), e = d2.dot(d2), f = d2.dot(r), c = d1.dot(r), b = d1.dot(d2);
+  const double denom = a * e - b * b;
+  // Nearly parallel edges meet as vertex–face contacts instead.
+  if (denom <= 1e-6 * a * e) return false;
+  s = (b * f - c * e) / denom;
+  t = (a * f - b * c) / denom;
+  return true;
+}
+
+void gather(const terrain::Surface& surface, const std::vector<std::int32_t>& list,
+            std::vector<TriangleData>& tris) {
+  tris.clear();
+  for (std::int32_t t : list) {
+    TriangleData d;
+    d.index = t;
+    d.ids = surface.triangle(static_cast<std::size_t>(t));
+    d.p = surface.triangle_vertices(static_cast<std::size_t>(t));
+    d.normal = surface.normal(static_cast<std::size_t>(t));
+    for (const Vec3& p : d.p) d.box.add(p);
+    tris.push_back(d);
+  }
+}
+
+void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& world,
+               const std::vector<TriangleData>& tris, double ds, double depth, bool prune,
+               std::vector<Contact>& out) {
+  geometry::Aabb block_box;
+  for (const Vec3& p : world) block_box.add(p);
+  const geometry::Aabb reach = block_box.inflated(ds);
+
+  // Block vertex – terrain triangle.
+  const std::size_t first = out.size();
+  for (const TriangleData& tri : tris) {
+    if (prune && !tri.box.overlaps(reach)) continue;
+    const geometry::Aabb tbox = tri.box.inflated(ds);
+    const Vec3 e0 = tri.p[1] - tri.p[0], e1 = tri.p[2] - tri.p[1], e2 = tri.p[0] - tri.p[2];
+    for (std::size_t i = 0; i < world.size(); ++i) {
+      const Vec3& p = world[i];
+      if (prune && !tbox.contains(p)) continue;
+      const double gap = (p - tri.p[0]).dot(tri.normal);
+      if (gap >= ds || gap <= -depth) continue;
+      if (e0.cross(p - tri.p[0]).dot(tri.normal) < 0.0 || e1.cross(p - tri.p[1]).dot(tri.normal) < 0.0 ||
+          e2.cross(p - tri.p[2]).dot(tri.normal) < 0.0)
+        continue;
+      // A vertex over a shared edge of two coplanar triangles is one contact, not two.
+      bool duplicate = false;
+      for (std::size_t k = first; k < out.size(); ++k)
+        if (out[k].block_feature == static_cast<std::int32_t>(i) && out[k].normal.dot(tri.normal) > 1.0 - 1e-9)
+          duplicate = true;
+      if (duplicate) continue;
+      Contact c;
+      c.kind = ContactKind::vertex_face;
+      c.block_feature = static_cast<std::int32_t>(i);
+      c.terrain_feature = tri.index;
+      c.triangle = tri.index;
+      c.point = p;
+      c.normal = tri.normal;
+      c.gap = gap;
+      out.push_back(c);
+    }
+  }
+
+  // Terrain vertex – block face (a spike of rough ground piercing a face between
+  // block vertices). Tested in the body frame, where face polygons are stored.
+  std::int32_t previous = -1;
+  std::vector<std::pair<std::int32_t, std::int32_t>> verts;  // (vertex id, triangle)
+  verts.reserve(tris.size() * 3);
+  for (const TriangleData& tri : tris)
+    for (int k = 0; k < 3; ++k) verts.emplace_back(tri.ids[k], tri.index);
+  std::sort(verts.begin(), verts.end());
+  for (const auto& [vid, tindex] : verts) {
+    if (vid == previous) continue;
+    previous = vid;
+    const TriangleData* tri = nullptr;
+    for (const TriangleData& t : tris)
+      if (t.index == tindex) tri = &t;
+    const Vec3 q = tri->p[tri->ids[0] == vid ? 0 : (tri->ids[1] == vid ? 1 : 2)];
+    if (prune && !reach.contains(q)) continue;
+    const Vec3 qb = pose.inverse_map * (q - pose.centre);
+    int best = -1;
+    double best_gap = -depth;
+    for (std::size_t f = 0; f < model.faces.size(); ++f) {
+      const BlockFace& face = model.faces[f];
+      const double gap = face.normal.dot(qb) - face.offset;
+      if (gap >= ds || gap <= best_gap) continue;
+      if (!inside_polygon(face.polygon, Eigen::Vector2d(face.u.dot(qb), face.v.dot(qb)))) continue;
+      best = static_cast<int>(f);
+      best_gap = gap;
+    }
+    if (best < 0) continue;
+    const BlockFace& face = model.faces[best];
+    const Vec3 nb = (pose.rotation * face.normal).normalized();
+    const Vec3 foot_body = qb - (face.normal.dot(qb) - face.offset) * face.normal;
+    Contact c;
+    c.kind = ContactKind::face_vertex;
+    c.block_feature = best;
+    c.terrain_feature = vid;
+    c.triangle = tindex;
+    c.point = pose.centre + pose.map * foot_body;
+    c.normal = -nb;
+    c.gap = (c.point - q).dot(c.normal);
+    out.push_back(c);
+  }
+
+  // Block edge – terrain edge crossings. Terrain edges between coplanar triangles are
+  // no ridge and are skipped: the vertex contacts of both sides carry them.
+  std::vector<TerrainEdge> edges;
+  edges.reserve(tris.size() * 3);
+  for (const TriangleData& tri : tris)
+    for (int k = 0; k < 3; ++k) {
+      int i = k, j = (k + 1) % 3;
+      if (tri.ids[i] > tri.ids[j]) std::swap(i, j);
+      edges.push_back(TerrainEdge{tri.ids[i], tri.ids[j], tri.p[i], tri.p[j], tri.normal, tri.index, 1, false});
+    }
+  std::sort(edges.begin(), edges.end(), [](const TerrainEdge& x, const TerrainEdge& y) {
+    return x.a != y.a ? x.a < y.a : x.b < y.b;
+  });
+  std::size_t kept = 0;
+  for (std::size_t k = 0; k < edges.size(); ++k) {
+    if (kept > 0 && edges[kept - 1].a == edges[k].a && edges[kept - 1].b == edges[k].b) {
+      TerrainEdge& e = edges[kept - 1];
+      e.flat = e.normal_sum.dot(edges[k].normal_sum) > 1.0 - 1e-10;
+      e.normal_sum += edges[k].normal_sum;
+      ++e.count;
+    } else {
+      edges[kept++] = edges[k];
+    }
+  }
+  edges.resize(kept);
+  for (std::size_t be = 0; be < model.edges.size(); ++be) {
+    const BlockEdge& bedge = model.edges[be];
+    if (!bedge.convex) continue;
+    const Vec3& p0 = world[bedge.a];
+    const Vec3& p1 = world[bedge.b];
+    geometry::Aabb ebox;
+    ebox.add(p0);
+    ebox.add(p1);
+    ebox = ebox.inflated(ds);
+    for (const TerrainEdge& te : edges) {
+      if (te.flat) continue;
+      if (prune) {
+        geometry::Aabb tb;
+        tb.add(te.pa);
+        tb.add(te.pb);
+        if (!tb.overlaps(ebox)) continue;
+      }
+      double s = 0.0, t = 0.0;
+      if (!line_parameters(p0, p1, te.pa, te.pb, s, t)) continue;
+      constexpr double kEnd = 1e-6;  // ends are vertex contacts
+      if (s <= kEnd || s >= 1.0 - kEnd || t <= kEnd || t >= 1.0 - kEnd) continue;
+      Vec3 n = (p1 - p0).cross(te.pb - te.pa).normalized();
+      if (n.dot(te.normal_sum) < 0.0) n = -n;
+      const Vec3 pc = p0 + s * (p1 - p0);
+      const Vec3 qc = te.pa + t * (te.pb - te.pa);
+      const double gap = (pc - qc).dot(n);
+      if (gap >= ds || gap <= -depth) continue;
+      Contact c;
+      c.kind = ContactKind::edge_edge;
+      c.block_feature = static_cast<std::int32_t>(be);
+      c.terrain_feature = (static_cast<std::int64_t>(te.a) << 32) | static_cast<std::int64_t>(te.b);
+      c.triangle = te.triangle;
+      c.point = pc;
+      c.normal = n;
+      c.gap = gap;
+      out.push_back(c);
+    }
+  }
+}
+
+}  // namespace
+
+void detect_contacts(const Model& model, const terrain::Surface& surface, const Pose& pose,
+                     const std::vector<Vec3>& world, double search_distance, double depth_limit,
+                     std::vector<std::int32_t>& triangles, std::vector<Contact>& out) {
+  geometry::Aabb box;
+  for (const Vec3& p : world) box.add(p);
+  triangles.clear();
+  surface.triangles_in_box(box.inflated(search_distance), triangles);
+  thread_local std::vector<TriangleData> tris;
+  gather(surface, triangles, tris);
+  detect_in(model, pose, world, tris, search_distance, depth_limit, true, out);
+}
+
+void detect_contacts_brute_force(const Model& model, const terrain::Surface& surface, const Pose& pose,
+                                 const std::vector<Vec3>& world, double search_distance,
+                                 double depth_limit, std::vector<Contact>& out) {
+  std::vector<std::int32_t> all(surface.triangle_count());
+  std::iota(all.begin(), all.end(), 0);
+  std::vector<TriangleData> tris;
+  gather(surface, all, tris);
+  detect_in(model, pose, world, tris, search_distance, depth_limit, false, out);
+}
+
+}  // namespace talus::dda::detail

@@ -1,0 +1,686 @@
+// SPDX-License-Identifier: MIT
+#include "talus/dda/engine.hpp"
+
+#include <Eigen/LU>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <string>
+
+#include "contacts.hpp"
+#include "talus/core/error.hpp"
+
+namespace talus::dda {
+
+std::string_view to_string(EndReason reason) {
+  switch (reason) {
+    case EndReason::running: return "running";
+    case EndReason::rest: return "rest";
+    case EndReason::left_terrain: return "left_terrain";
+    case EndReason::step_limit: return "step_limit";
+    case EndReason::non_finite: return "non_finite";
+    case EndReason::no_convergence: return "no_convergence";
+    case EndReason::penetration: return "penetration";
+  }
+  return "unknown";
+}
+
+bool is_failure(EndReason reason) {
+  return reason == EndReason::non_finite || reason == EndReason::no_convergence ||
+         reason == EndReason::penetration;
+}
+
+namespace {
+
+using detail::Pose;
+constexpr double kPi = 3.14159265358979323846;
+
+// Adds the wall time of a scope to a phase total when timing is on.
+class PhaseTimer {
+ public:
+  PhaseTimer(bool on, double& total) : total_(on ? &total : nullptr) {
+    if (total_) start_ = std::chrono::steady_clock::now();
+  }
+  ~PhaseTimer() {
+    if (total_) *total_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  }
+  PhaseTimer(const PhaseTimer&) = delete;
+  PhaseTimer& operator=(const PhaseTimer&) = delete;
+
+ private:
+  double* total_;
+  std::chrono::steady_clock::time_point start_;
+};
+
+Pose pose_of(const Model& model, const State& s) {
+  Pose p;
+  p.centre = s.position;
+  p.rotation = s.orientation.toRotationMatrix();
+  if (model.dof == DofPath::rigid6) {
+    p.map = p.rotation;
+    p.inverse_map = p.rotation.transpose();
+  } else {
+    p.map = p.rotation * s.stretch;
+    p.inverse_map = s.stretch.inverse() * p.rotation.transpose();
+  }
+  return p;
+}
+
+void update_world_vertices(const Model& model, State& s) {
+  const Pose p = pose_of(model, s);
+  s.world_vertices.resize(model.vertices.size());
+  for (std::size_t i = 0; i < model.vertices.size(); ++i)
+    s.world_vertices[i] = p.centre + p.map * model.vertices[i];
+}
+
+Vec3 gravity_vector(const Model& model) { return Vec3(0.0, 0.0, -model.settings.gravity); }
+
+// Voigt (εx εy εz γyz γzx γxy) of a symmetric strain tensor.
+Eigen::Matrix<double, 6, 1> voigt(const Mat3& e) {
+  Eigen::Matrix<double, 6, 1> v;
+  v << e(0, 0), e(1, 1), e(2, 2), 2.0 * e(1, 2), 2.0 * e(2, 0), 2.0 * e(0, 1);
+  return v;
+}
+
+Mat3 strain_tensor(const Eigen::Matrix<double, 6, 1>& v) {
+  Mat3 e;
+  e << v(0), v(5) / 2, v(4) / 2,  //
+      v(5) / 2, v(1), v(3) / 2,     //
+      v(4) / 2, v(3) / 2, v(2);
+  return e;
+}
+
+template <int N>
+using MatN = Eigen::Matrix<double, N, N>;
+template <int N>
+using VecN = Eigen::Matrix<double, N, 1>;
+
+template <int N>
+MatN<N> current_mass(const Model& model, const Pose& pose) {
+  if constexpr (N == 6) {
+    MatN<6> m = MatN<6>::Zero();
+    m.template topLeftCorner<3, 3>() = model.mass * Mat3::Identity();
+    m.template bottomRightCorner<3, 3>() = pose.rotation * model.inertia * pose.rotation.transpose();
+    return m;
+  } else {
+    const Mat3 s = pose.map * model.second_moments * pose.map.transpose();
+    return mass_matrix(model.settings.density, model.volume, s);
+  }
+}
+
+// Per-contact terms of one step, computed once and reused by the open–close iterations.
+template <int N>
+struct Work {
+  Eigen::Matrix<double, 3, N> t;        // T(r) at the contact point
+  VecN<N> gn;                           // Tᵀn: the gap's gradient
+  Eigen::Matrix<double, 3, N> ta;       // T(r) at the shear anchor
+  Vec3 s0;                              // shear spring stretch at the step start
+  double g0 = 0.0;                      // gap − offset at the step start
+};
+
+struct StepOutcome {
+  bool converged = false;
+  int iterations = 0;
+};
+
+// Shi's implicit step: assemble, iterate on the contact states, solve. On return `d`
+// holds the step displacement and each contact's mode its converged state.
+template <int N>
+StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, double dt, double friction,
+                       std::vector<Contact>& contacts, VecN<N>& d, PhaseTimes& times) {
+  const Settings& set = model.settings;
+  const bool timing = set.time_phases;
+  MatN<N> k0;
+  VecN<N> f0;
+  thread_local std::vector<Work<N>> work;
+  {
+    PhaseTimer timer(timing, times.assemble);
+    const MatN<N> m = current_mass<N>(model, pose);
+    const VecN<N> v0 = s.velocity.template head<N>();
+    k0 = (2.0 / (dt * dt)) * m;
+    f0 = (2.0 / dt) * (m * v0);
+    f0.template head<3>() += model.mass * gravity_vector(model);
+    if constexpr (N == 12) {
+      // Accumulated strain (body frame, from the stretch U) acts as an initial stress.
+      const Mat3 e_body = 0.5 * (s.stretch + s.stretch.transpose()) - Mat3::Identity();
+      const Mat3 e_world = pose.rotation * e_body * pose.rotation.transpose();
+      const Eigen::Matrix<double, 6, 1> sigma = model.elasticity * voigt(e_world);
+      k0.template bottomRightCorner<6, 6>() += model.volume * model.elasticity;
+      f0.template tail<6>() -= model.volume * sigma;
+    }
+    work.resize(contacts.size());
+    for (std::size_t i = 0; i < contacts.size(); ++i) {
+      const Contact& c = contacts[i];
+      Work<N>& w = work[i];
+      w.t = displacement_matrix(c.point - pose.centre).template leftCols<N>();
+      w.gn = w.t.transpose() * c.normal;
+      w.g0 = c.gap - c.gap_offset;
+      if (c.anchored) {
+        const Vec3 xa = pose.centre + pose.map * c.body_anchor;
+        w.ta = displacement_matrix(xa - pose.centre).template leftCols<N>();
+        const Vec3 s_raw = xa - c.ground_anchor;
+        w.s0 = s_raw - c.normal * c.normal.dot(s_raw);
+      }
+    }
+  }
+  const double p = set.penalty_stiffness;
+  const double ps = p / set.shear_stiffness_ratio;
+  const Mat3 eye = Mat3::Identity();
+  StepOutcome out;
+  const int max_iter = static_cast<int>(set.max_open_close_iterations);
+  for (int iter = 0; iter < max_iter; ++iter) {
+    ++out.iterations;
+    MatN<N> k = k0;
+    VecN<N> f = f0;
+    {
+      PhaseTimer timer(timing, times.open_close);
+      for (std::size_t i = 0; i < contacts.size(); ++i) {
+        Contact& c = contacts[i];
+        Work<N>& w = work[i];
+        if (c.mode == ContactMode::open) continue;
+        k.noalias() += p * w.gn * w.gn.transpose();
+        f -= p * w.g0 * w.gn;
+        if (c.mode == ContactMode::locked) {
+          if (!c.anchored) {
+            // A contact closing now is anchored where it touches at the step start.
+            c.anchored = true;
+            c.body_anchor = pose.inverse_map * (c.point - pose.centre);
+            c.ground_anchor = c.point - c.gap * c.normal;
+            w.ta = w.t;
+            w.s0.setZero();
+          }
+          const Mat3 pt = eye - c.normal * c.normal.transpose();
+          const Eigen::Matrix<double, 3, N> ptt = pt * w.ta;
+          k.noalias() += ps * ptt.transpose() * ptt;
+          f -= ps * (w.ta.transpose() * w.s0);
+        } else {
+          // Sliding: Coulomb force μ·F_n against the slip, with F_n implicit in d so the
+          // friction matches the normal force of this very step.
+          const VecN<N> ts = w.t.transpose() * c.slip_direction;
+          k.noalias() -= friction * p * ts * w.gn.transpose();
+          f += friction * p * w.g0 * ts;
+        }
+      }
+    }
+    {
+      PhaseTimer timer(timing, times.solve);
+      d = Eigen::PartialPivLU<MatN<N>>(k).solve(f);
+    }
+    PhaseTimer timer(timing, times.open_close);
+    if (!d.allFinite()) return out;
+    bool changed = false;
+    for (std::size_t i = 0; i < contacts.size(); ++i) {
+      Contact& c = contacts[i];
+      Work<N>& w = work[i];
+      const double g = w.g0 + w.gn.dot(d);
+      if (c.mode == ContactMode::open) {
+        if (g < 0.0) {
+          c.mode = ContactMode::locked;
+          changed = true;
+        }
+        continue;
+      }
+      if (g >= 0.0) {
+        c.mode = ContactMode::open;
+        c.anchored = false;
+        changed = true;
+        continue;
+      }
+      const double fn = -p * g;
+      if (c.mode == ContactMode::locked) {
+        const Vec3 sv = w.s0 + w.ta * d;
+        const Vec3 st = sv - c.normal * c.normal.dot(sv);
+        const double fs = ps * st.norm();
+        if (fs > friction * fn * (1.0 + 1e-12) && st.norm() > 0.0) {
+          c.mode = ContactMode::sliding;
+          c.slip_direction = st.normalized();
+          changed = true;
+        }
+      } else {
+        const Vec3 du = w.t * d;
+        const Vec3 dt_slip = du - c.normal * c.normal.dot(du);
+        if (dt_slip.dot(c.slip_direction) < 0.0) {
+          // The friction would reverse the slip: the contact sticks.
+          c.mode = ContactMode::locked;
+          c.anchored = true;
+          c.body_anchor = pose.inverse_map * (c.point - pose.centre);
+          c.ground_anchor = c.point - c.gap * c.normal;
+          w.ta = w.t;
+          w.s0.setZero();
+          changed = true;
+        }
+      }
+    }
+    if (!changed) {
+      out.converged = true;
+      return out;
+    }
+  }
+  return out;
+}
+
+// Carries modes and anchors of contacts that persist from the previous step.
+void carry_contacts(const std::vector<Contact>& previous, std::vector<Contact>& now) {
+  for (Contact& c : now) {
+    c.gap_offset = std::min(c.gap, 0.0);
+    for (const Contact& old : previous) {
+      if (old.kind != c.kind || old.block_feature != c.block_feature || old.terrain_feature != c.terrain_feature)
+        continue;
+      c.mode = old.mode;
+      c.anchored = old.anchored;
+      c.body_anchor = old.body_anchor;
+      c.ground_anchor = old.ground_anchor;
+      c.slip_direction = old.slip_direction;
+      c.normal_force = old.normal_force;
+      // The accepted penetration only shrinks: it follows the block out, never in.
+      c.gap_offset = c.gap > old.gap_offset ? std::min(0.0, c.gap) : old.gap_offset;
+      break;
+    }
+  }
+}
+
+double predicted_reach(const Model& model, const State& s, double dt) {
+  const double v = s.velocity.head<3>().norm();
+  const double w = s.velocity.segment<3>(3).norm();
+  double strain = 0.0;
+  if (model.dof == DofPath::full12) strain = s.velocity.tail<6>().cwiseAbs().maxCoeff();
+  return (v + (w + strain) * model.radius) * dt + 0.5 * model.settings.gravity * dt * dt;
+}
+
+const terrain::Material& material_of(const Ground& ground, std::int32_t triangle) {
+  const std::int32_t m = ground.surface->material(static_cast<std::size_t>(triangle));
+  if (m < 0 || static_cast<std::size_t>(m) >= ground.materials.size())
+    throw core::InputError("terrain", "triangle " + std::to_string(triangle) + " names material " +
+                                          std::to_string(m) + " but only " +
+                                          std::to_string(ground.materials.size()) + " are defined");
+  return ground.materials[static_cast<std::size_t>(m)];
+}
+
+double mean_friction(const terrain::Material& mat) {
+  return std::tan(mat.friction_angle_mean_deg * kPi / 180.0);
+}
+
+Vec3 rotate_about(const Vec3& v, const Vec3& axis, double angle_rad) {
+  return Eigen::AngleAxisd(angle_rad, axis) * v;
+}
+
+// Horizontal unit direction of travel for the lateral tilt axis.
+Vec3 travel_axis(const Vec3& v_in, const Release& release) {
+  Vec3 h(v_in.x(), v_in.y(), 0.0);
+  if (h.norm() < 1e-9) h = Vec3(release.main_direction.x(), release.main_direction.y(), 0.0);
+  return h.normalized();
+}
+
+void start_episode(const Model& model, const Ground& ground, State& s, const Vec3& v_in) {
+  Episode& e = s.episode;
+  e = Episode{};
+  e.active = true;
+  e.velocity_in = v_in;
+  Vec3 n = Vec3::Zero();
+  std::int32_t triangle = -1;
+  double strongest = -1.0;
+  for (const Contact& c : s.contacts) {
+    const double w = std::max(c.normal_force, 1e-300);
+    n += w * c.normal;
+    if (w > strongest) {
+      strongest = w;
+      triangle = c.triangle;
+    }
+  }
+  e.normal = n.norm() > 0.0 ? Vec3(n.normalized()) : Vec3::UnitZ();
+  const double approach = -v_in.dot(e.normal);
+  if (model.restitution == RestitutionLaw::off || approach < model.settings.impact_min_normal_speed) return;
+  const terrain::Material& mat = material_of(ground, triangle);
+  // Three draws per impact, always in this order, so a setting never shifts later draws.
+  const double z_r = s.impacts_rng.normal();
+  const double z_f = s.impacts_rng.normal();
+  const double z_t = s.impacts_rng.normal();
+  e.impact = true;
+  e.restitution = std::clamp(mat.restitution_mean + mat.restitution_sd * z_r, 0.0, 1.0);
+  s.friction = std::max(0.0, mean_friction(mat) + mat.friction_coefficient_sd * z_f);
+  s.friction_drawn = true;
+  e.tilt_deg = mat.lateral_tilt_sd_deg * z_t;
+  e.normal = rotate_about(e.normal, travel_axis(v_in, s.release), e.tilt_deg * kPi / 180.0);
+  e.restitution_scale = mat.restitution_scale;
+  ++s.impacts;
+}
+
+void end_episode(const Model& model, State& s) {
+  Episode& e = s.episode;
+  e.active = false;
+  if (!e.impact) return;
+  Vec3 v = s.velocity.head<3>();
+  Vec3 w = s.velocity.segment<3>(3);
+  if (model.restitution == RestitutionLaw::scaled) {
+    const double vin = e.velocity_in.norm();
+    const double sf = 1.0 / (1.0 + (vin / e.restitution_scale) * (vin / e.restitution_scale));
+    const double cap = e.restitution * sf * vin;
+    const double vout = v.norm();
+    if (vout > cap) {
+      // The whole rigid velocity is scaled: rebound direction and spin-to-speed ratio
+      // of the DDA rebound are kept, its kinetic energy scaled by factor².
+      const double factor = cap / vout;
+      v *= factor;
+      w *= factor;
+      ++s.counters.impacts_rescaled;
+    }
+    const Vec3 axis = travel_axis(e.velocity_in, s.release);
+    const double tilt = e.tilt_deg * kPi / 180.0;
+    v = rotate_about(v, axis, tilt);
+    w = rotate_about(w, axis, tilt);
+  } else if (model.restitution == RestitutionLaw::normal_component) {
+    const double vin_n = std::abs(e.velocity_in.dot(e.normal));
+    const double sf = 1.0 / (1.0 + (vin_n / e.restitution_scale) * (vin_n / e.restitution_scale));
+    const double cap = e.restitution * sf * vin_n;
+    const double vn = v.dot(e.normal);
+    if (vn > cap) {
+      v -= (vn - cap) * e.normal;
+      ++s.counters.impacts_rescaled;
+    }
+  }
+  s.velocity.head<3>() = v;
+  s.velocity.segment<3>(3) = w;
+}
+
+void end_with(State& s, EndReason reason) {
+  if (s.end == EndReason::running) s.end = reason;
+}
+
+// Bookkeeping after an accepted step: time, maxima, rest, leaving, trajectory, limits.
+void finish_step(const Model& model, const Ground& ground, State& s, double dt) {
+  s.time += dt;
+  ++s.counters.steps;
+  if (!s.position.allFinite() || !s.velocity.allFinite() || !s.orientation.coeffs().allFinite()) {
+    end_with(s, EndReason::non_finite);
+    return;
+  }
+  const double speed = s.velocity.head<3>().norm();
+  s.max_speed = std::max(s.max_speed, speed);
+  const terrain::Surface& surf = *ground.surface;
+  double height = std::numeric_limits<double>::quiet_NaN();
+  if (const auto hit = surf.height_at(s.position.x(), s.position.y())) {
+    height = s.position.z() - hit->z;
+    s.max_jump_height = std::max(s.max_jump_height, height);
+  }
+  if (model.settings.trajectory_interval > 0.0 && s.time + 1e-12 >= s.next_sample_time) {
+    s.trajectory.push_back(TrajectorySample{s.time, s.position, s.velocity.head<3>(), height,
+                                            mechanical_energy(model, s)});
+    s.next_sample_time += model.settings.trajectory_interval;
+  }
+  const geometry::Aabb& b = surf.bounds();
+  if (s.position.x() < b.lo.x() || s.position.x() > b.hi.x() || s.position.y() < b.lo.y() ||
+      s.position.y() > b.hi.y() || s.position.z() < b.lo.z() - 2.0 * model.radius) {
+    end_with(s, EndReason::left_terrain);
+    return;
+  }
+  if (kinetic_energy(model, s) < model.settings.rest_kinetic_energy * model.mass) {
+    s.rest_time += dt;
+    if (s.rest_time >= model.settings.rest_dwell) {
+      end_with(s, EndReason::rest);
+      return;
+    }
+  } else {
+    s.rest_time = 0.0;
+  }
+  if (s.counters.steps >= static_cast<std::uint64_t>(model.settings.max_steps)) end_with(s, EndReason::step_limit);
+}
+
+// The swept box of the block's bounding sphere over [t, t+h] on its free parabola.
+geometry::Aabb swept_sphere_box(const Model& model, const State& s, double h) {
+  const Vec3 v = s.velocity.head<3>();
+  const double g = model.settings.gravity;
+  geometry::Aabb box;
+  box.add(s.position);
+  box.add(s.position + v * h + 0.5 * gravity_vector(model) * h * h);
+  // The apex may lie inside the interval.
+  if (g > 0.0 && v.z() > 0.0 && v.z() / g < h) {
+    const double ta = v.z() / g;
+    box.add(s.position + v * ta + 0.5 * gravity_vector(model) * ta * ta);
+  }
+  return box.inflated(model.radius);
+}
+
+// True when no terrain triangle can be touched before time + h.
+bool clear_of_terrain(const Model& model, const Ground& ground, State& s, double h) {
+  const geometry::Aabb box = swept_sphere_box(model, s, h).inflated(model.max_step_displacement());
+  s.scratch_triangles.clear();
+  ground.surface->triangles_in_box(box, s.scratch_triangles);
+  for (std::int32_t t : s.scratch_triangles) {
+    geometry::Aabb tb;
+    for (const Vec3& p : ground.surface->triangle_vertices(static_cast<std::size_t>(t))) tb.add(p);
+    if (tb.overlaps(box)) return false;
+  }
+  return true;
+}
+
+// Applies an accepted displacement d (N components) to the state.
+template <int N>
+void apply_displacement(const Model& model, State& s, const VecN<N>& d, double dt) {
+  const Mat3 r_old = s.orientation.toRotationMatrix();
+  const Vec3 theta = d.template segment<3>(3);
+  s.position += d.template head<3>();
+  const double angle = theta.norm();
+  if (angle > 0.0) s.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(angle, theta / angle)) * s.orientation;
+  s.orientation.normalize();
+  if constexpr (N == 12) {
+    const Mat3 e = strain_tensor(d.template tail<6>());
+    s.stretch = s.stretch + r_old.transpose() * e * r_old * s.stretch;
+  }
+  const VecN<N> v1 = (2.0 / dt) * d - s.velocity.template head<N>();
+  s.velocity.template head<N>() = model.settings.dynamic_coefficient * v1;
+  update_world_vertices(model, s);
+}
+
+bool flight_step(const Model& model, const Ground& ground, State& s) {
+  const double dt = s.dt;
+  if (s.time + dt > s.clear_until) {
+    // Look ahead over a long horizon first, then shorter ones.
+    bool clear = false;
+    for (const double h : {64.0 * dt, 8.0 * dt, dt}) {
+      if (clear_of_terrain(model, ground, s, h)) {
+        s.clear_until = s.time + h;
+        clear = true;
+        break;
+      }
+    }
+    if (!clear) return false;
+  }
+  if (model.dof == DofPath::rigid6) {
+    // The exact parabola (Shi's scheme reproduces it to round-off) and the exact spin.
+    const Vec3 g = gravity_vector(model);
+    Eigen::Matrix<double, 6, 1> d;
+    d.head<3>() = s.velocity.head<3>() * dt + 0.5 * g * dt * dt;
+    d.tail<3>() = s.velocity.segment<3>(3) * dt;
+    apply_displacement<6>(model, s, d, dt);
+  } else {
+    // Strains keep oscillating in flight: solve the contact-free 12-DOF step.
+    std::vector<Contact> none;
+    VecN<12> d;
+    solve_step<12>(model, pose_of(model, s), s, dt, 0.0, none, d, s.times);
+    apply_displacement<12>(model, s, d, dt);
+  }
+  ++s.counters.flight_steps;
+  return true;
+}
+
+template <int N>
+void contact_step(const Model& model, const Ground& ground, State& s) {
+  const Settings& set = model.settings;
+  const bool timing = set.time_phases;
+  const double limit = model.max_step_displacement();
+  const double depth = model.penetration_limit();
+  const Vec3 v_start = s.velocity.head<3>();
+  double dt = s.dt;
+  std::vector<Contact>& contacts = s.scratch_contacts;
+  const Pose pose = pose_of(model, s);
+  double friction = s.friction;
+  VecN<N> d;
+  for (;;) {
+    {
+      PhaseTimer timer(timing, s.times.detect);
+      contacts.clear();
+      const double reach = std::max(2.0 * predicted_reach(model, s, dt), limit);
+      detail::detect_contacts(model, *ground.surface, pose, s.world_vertices, reach, depth, s.scratch_triangles,
+                              contacts);
+      carry_contacts(s.contacts, contacts);
+    }
+    if (!s.friction_drawn && !contacts.empty()) {
+      friction = mean_friction(material_of(ground, contacts.front().triangle));
+    }
+    const StepOutcome outcome = solve_step<N>(model, pose, s, dt, friction, contacts, d, s.times);
+    s.counters.open_close_iterations += static_cast<std::uint64_t>(outcome.iterations);
+    if (!d.allFinite()) {
+      end_with(s, EndReason::non_finite);
+      return;
+    }
+    double factor = 1.0;
+    if (!outcome.converged) {
+      factor = 0.3;
+    } else {
+      double moved = 0.0;
+      for (const Vec3& x : s.world_vertices) {
+        const Vec3 u = displacement_matrix(x - pose.centre).template leftCols<N>() * d;
+        moved = std::max(moved, u.norm());
+      }
+      if (moved > limit) factor = std::max(0.1, 0.9 * limit / moved);
+    }
+    if (factor == 1.0) break;
+    if (dt <= set.min_time_step) {
+      if (!outcome.converged) {
+        end_with(s, EndReason::no_convergence);
+        return;
+      }
+      break;  // accepted at the smallest step: the displacement bound is advisory there
+    }
+    dt = std::max(set.min_time_step, dt * factor);
+    ++s.counters.redone_steps;
+  }
+  s.counters.contacts += contacts.size();
+  if (!s.friction_drawn) s.friction = friction;
+
+  PhaseTimer timer(timing, s.times.update);
+  // Keep the closed contacts, with the state they end the step in.
+  const double p = set.penalty_stiffness;
+  s.contacts.clear();
+  bool any_closed = false;
+  for (Contact& c : contacts) {
+    if (c.mode == ContactMode::open) continue;
+    const Vec3 du = displacement_matrix(c.point - pose.centre).template leftCols<N>() * d;
+    const double g = c.gap - c.gap_offset + c.normal.dot(du);
+    if (c.gap + c.normal.dot(du) < -depth) {
+      end_with(s, EndReason::penetration);
+      return;
+    }
+    if (c.gap < 0.0 && c.gap == c.gap_offset && c.mode != ContactMode::open) ++s.counters.offset_contacts;
+    c.normal_force = p * std::max(0.0, -g);
+    if (c.mode == ContactMode::sliding) {
+      const Vec3 slip = du - c.normal * c.normal.dot(du);
+      if (slip.norm() > 1e-12) c.slip_direction = slip.normalized();
+    }
+    any_closed = true;
+    s.contacts.push_back(c);
+  }
+  apply_displacement<N>(model, s, d, dt);
+  ++s.counters.contact_steps;
+  if (any_closed && !s.episode.active) start_episode(model, ground, s, v_start);
+  else if (!any_closed && s.episode.active) end_episode(model, s);
+  s.clear_until = -1.0;
+  finish_step(model, ground, s, dt);
+  // Grow back towards the nominal step after a cut.
+  s.dt = std::min(set.time_step, dt * 1.3);
+}
+
+}  // namespace
+
+State start(const Model& model, const Release& release, core::RandomStream impact_stream) {
+  if (!release.position.allFinite() || !release.velocity.allFinite() ||
+      !release.angular_velocity.allFinite() || !release.orientation.coeffs().allFinite())
+    throw core::InputError("release", "non-finite release position, orientation or velocity");
+  if (!(release.orientation.norm() > 0.0))
+    throw core::InputError("release", "orientation quaternion is zero");
+  if (!(release.main_direction.norm() > 0.0) || !release.main_direction.allFinite())
+    throw core::InputError("release", "main direction must be a non-zero horizontal vector");
+  State s;
+  s.release = release;
+  s.release.orientation.normalize();
+  s.release.main_direction.normalize();
+  s.position = release.position;
+  s.orientation = s.release.orientation;
+  s.velocity.setZero();
+  s.velocity.head<3>() = release.velocity;
+  s.velocity.segment<3>(3) = release.angular_velocity;
+  s.dt = model.settings.time_step;
+  s.impacts_rng = core::RandomSequence(impact_stream);
+  update_world_vertices(model, s);
+  s.max_speed = release.velocity.norm();
+  if (model.settings.trajectory_interval > 0.0) s.next_sample_time = 0.0;
+  return s;
+}
+
+void step(const Model& model, const Ground& ground, State& s) {
+  if (s.end != EndReason::running) return;
+  if (ground.surface == nullptr) throw core::InputError("terrain", "no terrain surface given");
+  if (s.counters.steps == 0 && model.settings.trajectory_interval > 0.0 && s.trajectory.empty()) {
+    double height = std::numeric_limits<double>::quiet_NaN();
+    if (const auto hit = ground.surface->height_at(s.position.x(), s.position.y())) height = s.position.z() - hit->z;
+    s.trajectory.push_back(TrajectorySample{s.time, s.position, s.velocity.head<3>(), height, mechanical_energy(model, s)});
+    s.next_sample_time = model.settings.trajectory_interval;
+  }
+  bool flew = false;
+  if (s.contacts.empty()) {
+    PhaseTimer timer(model.settings.time_phases, s.times.flight);
+    const double dt = s.dt;
+    flew = flight_step(model, ground, s);
+    if (flew) {
+      if (s.episode.active) end_episode(model, s);
+      finish_step(model, ground, s, dt);
+    }
+  }
+  if (flew) return;
+  if (model.dof == DofPath::rigid6) contact_step<6>(model, ground, s);
+  else contact_step<12>(model, ground, s);
+}
+
+Summary summarize(const State& s) {
+  Summary out;
+  out.end = s.end;
+  out.time = s.time;
+  out.steps = s.counters.steps;
+  out.final_position = s.position;
+  const Eigen::Vector2d delta(s.position.x() - s.release.position.x(), s.position.y() - s.release.position.y());
+  const Eigen::Vector2d dir = s.release.main_direction;
+  out.runout = delta.dot(dir);
+  out.lateral = dir.x() * delta.y() - dir.y() * delta.x();
+  out.max_speed = s.max_speed;
+  out.max_jump_height = s.max_jump_height;
+  out.impacts = s.impacts;
+  out.counters = s.counters;
+  out.times = s.times;
+  out.trajectory = s.trajectory;
+  return out;
+}
+
+Summary run(const Model& model, const Ground& ground, const Release& release, core::RandomStream impact_stream) {
+  State s = start(model, release, impact_stream);
+  while (s.end == EndReason::running) step(model, ground, s);
+  return summarize(s);
+}
+
+double kinetic_energy(const Model& model, const State& s) {
+  const Vec3 v = s.velocity.head<3>();
+  const Vec3 w = s.velocity.segment<3>(3);
+  const Mat3 r = s.orientation.toRotationMatrix();
+  double e = 0.5 * model.mass * v.squaredNorm() + 0.5 * w.dot(r * model.inertia * r.transpose() * w);
+  if (model.dof == DofPath::full12) {
+    const Mat3 map = r * s.stretch;
+    const Mat12 m = mass_matrix(model.settings.density, model.volume, map * model.second_moments * map.transpose());
+    e = 0.5 * s.velocity.dot(m * s.velocity);
+  }
+  return e;
+}
+
+double mechanical_energy(const Model& model, const State& s) {
+  return kinetic_energy(model, s) + model.mass * model.settings.gravity * s.position.z();
+}
+
+}  // namespace talus::dda

@@ -1,0 +1,237 @@
+// SPDX-License-Identifier: MIT
+#include "talus/dda/model.hpp"
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <map>
+#include <string>
+#include <utility>
+
+#include "talus/core/error.hpp"
+
+namespace talus::dda {
+
+void Settings::visit(core::SettingsVisitor& v) {
+  v.choice("dof", dof, {"rigid6", "full12"},
+           "unknowns per block: rigid 6-DOF (fast default) or full 12-DOF DDA with strains");
+  v.field("time_step", time_step, "s", "nominal time step");
+  v.field("min_time_step", min_time_step, "s", "smallest time step the step control may cut to");
+  v.field("max_displacement_ratio", max_displacement_ratio, "-",
+          "largest vertex displacement per contact step over the block's circumscribed diameter");
+  v.field("dynamic_coefficient", dynamic_coefficient, "-",
+          "share of the end-of-step velocity carried to the next step (1 = fully dynamic)");
+  v.field("penalty_stiffness", penalty_stiffness, "N/m", "normal contact spring stiffness");
+  v.field("shear_stiffness_ratio", shear_stiffness_ratio, "-",
+          "normal over shear contact spring stiffness");
+  v.field("max_open_close_iterations", max_open_close_iterations, "-",
+          "open-close iterations before the step is cut and redone");
+  v.field("penetration_limit_ratio", penetration_limit_ratio, "-",
+          "penetration over block diameter that ends a realization as a numerical failure");
+  v.field("gravity", gravity, "m/s^2", "gravitational acceleration (along -z)");
+  v.choice("restitution", restitution, {"scaled", "normal_component", "off"},
+           "impact-rebound law applied when a contact episode ends");
+  v.field("impact_min_normal_speed", impact_min_normal_speed, "m/s",
+          "normal approach speed below which a contact episode is rolling/sliding, not an impact");
+  v.field("rest_kinetic_energy", rest_kinetic_energy, "J/kg",
+          "kinetic energy per unit mass below which the block may be at rest");
+  v.field("rest_dwell", rest_dwell, "s", "time below the rest threshold that ends the realization");
+  v.field("max_steps", max_steps, "-", "step limit per realization");
+  v.field("trajectory_interval", trajectory_interval, "s", "sampled trajectory spacing, 0 = none");
+  v.field("density", density, "kg/m^3", "block density");
+  v.field("young_modulus", young_modulus, "Pa", "block Young's modulus (full12 only)");
+  v.field("poisson_ratio", poisson_ratio, "-", "block Poisson's ratio (full12 only)");
+  v.field("time_phases", time_phases, "time each step phase (reporting only)");
+}
+
+namespace {
+
+const char* const kSettings = "dda settings";
+
+void require_range(bool ok, const char* key, double value, const char* what) {
+  if (!ok || !std::isfinite(value))
+    throw core::InputError(kSettings, std::string(key) + " = " + core::format_number(value) + ": " + what);
+}
+
+void validate(const Settings& s) {
+  require_range(s.time_step > 0.0, "time_step", s.time_step, "must be > 0");
+  require_range(s.min_time_step > 0.0 && s.min_time_step <= s.time_step, "min_time_step",
+                s.min_time_step, "must be > 0 and <= time_step");
+  require_range(s.max_displacement_ratio > 0.0 && s.max_displacement_ratio <= 1.0,
+                "max_displacement_ratio", s.max_displacement_ratio, "must be in (0, 1]");
+  require_range(s.dynamic_coefficient >= 0.0 && s.dynamic_coefficient <= 1.0, "dynamic_coefficient",
+                s.dynamic_coefficient, "must be in [0, 1]");
+  require_range(s.penalty_stiffness > 0.0, "penalty_stiffness", s.penalty_stiffness, "must be > 0");
+  require_range(s.shear_stiffness_ratio > 0.0, "shear_stiffness_ratio", s.shear_stiffness_ratio,
+                "must be > 0");
+  require_range(s.max_open_close_iterations >= 1 && s.max_open_close_iterations <= 1000,
+                "max_open_close_iterations", static_cast<double>(s.max_open_close_iterations),
+                "must be in [1, 1000]");
+  require_range(s.penetration_limit_ratio > 0.0, "penetration_limit_ratio", s.penetration_limit_ratio,
+                "must be > 0");
+  require_range(s.gravity >= 0.0, "gravity", s.gravity, "must be >= 0");
+  require_range(s.impact_min_normal_speed >= 0.0, "impact_min_normal_speed", s.impact_min_normal_speed,
+                "must be >= 0");
+  require_range(s.rest_kinetic_energy >= 0.0, "rest_kinetic_energy", s.rest_kinetic_energy, "must be >= 0");
+  require_range(s.rest_dwell >= 0.0, "rest_dwell", s.rest_dwell, "must be >= 0");
+  require_range(s.max_steps >= 1, "max_steps", static_cast<double>(s.max_steps), "must be >= 1");
+  require_range(s.trajectory_interval >= 0.0, "trajectory_interval", s.trajectory_interval, "must be >= 0");
+  require_range(s.density > 0.0, "density", s.density, "must be > 0");
+  require_range(s.young_modulus > 0.0, "young_modulus", s.young_modulus, "must be > 0");
+  require_range(s.poisson_ratio > -1.0 && s.poisson_ratio < 0.5, "poisson_ratio", s.poisson_ratio,
+                "must be in (-1, 0.5)");
+}
+
+DofPath parse_dof(const std::string& text) {
+  if (text == "rigid6") return DofPath::rigid6;
+  if (text == "full12") return DofPath::full12;
+  throw core::InputError(kSettings, "dof = '" + text + "': expected rigid6 or full12");
+}
+
+RestitutionLaw parse_restitution(const std::string& text) {
+  if (text == "scaled") return RestitutionLaw::scaled;
+  if (text == "normal_component") return RestitutionLaw::normal_component;
+  if (text == "off") return RestitutionLaw::off;
+  throw core::InputError(kSettings,
+                         "restitution = '" + text + "': expected scaled, normal_component or off");
+}
+
+// Checks the polyhedron is closed and consistently oriented (each directed edge once,
+// its reverse once) and returns its edges with their convexity.
+std::vector<BlockEdge> build_edges(const geometry::Polyhedron& poly, const std::vector<BlockFace>& faces,
+                                   const std::vector<Vec3>& verts, double tol) {
+  std::map<std::pair<std::int32_t, std::int32_t>, std::int32_t> directed;  // edge -> face
+  for (std::size_t f = 0; f < poly.faces.size(); ++f) {
+    const auto& face = poly.faces[f];
+    for (std::size_t k = 0; k < face.size(); ++k) {
+      const std::int32_t a = face[k];
+      const std::int32_t b = face[(k + 1) % face.size()];
+      if (!directed.emplace(std::make_pair(a, b), static_cast<std::int32_t>(f)).second)
+        throw core::InputError("block", "edge " + std::to_string(a) + "-" + std::to_string(b) +
+                                            " is used twice in the same direction (non-manifold or inconsistent orientation)");
+    }
+  }
+  std::vector<BlockEdge> edges;
+  for (const auto& [key, f1] : directed) {
+    const auto twin = directed.find({key.second, key.first});
+    if (twin == directed.end())
+      throw core::InputError("block", "polyhedron is not closed: edge " + std::to_string(key.first) + "-" +
+                                          std::to_string(key.second) + " has no opposite face");
+    if (key.first > key.second) continue;
+    // Convex when the far face lies behind the near face's plane.
+    const BlockFace& near = faces[f1];
+    const BlockFace& far = faces[twin->second];
+    Vec3 far_center = Vec3::Zero();
+    for (std::int32_t v : far.vertices) far_center += verts[v];
+    far_center /= static_cast<double>(far.vertices.size());
+    const bool convex = near.normal.dot(far_center) - near.offset < -tol;
+    edges.push_back(BlockEdge{key.first, key.second, convex});
+  }
+  return edges;
+}
+
+}  // namespace
+
+Model Model::build(const Settings& settings, const geometry::Polyhedron& block) {
+  validate(settings);
+  Model m;
+  m.settings = settings;
+  m.dof = parse_dof(settings.dof);
+  m.restitution = parse_restitution(settings.restitution);
+
+  if (block.vertices.size() < 4 || block.faces.size() < 4)
+    throw core::InputError("block", "a block needs at least 4 vertices and 4 faces");
+  for (const Vec3& p : block.vertices)
+    if (!p.allFinite()) throw core::InputError("block", "non-finite vertex coordinate");
+  for (const auto& face : block.faces) {
+    if (face.size() < 3) throw core::InputError("block", "a face has fewer than 3 vertices");
+    for (std::int32_t v : face)
+      if (v < 0 || static_cast<std::size_t>(v) >= block.vertices.size())
+        throw core::InputError("block", "face vertex index " + std::to_string(v) + " out of range");
+  }
+  const geometry::MassProperties props = geometry::mass_properties(block);
+  if (!(props.volume > 0.0))
+    throw core::InputError("block", "volume " + core::format_number(props.volume) +
+                                        " m^3 is not positive (inside-out or degenerate polyhedron)");
+
+  m.volume = props.volume;
+  m.mass = settings.density * props.volume;
+  m.second_moments = props.second_moments;
+  m.inertia = settings.density * props.inertia;
+  m.vertices.reserve(block.vertices.size());
+  for (const Vec3& p : block.vertices) {
+    m.vertices.push_back(p - props.centroid);
+    m.radius = std::max(m.radius, m.vertices.back().norm());
+  }
+  const double tol = 1e-9 * m.radius;
+
+  for (const auto& face : block.faces) {
+    BlockFace f;
+    f.vertices = face;
+    // Newell's normal is robust for any planar polygon, convex or not.
+    Vec3 n = Vec3::Zero();
+    for (std::size_t k = 0; k < face.size(); ++k) {
+      const Vec3& a = m.vertices[face[k]];
+      const Vec3& b = m.vertices[face[(k + 1) % face.size()]];
+      n += Vec3((a.y() - b.y()) * (a.z() + b.z()), (a.z() - b.z()) * (a.x() + b.x()),
+                (a.x() - b.x()) * (a.y() + b.y()));
+    }
+    if (!(n.norm() > 1e-12 * m.radius * m.radius))
+      throw core::InputError("block", "a face has zero area");
+    f.normal = n.normalized();
+    f.offset = f.normal.dot(m.vertices[face[0]]);
+    for (std::int32_t v : face)
+      if (std::abs(f.normal.dot(m.vertices[v]) - f.offset) > 1e-6 * m.radius)
+        throw core::InputError("block", "a face is not planar");
+    f.u = (m.vertices[face[1]] - m.vertices[face[0]]).normalized();
+    f.u = (f.u - f.normal * f.normal.dot(f.u)).normalized();
+    f.v = f.normal.cross(f.u);
+    for (std::int32_t v : face) f.polygon.emplace_back(f.u.dot(m.vertices[v]), f.v.dot(m.vertices[v]));
+    m.faces.push_back(std::move(f));
+  }
+  m.edges = build_edges(block, m.faces, m.vertices, tol);
+  m.elasticity = isotropic_elasticity(settings.young_modulus, settings.poisson_ratio);
+  return m;
+}
+
+Eigen::Matrix<double, 3, 12> displacement_matrix(const Vec3& r) {
+  const double x = r.x(), y = r.y(), z = r.z();
+  Eigen::Matrix<double, 3, 12> t;
+  // columns: u0 v0 w0 | rx ry rz | εx εy εz γyz γzx γxy
+  t << 1, 0, 0, 0, z, -y, x, 0, 0, 0, z / 2, y / 2,  //
+      0, 1, 0, -z, 0, x, 0, y, 0, z / 2, 0, x / 2,   //
+      0, 0, 1, y, -x, 0, 0, 0, z, y / 2, x / 2, 0;
+  return t;
+}
+
+Mat12 mass_matrix(double density, double volume, const Mat3& second_moments) {
+  // T(r) = T0 + Σ r_k T_k; the first moments vanish about the centroid, so
+  // ∫TᵀT = V T0ᵀT0 + Σ_kl S_kl T_kᵀ T_l.
+  const Eigen::Matrix<double, 3, 12> t0 = displacement_matrix(Vec3::Zero());
+  std::array<Eigen::Matrix<double, 3, 12>, 3> tk;
+  for (int k = 0; k < 3; ++k) tk[k] = displacement_matrix(Vec3::Unit(k)) - t0;
+  Mat12 m = volume * t0.transpose() * t0;
+  for (int k = 0; k < 3; ++k)
+    for (int l = 0; l < 3; ++l) m += second_moments(k, l) * tk[k].transpose() * tk[l];
+  return density * m;
+}
+
+Mat6 isotropic_elasticity(double young_modulus, double poisson_ratio) {
+  const double e = young_modulus, nu = poisson_ratio;
+  const double lambda = e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+  const double g = e / (2.0 * (1.0 + nu));
+  Mat6 c = Mat6::Zero();
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) c(i, j) = lambda;
+    c(i, i) = lambda + 2.0 * g;
+    c(i + 3, i + 3) = g;
+  }
+  return c;
+}
+
+Mat3 rotation_matrix(const Vec3& theta) {
+  const double angle = theta.norm();
+  if (angle == 0.0) return Mat3::Identity();
+  return Eigen::AngleAxisd(angle, theta / angle).toRotationMatrix();
+}
+
+}  // namespace talus::dda

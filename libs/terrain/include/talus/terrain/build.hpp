@@ -36,16 +36,27 @@ DemGrid trim_nodata(const DemGrid& dem);
 Terrain build_grid_terrain(const DemGrid& dem, Diagonal diagonal, std::uint64_t seed,
                            const std::string& source);
 
+/// What build_tin_terrain repaired (also reported with core::log_warn).
+struct TinReport {
+  std::size_t degenerate_dropped = 0;     ///< zero-area triangles removed
+  std::size_t components = 0;             ///< edge-connected components
+  std::size_t triangles_flipped = 0;      ///< triangles whose vertex order was reversed
+  std::size_t components_flipped = 0;     ///< components turned over to face up
+  std::size_t orientation_conflicts = 0;  ///< shared edges that no orientation makes consistent
+};
+
 /// A TIN terrain from one mesh per ground material: part p gets material p, named
-/// part_names[p] (defaults otherwise). Throws core::InputError(source, …) for an empty
-/// part, a non-finite vertex or a vertex index out of range (naming part and triangle).
-/// Zero-area triangles are dropped and counted (reported with core::log_warn). Each
-/// connected component (triangles sharing vertices) is oriented consistently where its
-/// edges allow and then flipped as a whole when its area-weighted mean normal points
-/// down, so a height-field TIN faces up; the flips are reported. Walls and overhangs
-/// are kept as they are.
+/// part_names[p] ("part<p>" when the list is shorter). Vertices are not merged across
+/// parts. Throws core::InputError(source, …) for no parts, an empty part, a non-finite
+/// vertex or a vertex index out of range (naming the part and the vertex or triangle).
+/// Zero-area triangles (|(b−a)×(c−a)| <= 1e-12·(longest edge)²) are dropped and counted.
+/// Orientation: each edge-connected component is made consistent (neighbours traverse
+/// their shared edge in opposite directions, starting from its first triangle) and then
+/// turned over as a whole when its area-weighted mean normal points down (z < 0), so a
+/// height-field TIN faces up. Walls and overhangs are kept. Repairs go to `report`.
 Terrain build_tin_terrain(const std::vector<geometry::TriangleMesh>& parts,
-                          const std::vector<std::string>& part_names, const std::string& source);
+                          const std::vector<std::string>& part_names, const std::string& source,
+                          TinReport* report = nullptr);
 
 /// A TIN terrain from scattered (x, y, z) points (m) by the 2-D Delaunay triangulation of
 /// their plan positions (CGAL), triangles counter-clockwise from above, one default

@@ -30,7 +30,27 @@ struct Surface::Impl {
   bool grid_mode = false;
   std::unique_ptr<Terrain> owned;  // from_mesh keeps its own terrain
   const Terrain* terrain = nullptr;
-  Aabb bounds;
+  // Grid: computed on first use, a pass over every point a realization need not pay for.
+  mutable Aabb bounds;
+  mutable bool bounds_known = false;
+
+  const Aabb& grid_bounds() const {
+    if (bounds_known) return bounds;
+    Aabb box;
+    for (const Vec3& p : terrain->mesh.vertices) {
+      box.lo.z() = std::min(box.lo.z(), p.z());
+      box.hi.z() = std::max(box.hi.z(), p.z());
+    }
+    box.lo.x() = spec.x0;
+    box.lo.y() = spec.y0;
+    box.hi.x() = spec.x0 + (spec.nx - 1) * spec.dx;
+    box.hi.y() = spec.y0 + (spec.ny - 1) * spec.dy;
+    box.lo.z() -= kMaxNormal * sigma;
+    box.hi.z() += kMaxNormal * sigma;
+    bounds = box;
+    bounds_known = true;
+    return bounds;
+  }
 
   // --- grid ---
   GridSpec spec;
@@ -273,18 +293,6 @@ Surface Surface::realize(const Terrain& terrain, std::optional<std::uint32_t> in
     impl->spec = spec;
     impl->sigma = sigma;
     impl->perturbed = index.has_value() && sigma > 0.0;
-    Aabb box;
-    for (const Vec3& p : terrain.mesh.vertices) {
-      box.lo.z() = std::min(box.lo.z(), p.z());
-      box.hi.z() = std::max(box.hi.z(), p.z());
-    }
-    box.lo.x() = spec.x0;
-    box.lo.y() = spec.y0;
-    box.hi.x() = spec.x0 + (spec.nx - 1) * spec.dx;
-    box.hi.y() = spec.y0 + (spec.ny - 1) * spec.dy;
-    box.lo.z() -= kMaxNormal * sigma;
-    box.hi.z() += kMaxNormal * sigma;
-    impl->bounds = box;
     if (impl->perturbed) {
       impl->stream = core::RandomStream(terrain.roughness.seed, core::Stream::terrain_roughness, *index);
       impl->tiles_x = (spec.nx + kTile - 1) / kTile;
@@ -351,7 +359,7 @@ std::int32_t Surface::material(std::size_t t) const {
   return m.empty() ? 0 : m[t];
 }
 
-const Aabb& Surface::bounds() const { return impl_->bounds; }
+const Aabb& Surface::bounds() const { return impl_->grid_mode ? impl_->grid_bounds() : impl_->bounds; }
 
 bool Surface::is_height_field() const { return impl_->grid_mode; }
 
@@ -359,6 +367,11 @@ std::size_t Surface::tiles_realized() const { return impl_->tiles_done; }
 
 std::size_t Surface::tile_count() const {
   return static_cast<std::size_t>(impl_->tiles_x) * static_cast<std::size_t>(impl_->tiles_y);
+}
+
+void Surface::realize_all() const {
+  for (std::size_t t = 0; t < impl_->tile_ready.size(); ++t)
+    if (!impl_->tile_ready[t]) impl_->realize_tile(t);
 }
 
 void Surface::triangles_in_box(const Aabb& box, std::vector<std::int32_t>& out) const {

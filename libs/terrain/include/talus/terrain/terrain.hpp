@@ -130,6 +130,9 @@ class Surface {
   /// and benchmarks of the laziness.
   std::size_t tiles_realized() const;
   std::size_t tile_count() const;
+  /// Realizes every tile now (before export, or to time a whole realization); a no-op
+  /// when nothing is lazy. Values are the same as when realized on demand.
+  void realize_all() const;
 
   /// Appends to `out` the triangles whose bounding boxes may overlap `box` (a few more,
   /// never fewer). O(cells under the box) on a grid; O(log n + k) on a TIN.

@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <set>
 
@@ -402,6 +403,42 @@ TEST(TinSurface, EmptyMeshAnswersNothing) {
   s.triangles_in_box(Aabb{Vec3(-1, -1, -1), Vec3(1, 1, 1)}, out);
   EXPECT_TRUE(out.empty());
   EXPECT_FALSE(s.height_at(0.0, 0.0));
+}
+
+}  // namespace
+}  // namespace talus::terrain
+
+namespace talus::terrain {
+namespace {
+
+// FNV-1a over the bit patterns of every realized vertex and the triangle list.
+std::uint64_t surface_hash(const Surface& s) {
+  std::uint64_t h = 0xcbf29ce484222325ull;
+  const auto mix = [&h](std::uint64_t word) {
+    for (int b = 0; b < 8; ++b) {
+      h ^= (word >> (8 * b)) & 0xffu;
+      h *= 0x100000001b3ull;
+    }
+  };
+  for (std::size_t v = 0; v < s.vertex_count(); ++v)
+    for (int a = 0; a < 3; ++a) mix(std::bit_cast<std::uint64_t>(s.vertex(v)[a]));
+  for (std::size_t t = 0; t < s.triangle_count(); ++t)
+    for (std::int32_t id : s.triangle(t)) mix(static_cast<std::uint64_t>(id));
+  return h;
+}
+
+// Golden hash: realization 3 of a fixed terrain must keep the same bits on every
+// platform and in every future version (terrain files store only seed and σ). Changing
+// it breaks the reproducibility of every earlier run.
+TEST(GridSurface, GoldenRealizationHash) {
+  // Base elevations from exact arithmetic only (no libm), so the hash is portable.
+  DemGrid dem;
+  dem.spec = GridSpec{-10.0, 5.0, 1.5, 2.0, 40, 35};
+  for (std::int32_t j = 0; j < 35; ++j)
+    for (std::int32_t i = 0; i < 40; ++i) dem.z.push_back(0.375 * i - 0.125 * j + 0.25 * ((i * j) % 7));
+  Terrain t = build_grid_terrain(dem, Diagonal::random, 2024, "golden");
+  t.roughness.sigma = 0.1;
+  EXPECT_EQ(surface_hash(Surface::realize(t, 3u)), 14531317782559436885ull);
 }
 
 }  // namespace

@@ -1,0 +1,59 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+#include <cstdint>
+#include <span>
+#include <vector>
+
+namespace talus::stats {
+
+/// A sorted sample of one variable (e.g. runout of every realization), for empirical
+/// distribution statistics. Non-finite values are rejected at construction.
+class Sample {
+ public:
+  /// Sorts a copy of `values`. Throws core::InputError(source, …) if a value is not finite.
+  explicit Sample(std::vector<double> values, const char* source = "sample");
+
+  std::size_t size() const { return sorted_.size(); }
+  bool empty() const { return sorted_.empty(); }
+  const std::vector<double>& sorted() const { return sorted_; }
+  double min() const { return sorted_.front(); }
+  double max() const { return sorted_.back(); }
+
+  /// Empirical CDF F(x) = #{values <= x} / n.
+  double cdf(double x) const;
+  /// Quantile of probability p in [0, 1], by linear interpolation between order
+  /// statistics (Hyndman & Fan type 7, the default of R and NumPy):
+  /// h = (n−1)p, Q = x[⌊h⌋] + (h − ⌊h⌋)(x[⌊h⌋+1] − x[⌊h⌋]).
+  double quantile(double p) const;
+  double mean() const;
+  /// Sample standard deviation (n − 1 in the denominator); 0 for n < 2.
+  double sd() const;
+
+ private:
+  std::vector<double> sorted_;
+};
+
+/// Half-width ε of the Dvoretzky–Kiefer–Wolfowitz confidence band of an empirical CDF of
+/// n values: P(sup|F_n − F| > ε) <= α with ε = sqrt(ln(2/α) / (2n)) (Massart's constant).
+double dkw_epsilon(std::size_t n, double alpha);
+
+/// Two-sample Kolmogorov–Smirnov statistic D = sup_x |F_a(x) − F_b(x)|.
+double ks_distance(const Sample& a, const Sample& b);
+/// Asymptotic p-value of D for sample sizes n_a, n_b: Q_KS(λ) = 2 Σ (−1)^(k−1) e^(−2k²λ²),
+/// λ = (√nₑ + 0.12 + 0.11/√nₑ) D, nₑ = n_a n_b / (n_a + n_b) (Stephens' correction).
+double ks_p_value(double d, std::size_t n_a, std::size_t n_b);
+
+/// A confidence interval.
+struct Interval {
+  double lo = 0.0;
+  double hi = 0.0;
+};
+
+/// Percentile-bootstrap confidence interval (level 1 − α) of the p-quantile: `resamples`
+/// resamples with replacement, resample b drawn from stream (seed, bootstrap, b), so the
+/// interval is reproducible. Also returns the bootstrap standard error in `se` if given.
+Interval bootstrap_quantile_interval(const Sample& sample, double p, double alpha,
+                                     std::size_t resamples, std::uint64_t seed,
+                                     double* se = nullptr);
+
+}  // namespace talus::stats

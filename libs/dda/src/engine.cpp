@@ -215,14 +215,15 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
       const double g = w.g0 + w.gn.dot(d);
       if (c.mode == ContactMode::open) {
         if (g < 0.0) {
-          c.mode = ContactMode::locked;
+          c.mode = c.resume == ContactMode::sliding && c.slip_direction.squaredNorm() > 0.0 ? ContactMode::sliding
+                                                                                              : ContactMode::locked;
           changed = true;
         }
         continue;
       }
       if (g >= 0.0) {
+        c.resume = c.mode;
         c.mode = ContactMode::open;
-        c.anchored = false;
         changed = true;
         continue;
       }
@@ -240,13 +241,16 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
         const Vec3 du = w.t * d;
         const Vec3 dt_slip = du - c.normal * c.normal.dot(du);
         if (dt_slip.dot(c.slip_direction) < 0.0) {
-          // The friction would reverse the slip: the contact sticks.
+          // The friction would reverse the slip: the contact sticks. Its shear spring
+          // starts stretched to the friction force it carried, so the force is
+          // continuous; a zero-stretch anchor would let the load jump to the other
+          // contacts and make the block ratchet down a slope it should stick to.
           c.mode = ContactMode::locked;
           c.anchored = true;
+          w.s0 = (friction * fn / ps) * c.slip_direction;
           c.body_anchor = pose.inverse_map * (c.point - pose.centre);
-          c.ground_anchor = c.point - c.gap * c.normal;
+          c.ground_anchor = c.point - c.gap * c.normal - w.s0;
           w.ta = w.t;
-          w.s0.setZero();
           changed = true;
         }
       }
@@ -267,6 +271,7 @@ void carry_contacts(const std::vector<Contact>& previous, std::vector<Contact>& 
       if (old.kind != c.kind || old.block_feature != c.block_feature || old.terrain_feature != c.terrain_feature)
         continue;
       c.mode = old.mode;
+      c.resume = old.resume;
       c.anchored = old.anchored;
       c.body_anchor = old.body_anchor;
       c.ground_anchor = old.ground_anchor;
@@ -320,6 +325,7 @@ void start_episode(const Model& model, const Ground& ground, State& s, const Vec
   std::int32_t triangle = -1;
   double strongest = -1.0;
   for (const Contact& c : s.contacts) {
+    if (c.mode == ContactMode::open) continue;
     const double w = std::max(c.normal_force, 1e-300);
     n += w * c.normal;
     if (w > strongest) {
@@ -503,6 +509,31 @@ bool flight_step(const Model& model, const Ground& ground, State& s) {
   return true;
 }
 
+// Earliest time in (0, dt] at which a contact that was open at the step start and
+// closed in the solution touches on the free (contact-free) motion, among those
+// approaching faster than the impact threshold; dt if none.
+template <int N>
+double time_of_impact(const Model& model, const State& s, const Pose& pose, const std::vector<Contact>& contacts,
+                      const std::vector<ContactMode>& start_modes, double dt) {
+  VecN<N> acc = VecN<N>::Zero();
+  acc.template head<3>() = gravity_vector(model);
+  const VecN<N> v0 = s.velocity.template head<N>();
+  double toi = dt;
+  for (std::size_t i = 0; i < contacts.size(); ++i) {
+    const Contact& c = contacts[i];
+    const double g0 = c.gap - c.gap_offset;
+    if (start_modes[i] != ContactMode::open || c.mode == ContactMode::open || g0 <= 0.0) continue;
+    const VecN<N> gn = displacement_matrix(c.point - pose.centre).template leftCols<N>().transpose() * c.normal;
+    const double a1 = gn.dot(v0);
+    const double a2 = gn.dot(acc);
+    if (-a1 < model.settings.impact_min_normal_speed) continue;
+    const double disc = a1 * a1 - 2.0 * a2 * g0;
+    if (disc < 0.0) continue;
+    toi = std::min(toi, 2.0 * g0 / (-a1 + std::sqrt(disc)));
+  }
+  return toi;
+}
+
 template <int N>
 void contact_step(const Model& model, const Ground& ground, State& s) {
   const Settings& set = model.settings;
@@ -515,6 +546,7 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   const Pose pose = pose_of(model, s);
   double friction = s.friction;
   VecN<N> d;
+  bool impact_cut = false;
   for (;;) {
     {
       PhaseTimer timer(timing, s.times.detect);
@@ -527,6 +559,9 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
     if (!s.friction_drawn && !contacts.empty()) {
       friction = mean_friction(material_of(ground, contacts.front().triangle));
     }
+    thread_local std::vector<ContactMode> start_modes;
+    start_modes.clear();
+    for (const Contact& c : contacts) start_modes.push_back(c.mode);
     const StepOutcome outcome = solve_step<N>(model, pose, s, dt, friction, contacts, d, s.times);
     s.counters.open_close_iterations += static_cast<std::uint64_t>(outcome.iterations);
     if (!d.allFinite()) {
@@ -544,6 +579,19 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
       }
       if (moved > limit) factor = std::max(0.1, 0.9 * limit / moved);
     }
+    if (factor == 1.0 && !impact_cut) {
+      // A contact that closes from a gap with a real approach speed: end the step at
+      // the moment of touch (on the free motion). The penalty impact then starts at
+      // zero gap; a spring force spread over a whole step of which the contact only saw
+      // a part would dissipate energy the restitution law should decide about.
+      const double toi = time_of_impact<N>(model, s, pose, contacts, start_modes, dt);
+      impact_cut = true;
+      if (toi < dt * (1.0 - 1e-9) && toi > set.min_time_step) {
+        dt = toi;
+        ++s.counters.impact_cuts;
+        continue;
+      }
+    }
     if (factor == 1.0) break;
     if (dt <= set.min_time_step) {
       if (!outcome.converged) {
@@ -559,14 +607,22 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   if (!s.friction_drawn) s.friction = friction;
 
   PhaseTimer timer(timing, s.times.update);
-  // Keep the closed contacts, with the state they end the step in.
+  // Keep the closed contacts with the state they end the step in, and the memory of
+  // those that opened by less than a micro-gap (the penalty spring's own oscillation).
   const double p = set.penalty_stiffness;
+  const double keep_gap = 1e-6 * model.radius;
   s.contacts.clear();
   bool any_closed = false;
   for (Contact& c : contacts) {
-    if (c.mode == ContactMode::open) continue;
     const Vec3 du = displacement_matrix(c.point - pose.centre).template leftCols<N>() * d;
     const double g = c.gap - c.gap_offset + c.normal.dot(du);
+    if (c.mode == ContactMode::open) {
+      if (c.anchored && g < keep_gap) {
+        c.normal_force = 0.0;
+        s.contacts.push_back(c);
+      }
+      continue;
+    }
     if (c.gap + c.normal.dot(du) < -depth) {
       end_with(s, EndReason::penetration);
       return;
@@ -627,11 +683,13 @@ void step(const Model& model, const Ground& ground, State& s) {
     s.next_sample_time = model.settings.trajectory_interval;
   }
   bool flew = false;
-  if (s.contacts.empty()) {
+  if (std::none_of(s.contacts.begin(), s.contacts.end(),
+                   [](const Contact& c) { return c.mode != ContactMode::open; })) {
     PhaseTimer timer(model.settings.time_phases, s.times.flight);
     const double dt = s.dt;
     flew = flight_step(model, ground, s);
     if (flew) {
+      s.contacts.clear();
       if (s.episode.active) end_episode(model, s);
       finish_step(model, ground, s, dt);
     }

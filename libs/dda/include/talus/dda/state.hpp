@@ -43,6 +43,10 @@ struct Contact {
   double gap = 0.0;                   ///< signed normal distance at the step start (m), < 0 = penetration
 
   ContactMode mode = ContactMode::open;
+  /// The mode a contact that opened for a moment resumes when it closes again: the
+  /// penalty spring's micro-oscillation must not reset a locked anchor (creep) or a
+  /// sliding contact's direction.
+  ContactMode resume = ContactMode::locked;
   /// Penetration found when the contact was first detected (m, ≤ 0): the spring acts on
   /// the gap below it, so pushing out a penetration never injects energy.
   double gap_offset = 0.0;
@@ -69,6 +73,7 @@ struct Counters {
   std::uint64_t flight_steps = 0;     ///< accepted steps advanced on the exact parabola
   std::uint64_t contact_steps = 0;    ///< accepted steps with contact search
   std::uint64_t redone_steps = 0;     ///< steps redone with a smaller Δt
+  std::uint64_t impact_cuts = 0;      ///< steps shortened to end at the moment of an impact
   std::uint64_t open_close_iterations = 0;
   std::uint64_t contacts = 0;         ///< contact candidates found, summed over steps
   std::uint64_t offset_contacts = 0;  ///< contacts first found already penetrated
@@ -115,7 +120,9 @@ struct State {
   Vec12 velocity = Vec12::Zero();
 
   std::vector<Vec3> world_vertices;   ///< block vertices at `time` (m)
-  std::vector<Contact> contacts;      ///< contacts of the last accepted step
+  /// Contacts of the last accepted step: the closed ones, and those that opened by less
+  /// than a micro-gap and keep their memory.
+  std::vector<Contact> contacts;
   double clear_until = -1.0;          ///< no terrain contact is possible before this time (s)
   Episode episode;
   double friction = 0.0;              ///< friction coefficient in force (drawn per impact)

@@ -1,0 +1,106 @@
+// SPDX-License-Identifier: MIT
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <string>
+
+#include "dda_fixtures.hpp"
+#include "talus/core/error.hpp"
+#include "talus/dda/model.hpp"
+
+namespace talus::dda {
+namespace {
+
+using testing::box;
+using testing::cube;
+
+std::string build_error(const Settings& s, const geometry::Polyhedron& p) {
+  try {
+    Model::build(s, p);
+  } catch (const core::InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(DdaModel, CubeMassAndInertia) {
+  const Model m = Model::build(Settings{}, cube(1.0));
+  // Closed forms: m = ρa³, J = m a²/6; sums of a few dozen terms, so 1e-12 relative.
+  EXPECT_NEAR(m.mass, 2800.0, 1e-9);
+  EXPECT_NEAR(m.inertia(0, 0), 2800.0 / 6.0, 1e-9);
+  EXPECT_NEAR(m.inertia(0, 1), 0.0, 1e-9);
+  EXPECT_NEAR(m.radius, std::sqrt(3.0) / 2.0, 1e-12);
+  EXPECT_EQ(m.edges.size(), 12u);
+  EXPECT_TRUE(std::all_of(m.edges.begin(), m.edges.end(), [](const BlockEdge& e) { return e.convex; }));
+  EXPECT_EQ(m.faces.size(), 6u);
+}
+
+// The simplex-integrated 12×12 mass matrix against Gauss quadrature over a box
+// (2 points per axis integrate the quadratic integrand exactly).
+TEST(DdaModel, MassMatrixMatchesQuadrature) {
+  const double ax = 1.3, ay = 0.7, az = 0.9, rho = 2650.0;
+  const geometry::MassProperties props = geometry::mass_properties(box(ax, ay, az));
+  const Mat12 m = mass_matrix(rho, props.volume, props.second_moments);
+  Mat12 q = Mat12::Zero();
+  const double g = 1.0 / std::sqrt(3.0);
+  const double w = ax * ay * az / 8.0;
+  for (int i = 0; i < 8; ++i) {
+    const Vec3 r((i & 1 ? g : -g) * ax / 2, (i & 2 ? g : -g) * ay / 2, (i & 4 ? g : -g) * az / 2);
+    const auto t = displacement_matrix(r);
+    q += rho * w * t.transpose() * t;
+  }
+  // Round-off of sums of O(10) terms of size ~3e3.
+  EXPECT_LT((m - q).cwiseAbs().maxCoeff(), 1e-9);
+  // Top-left: diag(m, m, m, J).
+  EXPECT_NEAR(m(0, 0), rho * ax * ay * az, 1e-9);
+  EXPECT_NEAR(m(3, 3), rho * ax * ay * az * (ay * ay + az * az) / 12.0, 1e-9);
+  EXPECT_EQ(m(0, 3), 0.0);
+}
+
+TEST(DdaModel, RotationMatrixIsExact) {
+  const Vec3 theta(0.3, -0.2, 0.5);
+  const Mat3 r = rotation_matrix(theta);
+  // Orthogonal and unimodular to round-off; fixes its axis.
+  EXPECT_LT((r * r.transpose() - Mat3::Identity()).norm(), 1e-15);
+  EXPECT_NEAR(r.determinant(), 1.0, 1e-15);
+  EXPECT_LT((r * theta - theta).norm(), 1e-15);
+  EXPECT_EQ(rotation_matrix(Vec3::Zero()), Mat3::Identity());
+}
+
+TEST(DdaModel, ElasticityMatrix) {
+  const Mat6 c = isotropic_elasticity(3e10, 0.2);
+  // λ = Eν/((1+ν)(1−2ν)) = 8.333e9, G = E/(2(1+ν)) = 1.25e10.
+  EXPECT_NEAR(c(0, 1), 3e10 * 0.2 / (1.2 * 0.6), 1e-3);
+  EXPECT_NEAR(c(3, 3), 1.25e10, 1e-3);
+  EXPECT_NEAR(c(0, 0), 3e10 * 0.2 / (1.2 * 0.6) + 2.5e10, 1e-3);
+}
+
+TEST(DdaModel, BadSettingsAreOneLineErrors) {
+  Settings s;
+  s.time_step = -1.0;
+  EXPECT_EQ(build_error(s, cube(1.0)), "dda settings: time_step = -1: must be > 0");
+  s = Settings{};
+  s.dof = "twelve";
+  EXPECT_EQ(build_error(s, cube(1.0)), "dda settings: dof = 'twelve': expected rigid6 or full12");
+  s = Settings{};
+  s.dynamic_coefficient = 1.5;
+  EXPECT_EQ(build_error(s, cube(1.0)), "dda settings: dynamic_coefficient = 1.5: must be in [0, 1]");
+  s = Settings{};
+  s.penalty_stiffness = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(build_error(s, cube(1.0)).find("penalty_stiffness"), std::string::npos);
+}
+
+TEST(DdaModel, BadBlocksAreOneLineErrors) {
+  geometry::Polyhedron open = cube(1.0);
+  open.faces.pop_back();
+  EXPECT_NE(build_error(Settings{}, open).find("block: polyhedron is not closed"), std::string::npos);
+  geometry::Polyhedron inside_out = cube(1.0);
+  for (auto& f : inside_out.faces) std::reverse(f.begin(), f.end());
+  EXPECT_NE(build_error(Settings{}, inside_out).find("not positive"), std::string::npos);
+  geometry::Polyhedron bad_index = cube(1.0);
+  bad_index.faces[0][0] = 42;
+  EXPECT_EQ(build_error(Settings{}, bad_index), "block: face vertex index 42 out of range");
+}
+
+}  // namespace
+}  // namespace talus::dda

@@ -36,8 +36,10 @@ constexpr MaterialColumn kMaterialColumns[] = {
     {"lateral_tilt_sd_deg", &Material::lateral_tilt_sd_deg, "deg", 0.0, false},
 };
 
-// The first inconsistency of a terrain model, or an empty string. Shared by the writer
-// (where it means a caller bug) and the reader (where it means a corrupt file).
+}  // namespace
+
+// Shared by the writer (where a problem is a caller bug), the reader (a corrupt file) and
+// terrain-gen (bad settings).
 std::string terrain_problem(const Terrain& t) {
   const auto& mesh = t.mesh;
   if (t.materials.empty()) return "no materials";
@@ -94,6 +96,8 @@ std::string terrain_problem(const Terrain& t) {
   }
   return {};
 }
+
+namespace {
 
 // The TRN as any reader sees it: for a grid, the triangles of the smooth base surface in
 // the Surface vertex order (so the file and the engine agree by construction).

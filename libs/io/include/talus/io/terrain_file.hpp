@@ -15,6 +15,12 @@ struct TerrainFileInfo {
   std::optional<double> roughness_index; ///< Römkens–Wang R the σ came from (-), if given that way
 };
 
+/// The first inconsistency of a terrain model, or an empty string when there is none:
+/// materials missing or with out-of-range parameters (non-finite, negative sd, K <= 0),
+/// non-finite vertices, vertex indices or material ids out of range, a grid whose sizes do
+/// not match its vertices, diagonals and triangles, a negative σ. What write and read check.
+std::string terrain_problem(const terrain::Terrain& terrain);
+
 /// Writes `terrain` as a Talus terrain file (layout in docs/formats.md, "Terrain file"):
 /// the header and provenance, /trn (vertices, triangles, material per triangle — readable
 /// without Talus, e.g. by ParaView through the XDMF sidecar), /grid for a grid TRN (spec,

@@ -1,0 +1,371 @@
+// End-to-end tests of the terrain-gen executable: run the built binary, check the exit
+// code, the one-line message and the output files.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "talus/io/raster.hpp"
+#include "talus/io/terrain_file.hpp"
+#include "talus/terrain/terrain.hpp"
+
+namespace talus {
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::string kSample = std::string(TALUS_SOURCE_DIR) + "/samples/bench-slope/terrain.yaml";
+
+std::string tool() {
+  const char* bin = std::getenv("TALUS_BIN");
+  return (fs::path(bin ? bin : TALUS_BINARY_DIR "/bin") / "terrain-gen").string();
+}
+
+std::string read_text(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+void write_text(const fs::path& path, const std::string& text) { std::ofstream(path, std::ios::binary) << text; }
+
+std::string quote(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+struct Outcome {
+  int code = -1;
+  std::string out;
+  std::string err;
+};
+
+// A scratch directory per test (ctest runs tests in parallel), removed afterwards.
+class TerrainGen : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = fs::temp_directory_path() / ("talus_terrain_gen_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  // Runs terrain-gen with `args` in directory `cwd` (default: the scratch directory).
+  Outcome run(const std::vector<std::string>& args, const fs::path& cwd = {}) const {
+    const fs::path where = cwd.empty() ? dir_ : cwd;
+    std::string command = "cd " + quote(where.string()) + " && " + quote(tool());
+    for (const auto& a : args) command += " " + quote(a);
+    const fs::path out = dir_ / ".stdout", err = dir_ / ".stderr";
+    command += " > " + quote(out.string()) + " 2> " + quote(err.string());
+    const int status = std::system(command.c_str());
+    Outcome r;
+    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    r.out = read_text(out);
+    r.err = read_text(err);
+    fs::remove(out);
+    fs::remove(err);
+    return r;
+  }
+
+  // Files left in the scratch directory, the captured output excluded.
+  std::vector<std::string> files(const fs::path& sub = {}) const {
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(sub.empty() ? dir_ : sub)) names.push_back(e.path().filename().string());
+    std::sort(names.begin(), names.end());
+    return names;
+  }
+
+  // An error run: exit `code`, one line naming the tool, and nothing written.
+  void expect_error(const Outcome& r, int code, const std::string& fragment,
+                    const std::string& output = "out.h5") const {
+    EXPECT_EQ(r.code, code) << r.err;
+    EXPECT_EQ(r.err.rfind("terrain-gen: error: ", 0), 0u) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_NE(r.err.find(fragment), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(dir_ / output)) << output;
+    EXPECT_FALSE(fs::exists(dir_ / fs::path(output).replace_extension(".xmf"))) << output;
+    for (const auto& name : files()) EXPECT_EQ(name.find(".tmp-"), std::string::npos) << name;
+  }
+
+  fs::path dir_;
+};
+
+// Elevation of the §6 bench profile at x (m).
+double bench_z(double x) {
+  const double px[] = {0, 6, 8, 14, 16, 22, 24, 36, 60};
+  const double pz[] = {30, 24, 24, 18, 18, 12, 12, 0, 0};
+  for (int k = 1; k < 9; ++k)
+    if (x <= px[k]) return pz[k - 1] + (x - px[k - 1]) / (px[k] - px[k - 1]) * (pz[k] - pz[k - 1]);
+  return 0.0;
+}
+
+TEST_F(TerrainGen, BenchSlopeSampleBuildsTheReferenceGrid) {
+  const Outcome r = run({"-c", kSample, "-o", "bench.h5"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.err, "");
+  EXPECT_EQ(files(), (std::vector<std::string>{"bench.h5", "bench.xmf"}));  // no temporary left
+
+  io::TerrainFileInfo info;
+  const terrain::Terrain t = io::read_terrain_file((dir_ / "bench.h5").string(), info);
+  ASSERT_TRUE(t.grid.has_value());
+  EXPECT_EQ(t.grid->nx, 31);
+  EXPECT_EQ(t.grid->ny, 21);
+  EXPECT_EQ(t.grid->dx, 2.0);
+  EXPECT_EQ(t.mesh.vertices.size(), 651u);
+  EXPECT_EQ(t.mesh.triangles.size(), 1200u);
+  for (std::int32_t j = 0; j < 21; ++j)
+    for (std::int32_t i = 0; i < 31; ++i) {
+      // Breakpoints fall on grid points and the slopes are 1:1, so heights are exact up to
+      // the rounding of one interpolation (1e-12 m).
+      const auto& p = t.mesh.vertices[t.grid->index(i, j)];
+      EXPECT_EQ(p.x(), 2.0 * i);
+      EXPECT_EQ(p.y(), 2.0 * j);
+      EXPECT_NEAR(p.z(), bench_z(2.0 * i), 1e-12) << i << ", " << j;
+    }
+  EXPECT_EQ(t.mesh.vertices[t.grid->index(3, 5)].z(), 24.0);   // first bench, x = 6 m
+  EXPECT_EQ(t.mesh.vertices[t.grid->index(18, 0)].z(), 0.0);   // toe, x = 36 m
+  // Alternating diagonals: a checkerboard.
+  for (std::size_t c = 0; c < t.cell_diagonal.size(); ++c)
+    EXPECT_EQ(t.cell_diagonal[c], ((c % 30) + (c / 30)) % 2) << c;
+  EXPECT_EQ(t.roughness.sigma, 0.2);  // S2: R = 1/4 → σ = 0.8 R m
+  EXPECT_EQ(info.roughness_index, 0.25);
+  EXPECT_EQ(t.roughness.seed, 1u);
+  ASSERT_EQ(t.materials.size(), 1u);
+  EXPECT_EQ(t.materials[0].name, "slope");
+  EXPECT_EQ(t.name, "bench-slope");
+  EXPECT_EQ(info.provenance.tool, "terrain-gen");
+  EXPECT_NE(info.provenance.settings_yaml.find("roughness_index: 0.25"), std::string::npos);
+  EXPECT_NE(read_text(dir_ / "bench.xmf").find(">bench.h5:/trn/vertices<"), std::string::npos);
+}
+
+TEST_F(TerrainGen, TwoRunsGiveByteIdenticalFiles) {
+  fs::create_directories(dir_ / "a");
+  fs::create_directories(dir_ / "b");
+  // The same command line (it is recorded) in two directories.
+  const std::vector<std::string> args = {"-c", kSample, "--set", "triangulation=random", "-o", "t.h5"};
+  ASSERT_EQ(run(args, dir_ / "a").code, 0);
+  ASSERT_EQ(run(args, dir_ / "b").code, 0);
+  const std::string a = read_text(dir_ / "a" / "t.h5");
+  EXPECT_GT(a.size(), 1000u);
+  EXPECT_EQ(a, read_text(dir_ / "b" / "t.h5"));
+  EXPECT_EQ(read_text(dir_ / "a" / "t.xmf"), read_text(dir_ / "b" / "t.xmf"));
+}
+
+TEST_F(TerrainGen, PrintedConfigReadsBackToTheSameTerrain) {
+  const Outcome printed = run({"-c", kSample, "--set", "seed=9", "--print-config"});
+  ASSERT_EQ(printed.code, 0) << printed.err;
+  write_text(dir_ / "printed.yaml", printed.out);
+  ASSERT_EQ(run({"-c", kSample, "--set", "seed=9", "-o", "first.h5"}).code, 0);
+  const Outcome again = run({"-c", "printed.yaml", "-o", "second.h5"});
+  ASSERT_EQ(again.code, 0) << again.err;
+  io::TerrainFileInfo i1, i2;
+  const terrain::Terrain a = io::read_terrain_file((dir_ / "first.h5").string(), i1);
+  const terrain::Terrain b = io::read_terrain_file((dir_ / "second.h5").string(), i2);
+  // Everything but the recorded command line is the same.
+  EXPECT_EQ(i1.provenance.settings_yaml, i2.provenance.settings_yaml);
+  EXPECT_EQ(a.mesh.vertices, b.mesh.vertices);
+  EXPECT_EQ(a.mesh.triangles, b.mesh.triangles);
+  EXPECT_EQ(a.cell_diagonal, b.cell_diagonal);
+  EXPECT_EQ(a.roughness.sigma, b.roughness.sigma);
+  EXPECT_EQ(a.roughness.seed, 9u);
+  EXPECT_EQ(b.roughness.seed, 9u);
+  EXPECT_EQ(a.materials[0].name, b.materials[0].name);
+  EXPECT_EQ(i1.roughness_index, i2.roughness_index);
+}
+
+TEST_F(TerrainGen, RoughnessLevelsAndTriangulationsBySet) {
+  ASSERT_EQ(run({"-c", kSample, "--set", "roughness.roughness_index=0.125", "-o", "s1.h5"}).code, 0);
+  EXPECT_EQ(io::read_terrain_file((dir_ / "s1.h5").string()).roughness.sigma, 0.1);
+  ASSERT_EQ(run({"-c", kSample, "--set", "roughness.roughness_index=0.5", "-o", "s3.h5"}).code, 0);
+  EXPECT_EQ(io::read_terrain_file((dir_ / "s3.h5").string()).roughness.sigma, 0.4);
+  ASSERT_EQ(run({"-c", kSample, "--set", "triangulation=fixed", "-o", "fixed.h5"}).code, 0);
+  const auto fixed = io::read_terrain_file((dir_ / "fixed.h5").string()).cell_diagonal;
+  EXPECT_TRUE(std::all_of(fixed.begin(), fixed.end(), [](std::uint8_t d) { return d == 0; }));
+  ASSERT_EQ(run({"-c", kSample, "--set", "triangulation=random", "-o", "random.h5"}).code, 0);
+  const auto random = io::read_terrain_file((dir_ / "random.h5").string()).cell_diagonal;
+  const auto ones = std::count(random.begin(), random.end(), 1);
+  // 600 fair coin flips: 300 ± 5 standard deviations (61).
+  EXPECT_GT(ones, 239);
+  EXPECT_LT(ones, 361);
+}
+
+TEST_F(TerrainGen, SummaryAndMeshExportWithoutTerrainFile) {
+  const Outcome r = run({"-c", kSample, "--summary", "--export-mesh", "r2.obj", "--realization", "2"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("points: 651 (31 x 21), triangles: 1200"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("roughness: sigma 0.2 m (R = 0.25), seed 1"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("z [0, 30] m"), std::string::npos) << r.out;
+  EXPECT_EQ(files(), (std::vector<std::string>{"r2.obj"}));
+  // The exported realization is realization 2 of the terrain the file would hold.
+  ASSERT_EQ(run({"-c", kSample, "-o", "t.h5"}).code, 0);
+  const terrain::Terrain t = io::read_terrain_file((dir_ / "t.h5").string());
+  const terrain::Surface s = terrain::Surface::realize(t, 2u);
+  std::ifstream obj(dir_ / "r2.obj");
+  std::string tag;
+  double x = 0, y = 0, z = 0;
+  std::size_t v = 0, f = 0;
+  std::string line;
+  while (std::getline(obj, line)) {
+    if (line.rfind("v ", 0) == 0) {
+      std::sscanf(line.c_str(), "v %lf %lf %lf", &x, &y, &z);
+      EXPECT_EQ(geometry::Vec3(x, y, z), s.vertex(v)) << v;  // %.17g round-trips exactly
+      ++v;
+    } else if (line.rfind("f ", 0) == 0) {
+      ++f;
+    }
+  }
+  EXPECT_EQ(v, 651u);
+  EXPECT_EQ(f, 1200u);
+  EXPECT_GT(std::abs(s.vertex(100).z() - t.mesh.vertices[100].z()), 0.0);  // rough, not the base
+}
+
+TEST_F(TerrainGen, DemWithNodataBorderZonesAndAutomaticOriginShift) {
+  // Projected coordinates: the automatic shift subtracts the corner rounded to 1 km.
+  write_text(dir_ / "dem.asc",
+             "ncols 5\nnrows 4\nxllcorner 600010\nyllcorner 5100020\ncellsize 10\nNODATA_value -9999\n"
+             "-9999 -9999 -9999 -9999 -9999\n"
+             "100 90 80 70 -9999\n"
+             "101 91 81 71 -9999\n"
+             "102 92 82 72 -9999\n");
+  write_text(dir_ / "t.yaml",
+             "materials:\n"
+             "  - {name: rock}\n"
+             "  - {name: scree, restitution_mean: 0.7}\n"
+             "zones:\n"
+             "  - material: scree\n"
+             "    polygon: [[600030, 5100000], [600100, 5100000], [600100, 5100100], [600030, 5100100]]\n");
+  const Outcome r = run({"-c", "t.yaml", "dem.asc", "-o", "dem.h5", "--summary"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const terrain::Terrain t = io::read_terrain_file((dir_ / "dem.h5").string());
+  EXPECT_EQ(t.origin_shift, geometry::Vec3(600000, 5100000, 0));
+  ASSERT_TRUE(t.grid.has_value());
+  EXPECT_EQ(t.grid->nx, 4);  // NODATA column and row trimmed
+  EXPECT_EQ(t.grid->ny, 3);
+  EXPECT_EQ(t.grid->x0, 15.0);  // cell centre 600015 minus 600000
+  EXPECT_EQ(t.grid->y0, 25.0);
+  EXPECT_EQ(t.mesh.vertices[t.grid->index(0, 0)].z(), 102.0);
+  EXPECT_EQ(t.name, "dem");
+  ASSERT_EQ(t.materials.size(), 2u);
+  EXPECT_EQ(t.materials[1].restitution_mean, 0.7);
+  // Cells with centroids east of x = 600030 (local 30) are scree: the last column of cells.
+  for (std::size_t k = 0; k < t.mesh.triangles.size(); ++k) {
+    double cx = 0;
+    for (auto v : t.mesh.triangles[k]) cx += t.mesh.vertices[v].x() / 3.0;
+    EXPECT_EQ(t.material_of_triangle[k], cx > 30.0 ? 1 : 0) << k;
+  }
+  EXPECT_NE(r.out.find("origin shift: [600000, 5100000, 0] m"), std::string::npos) << r.out;
+
+  // Crop in input coordinates.
+  ASSERT_EQ(run({"dem.asc", "--set", "crop.xmax=600040", "-o", "crop.h5"}).code, 0);
+  EXPECT_EQ(io::read_terrain_file((dir_ / "crop.h5").string()).grid->nx, 3);
+}
+
+TEST_F(TerrainGen, MaterialRasterAssignsIdsByNearestCell) {
+  terrain::DemGrid dem;
+  dem.spec = {0.0, 0.0, 1.0, 1.0, 5, 3};
+  dem.z.assign(15, 5.0);
+  io::write_esri_ascii((dir_ / "flat.asc").string(), dem);
+  terrain::DemGrid ids;
+  ids.spec = {0.5, 0.5, 1.0, 1.0, 4, 2};  // one id per DEM cell, at its centre
+  ids.z = {0, 0, 1, 1, 0, 0, 1, 1};
+  io::write_esri_ascii((dir_ / "ids.asc").string(), ids);
+  const Outcome r = run({"flat.asc", "--set", "materials=[{name: a}, {name: b}]", "--set", "material_raster=ids.asc",
+                     "-o", "m.h5"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const terrain::Terrain t = io::read_terrain_file((dir_ / "m.h5").string());
+  for (std::size_t k = 0; k < t.mesh.triangles.size(); ++k) {
+    const std::size_t cell = k / 2;
+    EXPECT_EQ(t.material_of_triangle[k], cell % 4 >= 2 ? 1 : 0) << k;
+  }
+  // An id outside the materials is bad input, named by the raster.
+  const Outcome bad = run({"flat.asc", "--set", "material_raster=ids.asc", "-o", "bad.h5"});
+  EXPECT_EQ(bad.code, 3);
+  EXPECT_NE(bad.err.find("ids.asc: material id 1"), std::string::npos) << bad.err;
+  EXPECT_FALSE(fs::exists(dir_ / "bad.h5"));
+}
+
+TEST_F(TerrainGen, SurveyedTinYUpOneFilePerMaterial) {
+  // y-up OBJ files (as meshing tools write them): a ground strip and a vertical wall.
+  write_text(dir_ / "ground.obj", "v 0 0 0\nv 10 0 0\nv 10 0 -4\nv 0 0 -4\nf 1 2 3\nf 1 3 4\n");
+  write_text(dir_ / "wall.obj", "v 10 0 0\nv 10 5 0\nv 10 5 -4\nv 10 0 -4\nf 1 3 2\nf 1 4 3\n");
+  write_text(dir_ / "t.yaml",
+             "tin: {up_axis: y}\n"
+             "materials:\n"
+             "  - {name: wall, restitution_mean: 0.5}\n");
+  const Outcome r = run({"-c", "t.yaml", "ground.obj", "wall.obj", "-o", "tin.h5", "--summary"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const terrain::Terrain t = io::read_terrain_file((dir_ / "tin.h5").string());
+  EXPECT_FALSE(t.grid.has_value());
+  EXPECT_EQ(t.mesh.triangles.size(), 4u);
+  ASSERT_EQ(t.materials.size(), 2u);
+  EXPECT_EQ(t.materials[0].name, "ground");
+  EXPECT_EQ(t.materials[0].restitution_mean, 0.95);  // no entry named 'ground': defaults
+  EXPECT_EQ(t.materials[1].name, "wall");
+  EXPECT_EQ(t.materials[1].restitution_mean, 0.5);
+  // y-up → z-up: the ground lies at z = 0 spanning y in [0, 4]; the wall rises to z = 5.
+  const geometry::Aabb box = t.mesh.bounds();
+  EXPECT_EQ(box.lo, geometry::Vec3(0, 0, 0));
+  EXPECT_EQ(box.hi, geometry::Vec3(10, 4, 5));
+  EXPECT_EQ(t.material_of_triangle, (std::vector<std::int32_t>{0, 0, 1, 1}));
+  EXPECT_NE(r.out.find("walls and overhangs: 2 triangles"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("TIN, from tin"), std::string::npos) << r.out;
+
+  // Resampled to a 1 m grid, the ground keeps its material.
+  const Outcome g = run({"ground.obj", "--set", "tin.up_axis=y", "--set", "tin.mode=resample", "-o", "grid.h5"});
+  ASSERT_EQ(g.code, 0) << g.err;
+  const terrain::Terrain grid = io::read_terrain_file((dir_ / "grid.h5").string());
+  ASSERT_TRUE(grid.grid.has_value());
+  EXPECT_EQ(grid.grid->nx, 11);
+  EXPECT_EQ(grid.grid->ny, 5);
+}
+
+TEST_F(TerrainGen, PointCloudIsTriangulated) {
+  write_text(dir_ / "cloud.xyz", "# x y z\n0 0 1\n4,0,2\n4 3 3 255 0 0\n0 3 4\n\n2 1.5 2.5\n");
+  const Outcome r = run({"cloud.xyz", "-o", "cloud.h5"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const terrain::Terrain t = io::read_terrain_file((dir_ / "cloud.h5").string());
+  EXPECT_FALSE(t.grid.has_value());
+  EXPECT_EQ(t.mesh.vertices.size(), 5u);
+  EXPECT_EQ(t.mesh.triangles.size(), 4u);  // a centre point in a rectangle: 4 triangles
+  write_text(dir_ / "bad.xyz", "0 0 1\n1 x 2\n");
+  const Outcome bad = run({"bad.xyz", "-o", "bad.h5"});
+  expect_error(bad, 3, "bad.xyz:2: 'x' is not a finite number", "bad.h5");
+}
+
+TEST_F(TerrainGen, ErrorsExitWithOneLineAndLeaveNoOutput) {
+  write_text(dir_ / "typo.yaml", "seed: 3\nroughnes:\n  sigma: 0.1\n");
+  expect_error(run({"-c", "typo.yaml", "-o", "out.h5"}), 3, "typo.yaml:2: unknown key 'roughnes'");
+  expect_error(run({"missing.asc", "-o", "out.h5"}), 3, "missing.asc: cannot open file");
+  expect_error(run({"--set", "roughness", "-o", "out.h5"}), 2, "--set expects key=value");
+  expect_error(run({"-c", kSample, "-o", "no/such/dir/out.h5"}), 1, "output directory does not exist");
+  expect_error(run({"-c", kSample, "--set", "roughness.sigma=0.3", "-o", "out.h5"}), 3,
+               "roughness: give sigma or roughness_index, not both");
+  expect_error(run({"-c", kSample, "--set", "triangulation=diagonal", "-o", "out.h5"}), 3,
+               "'diagonal' is not one of: fixed, alternating, random");
+  expect_error(run({"-c", kSample, "--set", "synthetic.cell_size=-1", "-o", "out.h5"}), 3, "cell_size");
+  expect_error(run({"-c", kSample}), 2, "no output file given");
+  expect_error(run({"terrain.png", "-o", "out.h5"}), 2, "cannot tell the kind of input 'terrain.png'");
+  expect_error(run({"-c", kSample, "--realization", "1", "-o", "out.h5"}), 2, "--realization needs --export-mesh");
+  write_text(dir_ / "bad.asc", "ncols 2\nnrows 2\nxllcorner 0\nyllcorner 0\ncellsize 1\n1 2\n3\n");
+  expect_error(run({"bad.asc", "-o", "out.h5"}), 3, "bad.asc:8: too few values");
+  fs::remove(dir_ / "bad.asc");
+  write_text(dir_ / "hole.asc", "ncols 3\nnrows 3\nxllcorner 0\nyllcorner 0\ncellsize 1\nNODATA_value -1\n"
+                                "1 2 3\n4 -1 6\n7 8 9\n");
+  expect_error(run({"hole.asc", "-o", "out.h5"}), 3, "hole.asc");
+  fs::remove(dir_ / "hole.asc");
+  write_text(dir_ / "zone.yaml", "zones:\n  - {material: ice, polygon: [[0, 0], [1, 0], [1, 1]]}\n");
+  expect_error(run({"-c", "zone.yaml", "-o", "out.h5"}), 3, "unknown material 'ice'");
+  fs::remove(dir_ / "zone.yaml");
+  fs::remove(dir_ / "typo.yaml");
+}
+
+}  // namespace
+}  // namespace talus

@@ -1,0 +1,452 @@
+#include "build_terrain.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "talus/core/error.hpp"
+#include "talus/core/log.hpp"
+#include "talus/io/mesh_io.hpp"
+#include "talus/io/raster.hpp"
+#include "talus/io/terrain_file.hpp"
+#include "talus/terrain/build.hpp"
+#include "talus/terrain/roughness.hpp"
+
+namespace talus::terrain_gen {
+namespace {
+
+namespace fs = std::filesystem;
+using core::format_number;
+using core::InputError;
+using geometry::Vec3;
+using terrain::DemGrid;
+using terrain::Terrain;
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+std::string lower_extension(const std::string& path) {
+  std::string ext = fs::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+std::optional<SourceKind> kind_of_extension(const std::string& path) {
+  const std::string ext = lower_extension(path);
+  if (io::is_dem_path(path)) return SourceKind::dem;
+  if (ext == ".stl" || ext == ".obj" || ext == ".ply" || ext == ".off" || ext == ".gltf" || ext == ".glb")
+    return SourceKind::tin;
+  if (ext == ".xyz") return SourceKind::points;
+  return std::nullopt;
+}
+
+const char* kind_name(SourceKind kind) {
+  switch (kind) {
+    case SourceKind::synthetic: return "synthetic";
+    case SourceKind::dem: return "dem";
+    case SourceKind::tin: return "tin";
+    case SourceKind::points: return "points";
+  }
+  return "?";
+}
+
+// The plan window to keep, in input coordinates (unbounded sides are infinite).
+struct Window {
+  double xmin = -kInf, ymin = -kInf, xmax = kInf, ymax = kInf;
+  bool contains(double x, double y) const { return x >= xmin && x <= xmax && y >= ymin && y <= ymax; }
+};
+
+Window window_of(const Settings::Crop& crop, const std::string& settings_source) {
+  Window w;
+  if (crop.xmin) w.xmin = *crop.xmin;
+  if (crop.ymin) w.ymin = *crop.ymin;
+  if (crop.xmax) w.xmax = *crop.xmax;
+  if (crop.ymax) w.ymax = *crop.ymax;
+  if (!(w.xmin < w.xmax && w.ymin < w.ymax))
+    throw InputError(settings_source, "crop: the window [" + format_number(w.xmin) + ", " + format_number(w.xmax) +
+                                          "] x [" + format_number(w.ymin) + ", " + format_number(w.ymax) +
+                                          "] is empty (need xmin < xmax and ymin < ymax)");
+  return w;
+}
+
+// Keeps the triangles whose plan centroid lies in the window, and the vertices they use.
+geometry::TriangleMesh crop_mesh(const geometry::TriangleMesh& mesh, const Window& w) {
+  geometry::TriangleMesh out;
+  std::vector<std::int32_t> remap(mesh.vertices.size(), -1);
+  for (const auto& t : mesh.triangles) {
+    const Vec3 c = (mesh.vertices[t[0]] + mesh.vertices[t[1]] + mesh.vertices[t[2]]) / 3.0;
+    if (!w.contains(c.x(), c.y())) continue;
+    std::array<std::int32_t, 3> kept{};
+    for (int k = 0; k < 3; ++k) {
+      auto& id = remap[t[k]];
+      if (id < 0) {
+        id = static_cast<std::int32_t>(out.vertices.size());
+        out.vertices.push_back(mesh.vertices[t[k]]);
+      }
+      kept[k] = id;
+    }
+    out.triangles.push_back(kept);
+  }
+  return out;
+}
+
+// Plan bounds of points, for the automatic origin shift.
+struct PlanBounds {
+  double xmin = kInf, ymin = kInf, xmax = -kInf, ymax = -kInf;
+  void add(double x, double y) {
+    xmin = std::min(xmin, x);
+    ymin = std::min(ymin, y);
+    xmax = std::max(xmax, x);
+    ymax = std::max(ymax, y);
+  }
+};
+
+// The shift subtracted from input coordinates. Auto: projected coordinates (beyond 1e5 m)
+// keep about 1e-11 m of resolution in doubles but far less in the float32 some readers
+// use; subtracting the lower-left corner rounded down to a kilometre keeps local
+// coordinates small while leaving round numbers round.
+Vec3 origin_shift(const Settings::Origin& origin, const PlanBounds& b) {
+  if (origin.mode == "none") return Vec3::Zero();
+  if (origin.mode == "given") return Vec3(origin.shift[0], origin.shift[1], origin.shift[2]);
+  const double largest = std::max({std::abs(b.xmin), std::abs(b.xmax), std::abs(b.ymin), std::abs(b.ymax)});
+  if (!(largest > 1e5)) return Vec3::Zero();
+  return Vec3(std::floor(b.xmin / 1000.0) * 1000.0, std::floor(b.ymin / 1000.0) * 1000.0, 0.0);
+}
+
+terrain::Diagonal diagonal_of(const std::string& mode) {
+  if (mode == "fixed") return terrain::Diagonal::fixed;
+  if (mode == "random") return terrain::Diagonal::random;
+  return terrain::Diagonal::alternating;
+}
+
+// The DEM of a DEM input or synthetic slope, cropped and trimmed, in input coordinates.
+DemGrid input_dem(const Settings& s, SourceKind kind, const std::vector<std::string>& inputs,
+                  const std::string& settings_source) {
+  DemGrid dem = kind == SourceKind::synthetic ? terrain::make_synthetic(s.synthetic, settings_source)
+                                              : io::read_dem(inputs.front());
+  const std::string& source = kind == SourceKind::synthetic ? settings_source : inputs.front();
+  if (s.crop.any()) {
+    // Unbounded sides become the DEM's own extent: crop_dem wants a finite window.
+    const Window w = window_of(s.crop, settings_source);
+    const auto& g = dem.spec;
+    const double x1 = g.x0 + (g.nx - 1) * g.dx, y1 = g.y0 + (g.ny - 1) * g.dy;
+    dem = terrain::crop_dem(dem, std::max(w.xmin, g.x0), std::max(w.ymin, g.y0), std::min(w.xmax, x1),
+                            std::min(w.ymax, y1), source);
+  }
+  return terrain::trim_nodata(dem);
+}
+
+void shift_dem(DemGrid& dem, const Vec3& shift) {
+  dem.spec.x0 -= shift.x();
+  dem.spec.y0 -= shift.y();
+  if (shift.z() != 0.0)
+    for (double& z : dem.z) z -= shift.z();
+}
+
+// Grid material of a resampled TIN: the material of the TIN triangle above each grid
+// triangle's centroid (or above one of its corners at the border).
+void carry_tin_materials(Terrain& grid, const terrain::Surface& tin) {
+  std::size_t unmatched = 0;
+  for (std::size_t t = 0; t < grid.mesh.triangles.size(); ++t) {
+    const auto& tri = grid.mesh.triangles[t];
+    const Vec3& a = grid.mesh.vertices[tri[0]];
+    const Vec3& b = grid.mesh.vertices[tri[1]];
+    const Vec3& c = grid.mesh.vertices[tri[2]];
+    const Vec3 probes[] = {(a + b + c) / 3.0, a, b, c};
+    std::int32_t material = -1;
+    for (const Vec3& p : probes) {
+      if (const auto hit = tin.height_at(p.x(), p.y())) {
+        material = tin.material(static_cast<std::size_t>(hit->triangle));
+        break;
+      }
+    }
+    if (material < 0) {
+      ++unmatched;
+      material = 0;
+    }
+    grid.material_of_triangle[t] = material;
+  }
+  if (unmatched > 0)
+    core::log_warn(std::to_string(unmatched) + " resampled triangles lie off the TIN; they take material 0");
+}
+
+// Materials of a TIN built from one file per material: each file's material takes the
+// parameters of the settings entry of the same name; entries matching no file follow.
+void merge_tin_materials(Terrain& t, const std::vector<terrain::Material>& configured) {
+  std::set<std::string> used;
+  for (auto& m : t.materials) {
+    const auto it = std::find_if(configured.begin(), configured.end(),
+                                 [&](const terrain::Material& c) { return c.name == m.name; });
+    if (it != configured.end()) m = *it;
+    used.insert(m.name);
+  }
+  for (const auto& c : configured)
+    if (!used.count(c.name)) t.materials.push_back(c);
+}
+
+std::vector<terrain::MaterialZone> shifted_zones(const std::vector<terrain::MaterialZone>& zones, const Vec3& shift) {
+  std::vector<terrain::MaterialZone> out = zones;
+  for (auto& z : out)
+    for (auto& p : z.polygon) {
+      p[0] -= shift.x();
+      p[1] -= shift.y();
+    }
+  return out;
+}
+
+}  // namespace
+
+SourceKind resolve_source(const Settings& s, const std::vector<std::string>& inputs) {
+  if (s.source == "synthetic" || (s.source == "auto" && inputs.empty())) {
+    if (!inputs.empty())
+      throw core::UsageError("source is synthetic but input files were given (" + inputs.front() + ")");
+    return SourceKind::synthetic;
+  }
+  if (inputs.empty()) throw core::UsageError("source '" + s.source + "' needs input files (see --help)");
+  std::optional<SourceKind> kind;
+  if (s.source == "dem") kind = SourceKind::dem;
+  if (s.source == "tin") kind = SourceKind::tin;
+  if (s.source == "points") kind = SourceKind::points;
+  if (!kind) {
+    for (const auto& input : inputs) {
+      const auto k = kind_of_extension(input);
+      if (!k)
+        throw core::UsageError("cannot tell the kind of input '" + input +
+                               "' from its extension (.asc/.tif/.tiff: DEM; .stl/.obj/.ply/.off/.gltf/.glb: "
+                               "mesh; .xyz: points); set source");
+      if (kind && *kind != *k)
+        throw core::UsageError("inputs mix kinds: '" + inputs.front() + "' is " + kind_name(*kind) + ", '" + input +
+                               "' is " + kind_name(*k));
+      kind = k;
+    }
+  }
+  if (*kind == SourceKind::dem && inputs.size() != 1)
+    throw core::UsageError("a DEM terrain takes one DEM file, got " + std::to_string(inputs.size()));
+  return *kind;
+}
+
+Built build_terrain(const Settings& s, const std::vector<std::string>& inputs, const std::string& settings_source) {
+  Built built;
+  built.kind = resolve_source(s, inputs);
+
+  // Roughness first: a contradiction in the settings should not wait for a large input.
+  if (s.roughness.sigma && s.roughness.roughness_index)
+    throw InputError(settings_source, "roughness: give sigma or roughness_index, not both");
+  double sigma = 0.0;
+  if (s.roughness.sigma) {
+    sigma = *s.roughness.sigma;
+    if (!(sigma >= 0.0))
+      throw InputError(settings_source, "roughness.sigma must be >= 0, got " + format_number(sigma));
+  } else if (s.roughness.roughness_index) {
+    try {
+      sigma = terrain::sigma_from_roughness_index(*s.roughness.roughness_index);
+    } catch (const InputError& e) {
+      throw InputError(settings_source, "roughness.roughness_index " + e.detail());
+    }
+    built.roughness_index = s.roughness.roughness_index;
+  }
+  std::set<std::string> names;
+  for (std::size_t m = 0; m < s.materials.size(); ++m)
+    if (!names.insert(s.materials[m].name).second)
+      throw InputError(settings_source, "materials[" + std::to_string(m) + "]: duplicate material name '" +
+                                            s.materials[m].name + "'");
+  if (s.materials.empty()) throw InputError(settings_source, "materials: at least one material is needed");
+  if (s.tin.mode == "resample" && !(s.tin.cell_size > 0.0))
+    throw InputError(settings_source, "tin.cell_size must be > 0, got " + format_number(s.tin.cell_size));
+  if (!(s.tin.scale > 0.0))
+    throw InputError(settings_source, "tin.scale must be > 0, got " + format_number(s.tin.scale));
+
+  Terrain& t = built.terrain;
+  Vec3 shift = Vec3::Zero();
+  const bool grid_source = built.kind == SourceKind::synthetic || built.kind == SourceKind::dem;
+  const bool resample = built.kind == SourceKind::tin && s.tin.mode == "resample";
+  if (grid_source || resample) built.triangulation = s.triangulation;
+
+  if (grid_source) {
+    DemGrid dem = input_dem(s, built.kind, inputs, settings_source);
+    const std::string& source = built.kind == SourceKind::synthetic ? settings_source : inputs.front();
+    if (dem.spec.nx < 2 || dem.spec.ny < 2)
+      throw InputError(source, "no grid of at least 2 x 2 points with data remains (after crop and NODATA trim)");
+    PlanBounds b;
+    b.add(dem.spec.x0, dem.spec.y0);
+    b.add(dem.spec.x0 + (dem.spec.nx - 1) * dem.spec.dx, dem.spec.y0 + (dem.spec.ny - 1) * dem.spec.dy);
+    shift = origin_shift(s.origin, b);
+    shift_dem(dem, shift);
+    t = terrain::build_grid_terrain(dem, diagonal_of(s.triangulation), s.seed, source);
+    t.materials = s.materials;
+  } else if (built.kind == SourceKind::tin) {
+    io::MeshImportOptions options;
+    options.scale = s.tin.scale;
+    options.up = s.tin.up_axis == "y" ? io::UpAxis::y : io::UpAxis::z;
+    std::vector<geometry::TriangleMesh> parts;
+    std::vector<std::string> part_names;
+    const Window w = s.crop.any() ? window_of(s.crop, settings_source) : Window{};
+    PlanBounds b;
+    for (const auto& input : inputs) {
+      geometry::TriangleMesh mesh = io::import_mesh(input, options).mesh;
+      if (s.crop.any()) {
+        mesh = crop_mesh(mesh, w);
+        if (mesh.triangles.empty()) throw InputError(input, "no triangle of the mesh lies in the crop window");
+      }
+      for (const Vec3& p : mesh.vertices) b.add(p.x(), p.y());
+      parts.push_back(std::move(mesh));
+      const std::string stem = fs::path(input).stem().string();
+      if (std::find(part_names.begin(), part_names.end(), stem) != part_names.end())
+        throw InputError(input, "two mesh files are named '" + stem + "': each file is one material, named after it");
+      part_names.push_back(stem);
+    }
+    shift = origin_shift(s.origin, b);
+    for (auto& part : parts)
+      for (Vec3& p : part.vertices) p -= shift;
+    const std::string source = inputs.size() == 1 ? inputs.front() : "meshes";
+    Terrain tin = terrain::build_tin_terrain(parts, part_names, source);
+    merge_tin_materials(tin, s.materials);
+    if (!resample) {
+      t = std::move(tin);
+    } else {
+      const terrain::Surface surface = terrain::Surface::realize(tin, std::nullopt);
+      const geometry::Aabb box = surface.bounds();
+      terrain::GridSpec spec;
+      spec.x0 = box.lo.x();
+      spec.y0 = box.lo.y();
+      spec.dx = spec.dy = s.tin.cell_size;
+      const double nx = std::floor((box.hi.x() - box.lo.x()) / spec.dx + 1e-9) + 1.0;
+      const double ny = std::floor((box.hi.y() - box.lo.y()) / spec.dy + 1e-9) + 1.0;
+      if (nx * ny > 1e8)
+        throw InputError(settings_source, "tin.cell_size " + format_number(spec.dx) + " m gives " +
+                                              format_number(nx * ny) + " grid points (more than 1e8)");
+      spec.nx = static_cast<std::int32_t>(nx);
+      spec.ny = static_cast<std::int32_t>(ny);
+      DemGrid dem = terrain::trim_nodata(terrain::resample_to_grid(surface, spec));
+      t = terrain::build_grid_terrain(dem, diagonal_of(s.triangulation), s.seed, source);
+      t.materials = tin.materials;
+      carry_tin_materials(t, surface);
+    }
+  } else {
+    std::vector<Vec3> points;
+    const Window w = s.crop.any() ? window_of(s.crop, settings_source) : Window{};
+    PlanBounds b;
+    for (const auto& input : inputs) {
+      for (Vec3 p : read_xyz_points(input)) {
+        // The same axis convention and scale as mesh import.
+        if (s.tin.up_axis == "y") p = Vec3(p.x(), -p.z(), p.y());
+        p *= s.tin.scale;
+        if (!w.contains(p.x(), p.y())) continue;
+        b.add(p.x(), p.y());
+        points.push_back(p);
+      }
+    }
+    const std::string source = inputs.size() == 1 ? inputs.front() : "points";
+    if (points.empty()) throw InputError(source, "no point lies in the crop window");
+    // Delaunay runs on shifted coordinates: that is where the precision matters.
+    shift = origin_shift(s.origin, b);
+    for (Vec3& p : points) p -= shift;
+    t = terrain::build_delaunay_terrain(points, source);
+    t.materials = s.materials;
+  }
+  t.origin_shift = shift;
+
+  if (!s.material_raster.empty()) {
+    DemGrid ids = io::read_dem(s.material_raster);
+    shift_dem(ids, Vec3(shift.x(), shift.y(), 0.0));
+    terrain::assign_material_raster(t, ids, s.material_raster);
+  }
+  if (!s.zones.empty()) terrain::assign_zones(t, shifted_zones(s.zones, shift), settings_source);
+
+  t.roughness.sigma = sigma;
+  t.roughness.seed = s.seed;
+  if (!s.name.empty()) t.name = s.name;
+  else if (built.kind == SourceKind::synthetic) t.name = "synthetic-" + s.synthetic.kind;
+  else {
+    t.name.clear();
+    for (const auto& input : inputs) t.name += (t.name.empty() ? "" : "+") + fs::path(input).stem().string();
+  }
+  if (const std::string problem = io::terrain_problem(t); !problem.empty())
+    throw InputError(settings_source, problem);
+  return built;
+}
+
+std::vector<Vec3> read_xyz_points(const std::string& path) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) throw InputError(path, "cannot open file (missing or not a regular file)");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path, "cannot open file (unreadable)");
+  std::vector<Vec3> points;
+  std::string line;
+  for (std::size_t number = 1; std::getline(in, line); ++number) {
+    if (const auto hash = line.find('#'); hash != std::string::npos) line.resize(hash);
+    for (char& c : line)
+      if (c == ',' || c == ';' || c == '\t' || c == '\r') c = ' ';
+    double xyz[3];
+    std::size_t found = 0, pos = 0;
+    while (found < 3) {
+      pos = line.find_first_not_of(' ', pos);
+      if (pos == std::string::npos) break;
+      const std::size_t end = std::min(line.find(' ', pos), line.size());
+      const char* first = line.data() + pos;
+      const char* last = line.data() + end;
+      if (*first == '+') ++first;
+      const auto [stop, err] = std::from_chars(first, last, xyz[found]);
+      if (err != std::errc() || stop != last || !std::isfinite(xyz[found]))
+        throw InputError(path + ":" + std::to_string(number),
+                         "'" + line.substr(pos, end - pos) + "' is not a finite number");
+      ++found;
+      pos = end;
+    }
+    if (found == 0) continue;
+    if (found < 3)
+      throw InputError(path + ":" + std::to_string(number), "expected x y z, found " + std::to_string(found) + " number(s)");
+    points.emplace_back(xyz[0], xyz[1], xyz[2]);
+  }
+  if (points.empty()) throw InputError(path, "no points");
+  return points;
+}
+
+std::string summary(const Built& built) {
+  const Terrain& t = built.terrain;
+  std::ostringstream out;
+  auto num = [](double v) { return format_number(v); };
+  out << "terrain: " << t.name << " (" << (t.grid ? "grid TRN" : "TIN") << ", from " << kind_name(built.kind)
+      << ")\n";
+  out << "points: " << t.mesh.vertices.size();
+  if (t.grid) out << " (" << t.grid->nx << " x " << t.grid->ny << ")";
+  out << ", triangles: " << t.mesh.triangles.size() << "\n";
+  if (t.grid) {
+    std::size_t cut0 = 0;
+    for (auto d : t.cell_diagonal) cut0 += d == 0;
+    out << "cell size: " << num(t.grid->dx) << " x " << num(t.grid->dy) << " m, triangulation: " << built.triangulation
+        << " (" << cut0 << " cells cut (i,j)-(i+1,j+1), " << t.cell_diagonal.size() - cut0 << " cut (i+1,j)-(i,j+1))\n";
+  } else {
+    // Walls and overhangs: triangles whose normal does not point up.
+    std::size_t steep = 0;
+    for (std::size_t k = 0; k < t.mesh.triangles.size(); ++k) steep += t.mesh.area_normal(k).z() <= 0.0;
+    out << "walls and overhangs: " << steep << " triangles face sideways or down\n";
+  }
+  const geometry::Aabb box = t.mesh.bounds();
+  out << "extent (local): x [" << num(box.lo.x()) << ", " << num(box.hi.x()) << "] m, y [" << num(box.lo.y()) << ", "
+      << num(box.hi.y()) << "] m, z [" << num(box.lo.z()) << ", " << num(box.hi.z()) << "] m\n";
+  out << "origin shift: [" << num(t.origin_shift.x()) << ", " << num(t.origin_shift.y()) << ", "
+      << num(t.origin_shift.z()) << "] m (added to local coordinates gives input coordinates)\n";
+  out << "roughness: sigma " << num(t.roughness.sigma) << " m";
+  if (built.roughness_index) out << " (R = " << num(*built.roughness_index) << ")";
+  out << ", seed " << t.roughness.seed << "\n";
+  std::vector<std::size_t> count(t.materials.size(), 0);
+  for (std::int32_t m : t.material_of_triangle) ++count[static_cast<std::size_t>(m)];
+  out << "materials: " << t.materials.size() << "\n";
+  for (std::size_t m = 0; m < t.materials.size(); ++m) {
+    const auto& p = t.materials[m];
+    out << "  " << m << " " << p.name << ": " << count[m] << " triangles; R_v " << num(p.restitution_mean) << " (sd "
+        << num(p.restitution_sd) << "), K " << num(p.restitution_scale) << " m/s, friction angle "
+        << num(p.friction_angle_mean_deg) << " deg (sd of tan " << num(p.friction_coefficient_sd)
+        << "), lateral tilt sd " << num(p.lateral_tilt_sd_deg) << " deg\n";
+  }
+  return out.str();
+}
+
+}  // namespace talus::terrain_gen

@@ -1,0 +1,39 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "settings.hpp"
+#include "talus/geometry/types.hpp"
+#include "talus/terrain/terrain.hpp"
+
+namespace talus::terrain_gen {
+
+enum class SourceKind { synthetic, dem, tin, points };
+
+/// The input kind: `settings.source`, or inferred from the input extensions when "auto".
+/// Throws core::UsageError for inputs that contradict it or cannot be told apart.
+SourceKind resolve_source(const Settings& settings, const std::vector<std::string>& inputs);
+
+/// A built terrain and what the summary reports about how it was built.
+struct Built {
+  terrain::Terrain terrain;
+  SourceKind kind = SourceKind::synthetic;
+  std::optional<double> roughness_index;  ///< R when σ was given through it
+  std::string triangulation;              ///< grid terrains: the diagonal mode
+};
+
+/// Builds the terrain the settings describe from the inputs. `settings_source` names the
+/// settings in messages (the -c file, or "settings"). Throws core::InputError for bad input.
+Built build_terrain(const Settings& settings, const std::vector<std::string>& inputs,
+                    const std::string& settings_source);
+
+/// Reads an XYZ point cloud: one point per line, x y z (white space or commas; further
+/// columns ignored), '#' starts a comment. Throws core::InputError naming file and line.
+std::vector<geometry::Vec3> read_xyz_points(const std::string& path);
+
+/// A human-readable description of the terrain (several lines).
+std::string summary(const Built& built);
+
+}  // namespace talus::terrain_gen

@@ -1,0 +1,101 @@
+// terrain-gen: builds a terrain file (TRN or TIN, materials, roughness model) from a DEM,
+// surveyed meshes, a point cloud or a synthetic slope. See docs/terrain.md.
+#include <charconv>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+#include "build_terrain.hpp"
+#include "settings.hpp"
+#include "talus/cli/tool.hpp"
+#include "talus/core/error.hpp"
+#include "talus/core/log.hpp"
+#include "talus/io/atomic_output.hpp"
+#include "talus/io/mesh_io.hpp"
+#include "talus/io/terrain_file.hpp"
+#include "talus/io/xdmf.hpp"
+
+namespace {
+
+using namespace talus;
+
+std::string lower_extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+std::optional<std::uint32_t> parse_realization(const std::string& text) {
+  if (text.empty()) return std::nullopt;
+  std::uint32_t value = 0;
+  const auto [end, err] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (err != std::errc() || end != text.data() + text.size())
+    throw core::UsageError("--realization expects a non-negative integer, got '" + text + "'");
+  return value;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  terrain_gen::Settings settings;
+  bool print_summary = false;
+  std::string export_path;
+  std::string realization_text;
+
+  cli::ToolSpec spec;
+  spec.name = "terrain-gen";
+  spec.summary = "Build a terrain file (TRN/TIN, materials, roughness) from a DEM, meshes, points or a synthetic slope";
+  spec.inputs_doc =
+      "DEM (.asc, .tif), meshes (.stl .obj .ply .off .gltf; one file per material), or points (.xyz); "
+      "none for a synthetic slope";
+  spec.settings = [&settings](core::SettingsVisitor& v) { settings.visit(v); };
+  spec.flags = {{"--summary", "print a summary of the built terrain (kind, sizes, extent, materials, roughness)",
+                 &print_summary}};
+  spec.options = {
+      {"--export-mesh", "also write a realization of the surface as a mesh (.obj or .ply with material per face)",
+       &export_path},
+      {"--realization", "realization exported by --export-mesh (default: the smooth base)", &realization_text}};
+
+  spec.check = [&](const cli::Invocation& inv) {
+    if (inv.output.empty() && !print_summary && export_path.empty())
+      throw core::UsageError("no output file given (-o FILE; or --summary / --export-mesh alone)");
+    if (!realization_text.empty() && export_path.empty())
+      throw core::UsageError("--realization needs --export-mesh");
+    parse_realization(realization_text);
+    if (!export_path.empty()) {
+      const std::string ext = lower_extension(export_path);
+      if (ext != ".obj" && ext != ".ply")
+        throw core::UsageError("--export-mesh writes .obj or .ply, got '" + export_path + "'");
+      io::AtomicOutput probe(export_path);  // fails now if its directory is missing
+    }
+    if (!inv.output.empty()) {
+      if (lower_extension(inv.output) == ".xmf")
+        throw core::UsageError("the output is the HDF5 terrain file; its .xmf sidecar is written next to it");
+      io::AtomicOutput probe(inv.output);
+    }
+    terrain_gen::resolve_source(settings, inv.inputs);
+  };
+
+  spec.run = [&](const cli::Invocation& inv) {
+    const std::string settings_source = inv.config_path.empty() ? "settings" : inv.config_path;
+    const terrain_gen::Built built = terrain_gen::build_terrain(settings, inv.inputs, settings_source);
+    const terrain::Terrain& t = built.terrain;
+    core::log_info("built " + std::string(t.grid ? "grid TRN" : "TIN") + " '" + t.name + "': " +
+                   std::to_string(t.mesh.vertices.size()) + " points, " + std::to_string(t.mesh.triangles.size()) +
+                   " triangles");
+    if (!export_path.empty()) {
+      const auto realization = parse_realization(realization_text);
+      const terrain::Surface surface = terrain::Surface::realize(t, realization);
+      std::vector<std::int32_t> material(surface.triangle_count());
+      for (std::size_t k = 0; k < material.size(); ++k) material[k] = surface.material(k);
+      io::export_mesh(export_path, surface.to_mesh(), material);
+    }
+    if (!inv.output.empty()) {
+      io::write_terrain_file(inv.output, t, inv.provenance("terrain-gen", settings.seed), built.roughness_index);
+      io::write_terrain_xdmf(io::xdmf_sidecar_path(inv.output), inv.output, t.mesh.vertices.size(),
+                             t.mesh.triangles.size());
+    }
+    if (print_summary) std::fputs(terrain_gen::summary(built).c_str(), stdout);
+  };
+  return cli::run_tool(argc, argv, spec);
+}

@@ -1,0 +1,66 @@
+#include "settings.hpp"
+
+namespace talus::terrain_gen {
+
+void Settings::Crop::visit(core::SettingsVisitor& v) {
+  v.field("xmin", xmin, "m", "west edge of the window kept (input coordinates); null = unbounded");
+  v.field("ymin", ymin, "m", "south edge of the window kept; null = unbounded");
+  v.field("xmax", xmax, "m", "east edge of the window kept; null = unbounded");
+  v.field("ymax", ymax, "m", "north edge of the window kept; null = unbounded");
+}
+
+void Settings::Tin::visit(core::SettingsVisitor& v) {
+  v.choice("mode", mode, {"keep", "resample"},
+           "keep the surveyed TIN as a general surface (walls, overhangs) or resample it to a grid");
+  v.field("cell_size", cell_size, "m", "grid spacing when mode is resample");
+  v.choice("up_axis", up_axis, {"z", "y"}, "input axis that points up in meshes and point clouds");
+  v.field("scale", scale, "-", "factor applied to mesh and point coordinates (0.001 for millimetres)");
+}
+
+void Settings::Origin::visit(core::SettingsVisitor& v) {
+  v.choice("mode", mode, {"auto", "none", "given"},
+           "auto: subtract the lower-left corner rounded down to 1 km when |x| or |y| exceeds 1e5 m; "
+           "given: subtract shift");
+  v.field("shift", shift, "m", "[x, y, z] subtracted from input coordinates when mode is given");
+}
+
+void Settings::Roughness::visit(core::SettingsVisitor& v) {
+  v.field("sigma", sigma, "m", "standard deviation of the grid-point elevation shifts; null = smooth");
+  v.field("roughness_index", roughness_index, "-",
+          "Roemkens-Wang roughness index R instead of sigma (sigma = 0.8 R m: 1/8, 1/4, 1/2 give 0.1, 0.2, 0.4 m)");
+}
+
+void Settings::visit(core::SettingsVisitor& v) {
+  v.choice("source", source, {"auto", "synthetic", "dem", "tin", "points"},
+           "input kind; auto: from the input extensions (.asc/.tif: dem; .stl/.obj/.ply/.off/.gltf/.glb: tin; "
+           ".xyz: points; no input: synthetic)");
+  v.field("name", name, "terrain name recorded in the file; empty: from the inputs");
+  v.field("seed", seed, "-", "terrain seed: realization i of the roughness is a pure function of (seed, i)");
+  v.choice("triangulation", triangulation, {"fixed", "alternating", "random"},
+           "diagonal of each grid cell; fixed reproduces the reference model's one-sided cut");
+  v.section("synthetic", "synthetic slope (source synthetic)", [this](core::SettingsVisitor& s) { synthetic.visit(s); });
+  v.section("crop", "window kept from the input, input coordinates", [this](core::SettingsVisitor& s) { crop.visit(s); });
+  v.section("tin", "surveyed surfaces: meshes (one file per material) and point clouds",
+            [this](core::SettingsVisitor& s) { tin.visit(s); });
+  v.section("origin", "shift of the coordinate origin (large projected coordinates lose precision)",
+            [this](core::SettingsVisitor& s) { origin.visit(s); });
+  v.section("roughness", "ground roughness: give sigma or roughness_index, not both",
+            [this](core::SettingsVisitor& s) { roughness.visit(s); });
+  v.list_of("materials",
+            "ground materials; material 0 covers everything no zone, raster or mesh file assigns. With meshes, "
+            "each file takes the material named like the file (scree.stl: 'scree')",
+            materials);
+  // Zones are read in input coordinates (the library's MaterialZone speaks of local ones):
+  // users draw them on the map, before any origin shift.
+  v.list("zones", "plan polygons assigning a material; later zones win",
+         {[this] { return zones.size(); }, [this](std::size_t n) { zones.resize(n); },
+          [this](std::size_t i, core::SettingsVisitor& z) {
+            z.field("material", zones[i].material, "name of the material of this zone");
+            z.field("polygon", zones[i].polygon, "m",
+                    "zone outline in plan, [x, y] points in input coordinates (at least 3)");
+          }});
+  v.field("material_raster", material_raster,
+          "raster (.asc/.tif, input coordinates) of material ids, indices into materials; empty: none");
+}
+
+}  // namespace talus::terrain_gen

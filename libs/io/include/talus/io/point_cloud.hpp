@@ -1,0 +1,30 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+#include <string>
+#include <vector>
+
+#include "talus/geometry/types.hpp"
+#include "talus/io/mesh_io.hpp"
+
+namespace talus::io {
+
+struct PointCloudOptions {
+  double scale = 1.0;     ///< multiplies coordinates (−), e.g. 0.001 for mm files
+  UpAxis up = UpAxis::z;  ///< input up axis; y-up input is rotated to z-up
+};
+
+/// Reads the points of a cloud file, by extension:
+/// - `.xyz`, `.txt`, `.pts`, `.csv`: one point per line, x y z as the first three numbers
+///   (separated by spaces, tabs or commas; further columns such as colour are ignored;
+///   blank lines and lines starting with '#' or '//' are skipped);
+/// - `.ply`: the x, y, z properties of the vertex element (ASCII or binary, any numeric
+///   type); faces, if any, are ignored.
+/// Throws core::InputError naming the file and line on malformed input, and on a file
+/// without points.
+std::vector<geometry::Vec3> read_point_cloud(const std::string& path, const PointCloudOptions& options = {});
+
+/// True if `path` has a point-cloud extension (.xyz, .txt, .pts, .csv), or is a PLY file
+/// without faces: block-gen then treats it as a cloud rather than a mesh.
+bool is_point_cloud_file(const std::string& path);
+
+}  // namespace talus::io

@@ -1,0 +1,113 @@
+// block-gen: rocks from meshes, point clouds and named solids, with exact properties,
+// into a block file (a block library). See docs/block.md.
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+#include "generate.hpp"
+#include "settings.hpp"
+#include "talus/cli/tool.hpp"
+#include "talus/core/error.hpp"
+#include "talus/core/log.hpp"
+#include "talus/geometry/half_edge.hpp"
+#include "talus/io/atomic_output.hpp"
+#include "talus/io/block_file.hpp"
+#include "talus/io/mesh_io.hpp"
+#include "talus/io/xdmf.hpp"
+
+namespace {
+
+using namespace talus;
+
+std::string lower_extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+// `block-gen info FILE ...` or `block-gen --info FILE`.
+std::vector<std::string> info_files(const cli::Invocation& inv, const std::string& info_option) {
+  std::vector<std::string> files;
+  if (!info_option.empty()) files.push_back(info_option);
+  if (!inv.inputs.empty() && inv.inputs.front() == "info") files.insert(files.end(), inv.inputs.begin() + 1, inv.inputs.end());
+  return files;
+}
+
+bool info_mode(const cli::Invocation& inv, const std::string& info_option) {
+  return !info_option.empty() || (!inv.inputs.empty() && inv.inputs.front() == "info");
+}
+
+void print_info(const std::string& path) {
+  const std::vector<block::Block> blocks = io::read_block_file(path);
+  double total = 0.0;
+  for (const auto& b : blocks) total += b.weight;
+  std::printf("%s: block library of %zu block(s)\n", path.c_str(), blocks.size());
+  for (const auto& b : blocks) {
+    std::fputs(io::describe_block(b).c_str(), stdout);
+    std::printf("  sampling share     %.6g\n", b.weight / total);
+  }
+}
+
+// One mesh file per block: PATH itself for a single block, PATH_STEM_<name>.EXT otherwise.
+void export_meshes(const std::string& path, const std::vector<block::Block>& blocks) {
+  const std::filesystem::path p(path);
+  for (const auto& b : blocks) {
+    geometry::TriangleMesh mesh = geometry::triangulate(b.polyhedron);
+    for (auto& v : mesh.vertices) v = b.rotation * v + b.translation;
+    std::string target = path;
+    if (blocks.size() > 1)
+      target = (p.parent_path() / (p.stem().string() + "_" + b.name + p.extension().string())).string();
+    io::export_mesh(target, mesh);
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  block_gen::Settings settings;
+  std::string info_option;
+  std::string export_path;
+
+  cli::ToolSpec spec;
+  spec.name = "block-gen";
+  spec.summary = "Build a block library (validated polyhedra with exact properties) from meshes, point clouds "
+                 "and named solids; 'block-gen info FILE' prints a block file";
+  spec.inputs_doc = "mesh files (.obj .stl .ply .off .gltf ...) or point clouds (.xyz .txt .pts .csv, PLY without "
+                    "faces), one block each; or 'info FILE.h5 ...'";
+  spec.settings = [&settings](core::SettingsVisitor& v) { settings.visit(v); };
+  spec.options = {{"--info", "print the properties of every block of a block file and exit", &info_option},
+                  {"--export-mesh", "also write the blocks as meshes at their input position (.obj or .ply; "
+                                    "PATH_<name>.ext per block when there are several)", &export_path}};
+
+  spec.check = [&](const cli::Invocation& inv) {
+    if (info_mode(inv, info_option)) {
+      if (info_files(inv, info_option).empty()) throw core::UsageError("info needs a block file (block-gen info FILE.h5)");
+      return;
+    }
+    if (inv.output.empty()) throw core::UsageError("no output file given (-o FILE)");
+    if (lower_extension(inv.output) == ".xmf")
+      throw core::UsageError("the output is the HDF5 block file; its .xmf sidecar is written next to it");
+    io::AtomicOutput probe(inv.output);  // fails now if its directory is missing
+    if (!export_path.empty()) {
+      const std::string ext = lower_extension(export_path);
+      if (ext != ".obj" && ext != ".ply")
+        throw core::UsageError("--export-mesh writes .obj or .ply, got '" + export_path + "'");
+    }
+  };
+
+  spec.run = [&](const cli::Invocation& inv) {
+    if (info_mode(inv, info_option)) {
+      for (const auto& file : info_files(inv, info_option)) print_info(file);
+      return;
+    }
+    const std::string settings_source = inv.config_path.empty() ? "settings" : inv.config_path;
+    const std::vector<block::Block> blocks = block_gen::build_blocks(settings, inv.inputs, settings_source);
+    io::write_block_file(inv.output, blocks, inv.provenance("block-gen", block_gen::provenance_seed(settings)));
+    if (settings.xdmf) io::write_block_xdmf(io::xdmf_sidecar_path(inv.output), inv.output, blocks);
+    if (!export_path.empty()) export_meshes(export_path, blocks);
+    for (const auto& b : blocks)
+      core::log_info(b.name + ": " + std::to_string(b.polyhedron.faces.size()) + " faces, V = " +
+                     core::format_number(b.volume_exact) + " m^3, psi = " + core::format_number(b.sphericity));
+  };
+  return cli::run_tool(argc, argv, spec);
+}

@@ -1,0 +1,66 @@
+#include "settings.hpp"
+
+namespace talus::block_gen {
+
+void RepairSettings::visit(core::SettingsVisitor& v) {
+  v.field("orient", orient, "make face orientation consistent and outward (reported)");
+  v.field("stitch", stitch, "merge vertices closer than stitch_tolerance, closing cracks (reported)");
+  v.field("stitch_tolerance", stitch_tolerance, "m", "stitch distance; 0 = 1e-6 x bounding-box diagonal");
+  v.field("fill_holes", fill_holes, "close holes of up to max_hole_edges boundary edges (reported)");
+  v.field("max_hole_edges", max_hole_edges, "-", "largest hole filled, in boundary edges");
+}
+
+void SimplifySettings::visit(core::SettingsVisitor& v) {
+  v.choice("mode", mode, {"none", "faces", "hull"},
+           "level of detail: none, faces (edge collapse to target_faces triangles) or hull (convex hull)");
+  v.field("target_faces", target_faces, "-", "triangle count after simplification (mode: faces)");
+}
+
+void InputSettings::visit(core::SettingsVisitor& v) {
+  v.field("scale", scale, "-", "multiplies file coordinates, e.g. 0.001 for a file in mm");
+  v.choice("up_axis", up_axis, {"z", "y"}, "up axis of the file; y-up files are rotated to z-up");
+  v.choice("reconstruction", reconstruction, {"hull", "advancing_front"},
+           "point clouds: convex hull, or concave advancing-front reconstruction");
+  v.field("radius_ratio_bound", radius_ratio_bound, "-",
+          "advancing front: refuse triangles whose circumradius exceeds this multiple of their shortest edge "
+          "(larger bridges wider gaps)");
+  v.field("beta_deg", beta_deg, "deg", "advancing front: sharpest dihedral angle change the surface may follow");
+  v.section("repair", "repairs of defective meshes, only when asked, always reported",
+            [this](core::SettingsVisitor& s) { repair.visit(s); });
+  v.section("simplify", "level of detail; the changes in volume, inertia and sphericity are reported",
+            [this](core::SettingsVisitor& s) { simplify.visit(s); });
+}
+
+void BlockSettings::visit(core::SettingsVisitor& v) {
+  v.field("name", name, "block name, unique in the file (default: the solid name or the file stem)");
+  v.choice("solid", solid,
+           {"none", "tetrahedron", "cube", "octahedron", "dodecahedron", "icosahedron", "box", "ellipsoid", "rock"},
+           "named solid (none when the block comes from mesh or cloud)");
+  v.field("mesh", mesh, "mesh file (OBJ, STL, PLY, OFF, glTF ...), relative to the working directory");
+  v.field("cloud", cloud, "point cloud file (.xyz/.txt/.pts/.csv or PLY)");
+  v.field("volume", volume, "m^3",
+          "target volume: solids are scaled to it (default 1 for Platonic solids and rocks); a mesh or cloud is "
+          "scaled about its centroid only when given");
+  v.field("dimensions", dimensions, "m", "box edges, or ellipsoid diameters, along x, y, z");
+  v.field("resolution", resolution, "-", "ellipsoid: geodesic frequency n (20 n^2 triangles)");
+  v.field("roughness", roughness, "-",
+          "ellipsoid: sd of the relative radial noise of each vertex (0..0.3); > 0 makes a rough, concave rock");
+  v.field("elongation", elongation, "-", "rock: target L2/L1 along the principal axes");
+  v.field("flatness", flatness, "-", "rock: target L3/L2 along the principal axes");
+  v.field("points", points, "-", "rock: number of random points whose convex hull is the rock");
+  v.field("seed", seed, "-", "rock, rough ellipsoid: seed of the block_shape random stream");
+  v.field("density", density, "kg/m^3", "density of this block (default: the top-level density)");
+  v.field("weight", weight, "-", "relative probability of this block when a run samples the library");
+  v.section("input", "how the mesh or cloud file is read, repaired and simplified",
+            [this](core::SettingsVisitor& s) { input.visit(s); });
+}
+
+void Settings::visit(core::SettingsVisitor& v) {
+  v.field("density", density, "kg/m^3", "rock density of every block without its own");
+  v.field("xdmf", xdmf, "write a .xmf sidecar next to the output so ParaView shows the blocks");
+  v.section("inputs", "how the INPUT files named on the command line are read",
+            [this](core::SettingsVisitor& s) { inputs.visit(s); });
+  v.list_of("blocks", "the blocks of the library, in order", blocks);
+}
+
+}  // namespace talus::block_gen

@@ -337,7 +337,7 @@ TEST_F(TerrainGen, PointCloudIsTriangulated) {
   EXPECT_EQ(t.mesh.triangles.size(), 4u);  // a centre point in a rectangle: 4 triangles
   write_text(dir_ / "bad.xyz", "0 0 1\n1 x 2\n");
   const Outcome bad = run({"bad.xyz", "-o", "bad.h5"});
-  expect_error(bad, 3, "bad.xyz:2: 'x' is not a finite number", "bad.h5");
+  expect_error(bad, 3, "bad.xyz: line 2: expected x y z numbers", "bad.h5");
 }
 
 TEST_F(TerrainGen, ErrorsExitWithOneLineAndLeaveNoOutput) {

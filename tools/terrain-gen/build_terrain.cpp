@@ -1,19 +1,16 @@
 #include "build_terrain.hpp"
 
 #include <algorithm>
-#include <charconv>
 #include <cmath>
-#include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <limits>
-#include <map>
 #include <set>
 #include <sstream>
 
 #include "talus/core/error.hpp"
 #include "talus/core/log.hpp"
 #include "talus/io/mesh_io.hpp"
+#include "talus/io/point_cloud.hpp"
 #include "talus/io/raster.hpp"
 #include "talus/io/terrain_file.hpp"
 #include "talus/terrain/build.hpp"
@@ -40,9 +37,10 @@ std::string lower_extension(const std::string& path) {
 std::optional<SourceKind> kind_of_extension(const std::string& path) {
   const std::string ext = lower_extension(path);
   if (io::is_dem_path(path)) return SourceKind::dem;
+  // Before the mesh extensions: a PLY file without faces is a cloud.
+  if (io::is_point_cloud_file(path)) return SourceKind::points;
   if (ext == ".stl" || ext == ".obj" || ext == ".ply" || ext == ".off" || ext == ".gltf" || ext == ".glb")
     return SourceKind::tin;
-  if (ext == ".xyz") return SourceKind::points;
   return std::nullopt;
 }
 
@@ -219,7 +217,7 @@ SourceKind resolve_source(const Settings& s, const std::vector<std::string>& inp
       if (!k)
         throw core::UsageError("cannot tell the kind of input '" + input +
                                "' from its extension (.asc/.tif/.tiff: DEM; .stl/.obj/.ply/.off/.gltf/.glb: "
-                               "mesh; .xyz: points); set source");
+                               "mesh; .xyz/.txt/.pts/.csv: points); set source");
       if (kind && *kind != *k)
         throw core::UsageError("inputs mix kinds: '" + inputs.front() + "' is " + kind_name(*kind) + ", '" + input +
                                "' is " + kind_name(*k));
@@ -332,11 +330,11 @@ Built build_terrain(const Settings& s, const std::vector<std::string>& inputs, c
     std::vector<Vec3> points;
     const Window w = s.crop.any() ? window_of(s.crop, settings_source) : Window{};
     PlanBounds b;
+    io::PointCloudOptions options;
+    options.scale = s.tin.scale;
+    options.up = s.tin.up_axis == "y" ? io::UpAxis::y : io::UpAxis::z;
     for (const auto& input : inputs) {
-      for (Vec3 p : read_xyz_points(input)) {
-        // The same axis convention and scale as mesh import.
-        if (s.tin.up_axis == "y") p = Vec3(p.x(), -p.z(), p.y());
-        p *= s.tin.scale;
+      for (const Vec3& p : io::read_point_cloud(input, options)) {
         if (!w.contains(p.x(), p.y())) continue;
         b.add(p.x(), p.y());
         points.push_back(p);
@@ -370,42 +368,6 @@ Built build_terrain(const Settings& s, const std::vector<std::string>& inputs, c
   if (const std::string problem = io::terrain_problem(t); !problem.empty())
     throw InputError(settings_source, problem);
   return built;
-}
-
-std::vector<Vec3> read_xyz_points(const std::string& path) {
-  std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) throw InputError(path, "cannot open file (missing or not a regular file)");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path, "cannot open file (unreadable)");
-  std::vector<Vec3> points;
-  std::string line;
-  for (std::size_t number = 1; std::getline(in, line); ++number) {
-    if (const auto hash = line.find('#'); hash != std::string::npos) line.resize(hash);
-    for (char& c : line)
-      if (c == ',' || c == ';' || c == '\t' || c == '\r') c = ' ';
-    double xyz[3];
-    std::size_t found = 0, pos = 0;
-    while (found < 3) {
-      pos = line.find_first_not_of(' ', pos);
-      if (pos == std::string::npos) break;
-      const std::size_t end = std::min(line.find(' ', pos), line.size());
-      const char* first = line.data() + pos;
-      const char* last = line.data() + end;
-      if (*first == '+') ++first;
-      const auto [stop, err] = std::from_chars(first, last, xyz[found]);
-      if (err != std::errc() || stop != last || !std::isfinite(xyz[found]))
-        throw InputError(path + ":" + std::to_string(number),
-                         "'" + line.substr(pos, end - pos) + "' is not a finite number");
-      ++found;
-      pos = end;
-    }
-    if (found == 0) continue;
-    if (found < 3)
-      throw InputError(path + ":" + std::to_string(number), "expected x y z, found " + std::to_string(found) + " number(s)");
-    points.emplace_back(xyz[0], xyz[1], xyz[2]);
-  }
-  if (points.empty()) throw InputError(path, "no points");
-  return points;
 }
 
 std::string summary(const Built& built) {

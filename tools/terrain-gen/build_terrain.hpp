@@ -29,10 +29,6 @@ struct Built {
 Built build_terrain(const Settings& settings, const std::vector<std::string>& inputs,
                     const std::string& settings_source);
 
-/// Reads an XYZ point cloud: one point per line, x y z (white space or commas; further
-/// columns ignored), '#' starts a comment. Throws core::InputError naming file and line.
-std::vector<geometry::Vec3> read_xyz_points(const std::string& path);
-
 /// A human-readable description of the terrain (several lines).
 std::string summary(const Built& built);
 

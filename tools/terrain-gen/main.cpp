@@ -46,8 +46,8 @@ int main(int argc, char** argv) {
   spec.name = "terrain-gen";
   spec.summary = "Build a terrain file (TRN/TIN, materials, roughness) from a DEM, meshes, points or a synthetic slope";
   spec.inputs_doc =
-      "DEM (.asc, .tif), meshes (.stl .obj .ply .off .gltf; one file per material), or points (.xyz); "
-      "none for a synthetic slope";
+      "DEM (.asc, .tif), meshes (.stl .obj .ply .off .gltf; one file per material), or point clouds "
+      "(.xyz .txt .pts .csv, .ply without faces); none for a synthetic slope";
   spec.settings = [&settings](core::SettingsVisitor& v) { settings.visit(v); };
   spec.flags = {{"--summary", "print a summary of the built terrain (kind, sizes, extent, materials, roughness)",
                  &print_summary}};

@@ -32,8 +32,8 @@ void Settings::Roughness::visit(core::SettingsVisitor& v) {
 
 void Settings::visit(core::SettingsVisitor& v) {
   v.choice("source", source, {"auto", "synthetic", "dem", "tin", "points"},
-           "input kind; auto: from the input extensions (.asc/.tif: dem; .stl/.obj/.ply/.off/.gltf/.glb: tin; "
-           ".xyz: points; no input: synthetic)");
+           "input kind; auto: from the input extensions (.asc/.tif: dem; .xyz/.txt/.pts/.csv and .ply without "
+           "faces: points; .stl/.obj/.ply/.off/.gltf/.glb: tin; no input: synthetic)");
   v.field("name", name, "terrain name recorded in the file; empty: from the inputs");
   v.field("seed", seed, "-", "terrain seed: realization i of the roughness is a pure function of (seed, i)");
   v.choice("triangulation", triangulation, {"fixed", "alternating", "random"},

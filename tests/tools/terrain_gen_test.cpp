@@ -340,6 +340,28 @@ TEST_F(TerrainGen, PointCloudIsTriangulated) {
   expect_error(bad, 3, "bad.xyz: line 2: expected x y z numbers", "bad.h5");
 }
 
+TEST_F(TerrainGen, ExampleConfigsAreValid) {
+  const fs::path configs = fs::path(TALUS_SOURCE_DIR) / "configs" / "terrain";
+  std::size_t count = 0;
+  for (const auto& e : fs::directory_iterator(configs)) {
+    const Outcome r = run({"-c", e.path().string(), "--print-config"});
+    EXPECT_EQ(r.code, 0) << e.path() << ": " << r.err;
+    ++count;
+  }
+  EXPECT_GE(count, 4u);
+  // The synthetic ones build as documented.
+  ASSERT_EQ(run({"-c", (configs / "plane.yaml").string(), "-o", "plane.h5"}).code, 0);
+  const terrain::Terrain plane = io::read_terrain_file((dir_ / "plane.h5").string());
+  EXPECT_EQ(plane.grid->nx, 41);
+  EXPECT_EQ(plane.grid->ny, 11);
+  // z = (40 − x) tan 30°: the top edge at 40 tan 30° = 23.094 m (to rounding).
+  EXPECT_NEAR(plane.mesh.vertices[0].z(), 40.0 * std::tan(M_PI / 6.0), 1e-9);
+  ASSERT_EQ(run({"-c", (configs / "profile.yaml").string(), "-o", "profile.h5"}).code, 0);
+  const terrain::Terrain profile = io::read_terrain_file((dir_ / "profile.h5").string());
+  EXPECT_EQ(profile.grid->nx, 51);
+  EXPECT_EQ(profile.roughness.sigma, 0.2);
+}
+
 TEST_F(TerrainGen, ErrorsExitWithOneLineAndLeaveNoOutput) {
   write_text(dir_ / "typo.yaml", "seed: 3\nroughnes:\n  sigma: 0.1\n");
   expect_error(run({"-c", "typo.yaml", "-o", "out.h5"}), 3, "typo.yaml:2: unknown key 'roughnes'");

@@ -10,6 +10,7 @@
 #include "talus/cli/tool.hpp"
 #include "talus/core/error.hpp"
 #include "talus/core/log.hpp"
+#include "talus/core/timer.hpp"
 #include "talus/io/atomic_output.hpp"
 #include "talus/io/mesh_io.hpp"
 #include "talus/io/terrain_file.hpp"
@@ -78,11 +79,13 @@ int main(int argc, char** argv) {
 
   spec.run = [&](const cli::Invocation& inv) {
     const std::string settings_source = inv.config_path.empty() ? "settings" : inv.config_path;
+    core::Stopwatch clock;
     const terrain_gen::Built built = terrain_gen::build_terrain(settings, inv.inputs, settings_source);
     const terrain::Terrain& t = built.terrain;
     core::log_info("built " + std::string(t.grid ? "grid TRN" : "TIN") + " '" + t.name + "': " +
                    std::to_string(t.mesh.vertices.size()) + " points, " + std::to_string(t.mesh.triangles.size()) +
-                   " triangles");
+                   " triangles in " + core::format_number(clock.seconds()) + " s");
+    clock.restart();
     if (!export_path.empty()) {
       const auto realization = parse_realization(realization_text);
       const terrain::Surface surface = terrain::Surface::realize(t, realization);
@@ -95,6 +98,7 @@ int main(int argc, char** argv) {
       io::write_terrain_xdmf(io::xdmf_sidecar_path(inv.output), inv.output, t.mesh.vertices.size(),
                              t.mesh.triangles.size());
     }
+    core::log_info("wrote the outputs in " + core::format_number(clock.seconds()) + " s");
     if (print_summary) std::fputs(terrain_gen::summary(built).c_str(), stdout);
   };
   return cli::run_tool(argc, argv, spec);

@@ -99,35 +99,18 @@ std::string terrain_problem(const Terrain& t) {
 
 namespace {
 
-// The TRN as any reader sees it: for a grid, the triangles of the smooth base surface in
-// the Surface vertex order (so the file and the engine agree by construction).
-void trn_of(const Terrain& t, geometry::TriangleMesh& mesh, std::vector<std::int32_t>& material) {
-  if (!t.grid) {
-    mesh = t.mesh;
-    material = t.material_of_triangle;
-    return;
-  }
+// The triangles of a grid TRN as the engine sees them (Surface vertex order), so the file
+// and the engine agree by construction.
+std::vector<std::array<std::int32_t, 3>> grid_triangles(const Terrain& t) {
   const terrain::Surface base = terrain::Surface::realize(t, std::nullopt);
-  mesh.vertices = t.mesh.vertices;
-  mesh.triangles.resize(base.triangle_count());
-  for (std::size_t k = 0; k < mesh.triangles.size(); ++k) mesh.triangles[k] = base.triangle(k);
-  material = t.material_of_triangle;
-  material.resize(mesh.triangles.size(), 0);
+  std::vector<std::array<std::int32_t, 3>> triangles(base.triangle_count());
+  for (std::size_t k = 0; k < triangles.size(); ++k) triangles[k] = base.triangle(k);
+  return triangles;
 }
 
-std::vector<double> flatten(const std::vector<geometry::Vec3>& points) {
-  std::vector<double> out;
-  out.reserve(points.size() * 3);
-  for (const auto& p : points) out.insert(out.end(), {p.x(), p.y(), p.z()});
-  return out;
-}
-
-std::vector<std::int32_t> flatten(const std::vector<std::array<std::int32_t, 3>>& triangles) {
-  std::vector<std::int32_t> out;
-  out.reserve(triangles.size() * 3);
-  for (const auto& t : triangles) out.insert(out.end(), t.begin(), t.end());
-  return out;
-}
+// Points and index triples are stored as they lie in memory: [n x 3] without a copy.
+static_assert(sizeof(geometry::Vec3) == 3 * sizeof(double));
+static_assert(sizeof(std::array<std::int32_t, 3>) == 3 * sizeof(std::int32_t));
 
 std::uint64_t u64(std::size_t n) { return static_cast<std::uint64_t>(n); }
 
@@ -137,9 +120,17 @@ void write_terrain_file(const std::string& path, const Terrain& terrain, const P
                         std::optional<double> roughness_index) {
   if (const std::string problem = terrain_problem(terrain); !problem.empty())
     throw core::RuntimeError(path + ": refusing to write an inconsistent terrain: " + problem);
-  geometry::TriangleMesh trn;
-  std::vector<std::int32_t> material;
-  trn_of(terrain, trn, material);
+  std::vector<std::array<std::int32_t, 3>> generated;
+  if (terrain.grid) {
+    generated = grid_triangles(terrain);
+    if (!terrain.mesh.triangles.empty() && terrain.mesh.triangles != generated)
+      throw core::RuntimeError(path + ": refusing to write a grid terrain whose triangles differ from its grid");
+  }
+  const auto& triangles = terrain.grid ? generated : terrain.mesh.triangles;
+  const auto& vertices = terrain.mesh.vertices;
+  std::vector<std::int32_t> zeros;
+  if (terrain.material_of_triangle.empty()) zeros.assign(triangles.size(), 0);
+  const auto& material = terrain.material_of_triangle.empty() ? zeros : terrain.material_of_triangle;
 
   AtomicOutput out(path);
   {
@@ -151,10 +142,8 @@ void write_terrain_file(const std::string& path, const Terrain& terrain, const P
     root.write("origin_shift", terrain.origin_shift.data(), {3}, "m");
 
     const h5::Group g_trn = root.create_group("trn");
-    const auto vertices = flatten(trn.vertices);
-    const auto triangles = flatten(trn.triangles);
-    g_trn.write("vertices", vertices.data(), {u64(trn.vertices.size()), 3}, "m", true);
-    g_trn.write("triangles", triangles.data(), {u64(trn.triangles.size()), 3}, {}, true);
+    g_trn.write("vertices", vertices.front().data(), {u64(vertices.size()), 3}, "m", true);
+    g_trn.write("triangles", triangles.front().data(), {u64(triangles.size()), 3}, {}, true);
     g_trn.write("material", material.data(), {u64(material.size())}, {}, true);
 
     if (terrain.grid) {
@@ -270,10 +259,9 @@ terrain::Terrain read_terrain_file(const std::string& path, TerrainFileInfo& inf
   if (t.grid) {
     // The stored TRN must be the one the grid implies, vertex positions and triangle
     // vertex order included: the engine rebuilds it from /grid, other readers use /trn.
-    geometry::TriangleMesh expected;
-    std::vector<std::int32_t> unused;
+    std::vector<std::array<std::int32_t, 3>> expected;
     try {
-      trn_of(t, expected, unused);
+      expected = grid_triangles(t);
     } catch (const core::Error& e) {
       throw InputError(path, std::string("corrupt terrain file: ") + e.what());
     }
@@ -282,7 +270,7 @@ terrain::Terrain read_terrain_file(const std::string& path, TerrainFileInfo& inf
       if (base.vertex(v) != t.mesh.vertices[v])
         throw InputError(path, "/trn/vertices row " + count_text(v) + " is not at its grid position");
     for (std::size_t k = 0; k < n_tri; ++k)
-      if (expected.triangles[k] != t.mesh.triangles[k])
+      if (expected[k] != t.mesh.triangles[k])
         throw InputError(path, "/trn/triangles row " + count_text(k) + " does not match the grid and /grid/diagonal");
   }
   return t;

@@ -40,7 +40,8 @@ TEST(SyntheticSlope, BenchSlopeIsTheReferenceGeometry) {
     EXPECT_EQ(z_at(d, 60, j), 0.0);
   }
   // Mid-bench (x = 7 m) lies between grid points: the surface is flat there too.
-  const Surface s = Surface::realize(build_grid_terrain(d, Diagonal::alternating, 1, "bench"), std::nullopt);
+  const Terrain t = build_grid_terrain(d, Diagonal::alternating, 1, "bench");
+  const Surface s = Surface::realize(t, std::nullopt);
   EXPECT_EQ(s.height_at(7.0, 20.0)->z, 24.0);
   EXPECT_EQ(s.height_at(15.0, 3.0)->z, 18.0);
   EXPECT_EQ(s.height_at(23.0, 39.0)->z, 12.0);

@@ -103,6 +103,8 @@ class Surface {
   /// Throws core::InputError (source: terrain.name) when the terrain is inconsistent
   /// (array sizes, vertex ids out of range, σ negative or not finite).
   static Surface realize(const Terrain& terrain, std::optional<std::uint32_t> index);
+  /// A temporary terrain would dangle: keep the Terrain alive in a variable.
+  static Surface realize(Terrain&& terrain, std::optional<std::uint32_t> index) = delete;
   /// A TIN surface from a bare mesh (material 0 everywhere), e.g. for tests.
   static Surface from_mesh(geometry::TriangleMesh mesh);
 

@@ -73,15 +73,18 @@ void gather(const terrain::Surface& surface, const std::vector<std::int32_t>& li
 void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& world,
                const std::vector<TriangleData>& tris, double ds, double depth, bool prune,
                std::vector<Contact>& out) {
+  // Boxes are inflated by the larger of the search distance and the depth limit: a
+  // feature may be found up to `depth` below a surface.
+  const double margin = std::max(ds, depth);
   geometry::Aabb block_box;
   for (const Vec3& p : world) block_box.add(p);
-  const geometry::Aabb reach = block_box.inflated(ds);
+  const geometry::Aabb reach = block_box.inflated(margin);
 
   // Block vertex – terrain triangle.
   const std::size_t first = out.size();
   for (const TriangleData& tri : tris) {
     if (prune && !tri.box.overlaps(reach)) continue;
-    const geometry::Aabb tbox = tri.box.inflated(ds);
+    const geometry::Aabb tbox = tri.box.inflated(margin);
     const Vec3 e0 = tri.p[1] - tri.p[0], e1 = tri.p[2] - tri.p[1], e2 = tri.p[0] - tri.p[2];
     for (std::size_t i = 0; i < world.size(); ++i) {
       const Vec3& p = world[i];
@@ -184,7 +187,7 @@ void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& wo
     geometry::Aabb ebox;
     ebox.add(p0);
     ebox.add(p1);
-    ebox = ebox.inflated(ds);
+    ebox = ebox.inflated(margin);
     for (const TerrainEdge& te : edges) {
       if (te.flat) continue;
       if (prune) {
@@ -224,7 +227,7 @@ void detect_contacts(const Model& model, const terrain::Surface& surface, const 
   geometry::Aabb box;
   for (const Vec3& p : world) box.add(p);
   triangles.clear();
-  surface.triangles_in_box(box.inflated(search_distance), triangles);
+  surface.triangles_in_box(box.inflated(std::max(search_distance, depth_limit)), triangles);
   thread_local std::vector<TriangleData> tris;
   gather(surface, triangles, tris);
   detect_in(model, pose, world, tris, search_distance, depth_limit, true, out);

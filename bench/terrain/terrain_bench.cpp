@@ -7,6 +7,7 @@
 #include <cmath>
 #include <vector>
 
+#include "talus/core/random.hpp"
 #include "talus/terrain/build.hpp"
 
 namespace {
@@ -100,5 +101,73 @@ void BM_DdaQueryPattern(benchmark::State& state) {
   state.counters["peak_rss_MiB"] = peak_rss_mib();
 }
 BENCHMARK(BM_DdaQueryPattern)->Arg(300)->Unit(benchmark::kMillisecond);
+
+// A surveyed terrain: a TIN of 1000 x 1000 scattered points (about 2 M triangles) by
+// Delaunay triangulation, and one realization of it (perturb every vertex, build the BVH),
+// which is not lazy.
+const Terrain& big_tin() {
+  static const Terrain terrain = [] {
+    std::vector<Vec3> points;
+    const std::int32_t n = 1000;
+    points.reserve(static_cast<std::size_t>(n) * n);
+    const talus::core::RandomStream rng(3, talus::core::Stream::bootstrap, 0);
+    for (std::int32_t j = 0; j < n; ++j)
+      for (std::int32_t i = 0; i < n; ++i) {
+        const auto k = static_cast<std::uint64_t>(j) * n + static_cast<std::uint64_t>(i);
+        const double x = 2.0 * i + 1.6 * (rng.uniform(2 * k) - 0.5);
+        const double y = 2.0 * j + 1.6 * (rng.uniform(2 * k + 1) - 0.5);
+        points.emplace_back(x, y, 1000.0 - 0.5 * x + 3.0 * std::sin(0.02 * y));
+      }
+    Terrain t = talus::terrain::build_delaunay_terrain(points, "bench");
+    t.roughness.sigma = 0.2;
+    return t;
+  }();
+  return terrain;
+}
+
+void BM_RealizeTin(benchmark::State& state) {
+  const Terrain& t = big_tin();
+  std::uint32_t index = 0;
+  for (auto _ : state) {
+    const Surface s = Surface::realize(t, index++);
+    benchmark::DoNotOptimize(s.vertex(0));
+  }
+  state.counters["triangles"] = static_cast<double>(t.mesh.triangle_count());
+  state.counters["peak_rss_MiB"] = peak_rss_mib();
+}
+BENCHMARK(BM_RealizeTin)->Unit(benchmark::kMillisecond)->Iterations(3);
+
+// The next realization of a TIN, reusing the first one's BVH: only the perturbation.
+void BM_NextTinRealization(benchmark::State& state) {
+  const Surface first = Surface::realize(big_tin(), 0u);
+  std::uint32_t index = 1;
+  for (auto _ : state) {
+    const Surface s = first.realization(index++);
+    benchmark::DoNotOptimize(s.vertex(0));
+  }
+  state.counters["peak_rss_MiB"] = peak_rss_mib();
+}
+BENCHMARK(BM_NextTinRealization)->Unit(benchmark::kMillisecond)->Iterations(5);
+
+void BM_TinQueryPattern(benchmark::State& state) {
+  const Surface s = Surface::realize(big_tin(), 0u);
+  const auto queries = static_cast<std::int32_t>(state.range(0));
+  std::vector<std::int32_t> out;
+  std::size_t found = 0;
+  for (auto _ : state) {
+    for (std::int32_t q = 0; q < queries; ++q) {
+      const double f = static_cast<double>(q) / queries;
+      const double x = 500.0 + 600.0 * f;
+      const double y = 1000.0 + 40.0 * std::sin(6.0 * f);
+      const double z = s.height_at(x, y)->z;
+      out.clear();
+      s.triangles_in_box(Aabb{Vec3(x - 1.5, y - 1.5, z - 1.5), Vec3(x + 1.5, y + 1.5, z + 1.5)}, out);
+      found += out.size();
+    }
+  }
+  benchmark::DoNotOptimize(found);
+  state.SetItemsProcessed(state.iterations() * queries);
+}
+BENCHMARK(BM_TinQueryPattern)->Arg(300)->Unit(benchmark::kMillisecond);
 
 }  // namespace

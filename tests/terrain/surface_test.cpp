@@ -403,6 +403,31 @@ TEST(TinSurface, RoughnessPerturbsEveryVertex) {
   EXPECT_DOUBLE_EQ(a.bounds().hi.z(), mb.hi.z() + 8.6 * 0.15);
 }
 
+TEST(TinSurface, RealizationSharesTheTreeAndEqualsRealize) {
+  Terrain t;
+  t.mesh = general_tin();
+  t.roughness = Roughness{0.3, 99};
+  const Surface first = Surface::realize(t, 0u);
+  const Surface next = first.realization(5u);
+  const Surface direct = Surface::realize(t, 5u);
+  for (std::size_t v = 0; v < t.mesh.vertex_count(); ++v) ASSERT_EQ(next.vertex(v), direct.vertex(v));
+  // The shared tree was built for realization 0; it must serve realization 5 as well.
+  check_boxes(next, 12, 100, 4.0, 0.0);
+  check_heights(next, 33, 100);
+  EXPECT_EQ(first.realization(std::nullopt).vertex(7), t.mesh.vertices[7]);
+  // from_mesh keeps its mesh alive for the realizations made from it.
+  const Surface from_mesh = Surface::from_mesh(general_tin()).realization(1u);
+  EXPECT_EQ(from_mesh.vertex(3), general_tin().vertices[3]);
+}
+
+TEST(GridSurface, RealizationEqualsRealize) {
+  const Terrain t = rough_grid(Diagonal::random, 0.2, 8, 40, 36);
+  const Surface base = Surface::realize(t, std::nullopt);
+  const Surface a = base.realization(4u);
+  const Surface b = Surface::realize(t, 4u);
+  for (std::size_t v = 0; v < t.mesh.vertex_count(); ++v) ASSERT_EQ(a.vertex(v), b.vertex(v));
+}
+
 TEST(TinSurface, BadIndexIsAnInputError) {
   geometry::TriangleMesh m;
   m.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};

@@ -28,7 +28,7 @@ std::string count_text(std::size_t n) { return std::to_string(n); }
 struct Surface::Impl {
   // Either a grid (height field, lazily realized tiles) or a TIN (eager, BVH).
   bool grid_mode = false;
-  std::unique_ptr<Terrain> owned;  // from_mesh keeps its own terrain
+  std::shared_ptr<const Terrain> owned;  // from_mesh keeps its own terrain (shared by realization())
   const Terrain* terrain = nullptr;
   // Grid: computed on first use, a pass over every point a realization need not pay for.
   mutable Aabb bounds;
@@ -65,7 +65,9 @@ struct Surface::Impl {
 
   // --- TIN ---
   std::vector<Vec3> vertices;  // realized
-  detail::Bvh bvh;
+  // Built over the base triangles with z widened by ±kMaxNormal·σ: valid for every
+  // realization, so realization() shares it.
+  std::shared_ptr<const detail::Bvh> bvh;
 
   std::size_t triangle_count() const {
     return grid_mode ? 2 * spec.cell_count() : terrain->mesh.triangles.size();
@@ -208,7 +210,7 @@ struct Surface::Impl {
   std::optional<Hit> tin_height(double x, double y) const {
     double best = -std::numeric_limits<double>::infinity();
     std::int32_t best_t = -1;
-    bvh.vertical(
+    bvh->vertical(
         x, y, [&] { return best; },
         [&](std::int32_t t) {
           const auto p = triangle_vertices(static_cast<std::size_t>(t));
@@ -257,10 +259,11 @@ void check_tin(const Terrain& terrain) {
 
 }  // namespace
 
-Surface Surface::realize(const Terrain& terrain, std::optional<std::uint32_t> index) {
+namespace {
+
+// Throws unless `terrain` is consistent enough to query.
+void check_terrain(const Terrain& terrain) {
   const std::string source = terrain.name.empty() ? "terrain" : terrain.name;
-  auto impl = std::make_unique<Impl>();
-  impl->terrain = &terrain;
   const double sigma = terrain.roughness.sigma;
   if (!(sigma >= 0.0 && std::isfinite(sigma))) {
     throw core::InputError(source, "roughness sigma must be finite and >= 0, got " + core::format_number(sigma));
@@ -271,24 +274,38 @@ Surface Surface::realize(const Terrain& terrain, std::optional<std::uint32_t> in
     throw core::InputError(source, "material_of_triangle has " + count_text(terrain.material_of_triangle.size()) +
                                        " entries for " + count_text(triangles) + " triangles");
   }
+  if (!terrain.grid) {
+    check_tin(terrain);
+    return;
+  }
+  const GridSpec& spec = *terrain.grid;
+  if (spec.nx < 2 || spec.ny < 2) throw core::InputError(source, "grid needs at least 2 x 2 points");
+  if (terrain.mesh.vertices.size() != spec.point_count()) {
+    throw core::InputError(source, "grid terrain has " + count_text(terrain.mesh.vertices.size()) +
+                                       " vertices for " + count_text(spec.point_count()) + " grid points");
+  }
+  if (terrain.cell_diagonal.size() != spec.cell_count()) {
+    throw core::InputError(source, "grid terrain has " + count_text(terrain.cell_diagonal.size()) +
+                                       " cell diagonals for " + count_text(spec.cell_count()) + " cells");
+  }
+  if (!terrain.mesh.triangles.empty() && terrain.mesh.triangles.size() != 2 * spec.cell_count()) {
+    throw core::InputError(source, "grid terrain has " + count_text(terrain.mesh.triangles.size()) +
+                                       " triangles for " + count_text(2 * spec.cell_count()) + " expected");
+  }
+  if (spec.point_count() > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()) / 2) {
+    throw core::InputError(source, "grid too large for 32-bit triangle ids");
+  }
+}
+
+}  // namespace
+
+std::unique_ptr<Surface::Impl> Surface::make_impl(const Terrain& terrain, std::optional<std::uint32_t> index,
+                                                  std::shared_ptr<const detail::Bvh> shared_bvh) {
+  auto impl = std::make_unique<Impl>();
+  impl->terrain = &terrain;
+  const double sigma = terrain.roughness.sigma;
   if (terrain.grid) {
     const GridSpec& spec = *terrain.grid;
-    if (spec.nx < 2 || spec.ny < 2) throw core::InputError(source, "grid needs at least 2 x 2 points");
-    if (terrain.mesh.vertices.size() != spec.point_count()) {
-      throw core::InputError(source, "grid terrain has " + count_text(terrain.mesh.vertices.size()) +
-                                         " vertices for " + count_text(spec.point_count()) + " grid points");
-    }
-    if (terrain.cell_diagonal.size() != spec.cell_count()) {
-      throw core::InputError(source, "grid terrain has " + count_text(terrain.cell_diagonal.size()) +
-                                         " cell diagonals for " + count_text(spec.cell_count()) + " cells");
-    }
-    if (!terrain.mesh.triangles.empty() && terrain.mesh.triangles.size() != 2 * spec.cell_count()) {
-      throw core::InputError(source, "grid terrain has " + count_text(terrain.mesh.triangles.size()) +
-                                         " triangles for " + count_text(2 * spec.cell_count()) + " expected");
-    }
-    if (spec.point_count() > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()) / 2) {
-      throw core::InputError(source, "grid too large for 32-bit triangle ids");
-    }
     impl->grid_mode = true;
     impl->spec = spec;
     impl->sigma = sigma;
@@ -302,10 +319,9 @@ Surface Surface::realize(const Terrain& terrain, std::optional<std::uint32_t> in
       impl->tile_z = std::make_unique_for_overwrite<double[]>(tiles * kTilePoints);
       impl->tile_ready.assign(tiles, 0);
     }
-    return Surface(std::move(impl));
+    return impl;
   }
 
-  check_tin(terrain);
   impl->vertices = terrain.mesh.vertices;
   if (index.has_value() && sigma > 0.0) {
     const core::RandomStream stream(terrain.roughness.seed, core::Stream::terrain_roughness, *index);
@@ -313,22 +329,41 @@ Surface Surface::realize(const Terrain& terrain, std::optional<std::uint32_t> in
     stream.normals(0, n.data(), n.size());
     for (std::size_t k = 0; k < n.size(); ++k) impl->vertices[k].z() += sigma * n[k];
   }
+  const double widen = kMaxNormal * sigma;
   Aabb box = terrain.mesh.bounds();
   if (!box.empty()) {
-    box.lo.z() -= kMaxNormal * sigma;
-    box.hi.z() += kMaxNormal * sigma;
+    box.lo.z() -= widen;
+    box.hi.z() += widen;
   }
   impl->bounds = box;
-  std::vector<Aabb> boxes(terrain.mesh.triangles.size());
-  for (std::size_t t = 0; t < boxes.size(); ++t) {
-    for (std::int32_t v : terrain.mesh.triangles[t]) boxes[t].add(impl->vertices[static_cast<std::size_t>(v)]);
+  if (!shared_bvh) {
+    std::vector<Aabb> boxes(terrain.mesh.triangles.size());
+    for (std::size_t t = 0; t < boxes.size(); ++t) {
+      for (std::int32_t v : terrain.mesh.triangles[t]) boxes[t].add(terrain.mesh.vertices[static_cast<std::size_t>(v)]);
+      boxes[t].lo.z() -= widen;
+      boxes[t].hi.z() += widen;
+    }
+    auto bvh = std::make_shared<detail::Bvh>();
+    bvh->build(boxes);
+    shared_bvh = std::move(bvh);
   }
-  impl->bvh.build(boxes);
+  impl->bvh = std::move(shared_bvh);
+  return impl;
+}
+
+Surface Surface::realize(const Terrain& terrain, std::optional<std::uint32_t> index) {
+  check_terrain(terrain);
+  return Surface(make_impl(terrain, index, nullptr));
+}
+
+Surface Surface::realization(std::optional<std::uint32_t> index) const {
+  auto impl = make_impl(*impl_->terrain, index, impl_->bvh);
+  impl->owned = impl_->owned;
   return Surface(std::move(impl));
 }
 
 Surface Surface::from_mesh(geometry::TriangleMesh mesh) {
-  auto owned = std::make_unique<Terrain>();
+  auto owned = std::make_shared<Terrain>();
   owned->mesh = std::move(mesh);
   owned->materials.push_back(Material{});
   owned->name = "mesh";
@@ -380,7 +415,7 @@ void Surface::triangles_in_box(const Aabb& box, std::vector<std::int32_t>& out) 
     return;
   }
   const Impl& s = *impl_;
-  s.bvh.overlapping(box, [&](std::int32_t t) {
+  s.bvh->overlapping(box, [&](std::int32_t t) {
     // The leaf box is a union; keep only triangles whose own box overlaps.
     Aabb tb;
     for (const Vec3& p : s.triangle_vertices(static_cast<std::size_t>(t))) tb.add(p);

@@ -13,6 +13,10 @@
 
 namespace talus::terrain {
 
+namespace detail {
+class Bvh;
+}
+
 using geometry::Aabb;
 using geometry::Vec3;
 
@@ -89,7 +93,8 @@ struct Terrain {
 /// DEM pays for those cells only. Realization i is a pure function of (terrain seed, i), so
 /// laziness never changes a value. Because of that cache, one Surface must not be queried
 /// from several threads at once (each realization has its own Surface).
-/// On a TIN, construction perturbs every vertex and builds a bounding-volume hierarchy.
+/// On a TIN, realize() perturbs every vertex and builds a bounding-volume hierarchy;
+/// realization() reuses that hierarchy for the next realization.
 class Surface {
  public:
   /// Realization `index` of `terrain` (roughness applied); nullopt = the smooth base.
@@ -105,6 +110,13 @@ class Surface {
   static Surface realize(const Terrain& terrain, std::optional<std::uint32_t> index);
   /// A temporary terrain would dangle: keep the Terrain alive in a variable.
   static Surface realize(Terrain&& terrain, std::optional<std::uint32_t> index) = delete;
+  /// Realization `index` of this Surface's terrain, bit for bit the same as
+  /// realize(terrain, index), sharing the read-only search structure: on a TIN the BVH is
+  /// built once over the base triangles with boxes widened by ±8.6σ in z (valid for every
+  /// realization), so a new realization costs only the vertex perturbation. On a grid it
+  /// is as cheap as realize(). Only reads this Surface: several threads may call it on
+  /// one Surface at once (each then queries its own result).
+  Surface realization(std::optional<std::uint32_t> index) const;
   /// A TIN surface from a bare mesh (material 0 everywhere), e.g. for tests.
   static Surface from_mesh(geometry::TriangleMesh mesh);
 
@@ -152,6 +164,8 @@ class Surface {
  private:
   struct Impl;
   explicit Surface(std::unique_ptr<Impl> impl);
+  static std::unique_ptr<Impl> make_impl(const Terrain& terrain, std::optional<std::uint32_t> index,
+                                         std::shared_ptr<const detail::Bvh> shared_bvh);
   std::unique_ptr<Impl> impl_;
 };
 

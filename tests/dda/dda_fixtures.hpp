@@ -1,32 +1,41 @@
 // SPDX-License-Identifier: MIT
-// Small blocks and planar terrains shared by the DDA tests and benchmarks.
+// Blocks and planar terrains shared by the DDA tests and benchmarks.
 #pragma once
 #include <cmath>
 #include <vector>
 
+#include "talus/block/solids.hpp"
 #include "talus/dda/engine.hpp"
 #include "talus/geometry/polyhedron.hpp"
 #include "talus/terrain/terrain.hpp"
 
 namespace talus::dda::testing {
 
-/// Axis-aligned box centred at the origin (m), faces CCW from outside.
+/// Axis-aligned box centred at the origin, edges ax, ay, az (m).
 inline geometry::Polyhedron box(double ax, double ay, double az) {
-  geometry::Polyhedron p;
-  for (int k = 0; k < 8; ++k)
-    p.vertices.emplace_back((k & 1 ? 0.5 : -0.5) * ax, (k & 2 ? 0.5 : -0.5) * ay, (k & 4 ? 0.5 : -0.5) * az);
-  p.faces = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
-  return p;
+  block::SolidSpec spec;
+  spec.kind = block::SolidKind::box;
+  spec.volume = 0.0;
+  spec.dimensions = Vec3(ax, ay, az);
+  return block::make_solid(spec, "test");
 }
-inline geometry::Polyhedron cube(double side) { return box(side, side, side); }
-
-/// Regular tetrahedron of edge `edge` (m), centroid at the origin.
+/// Axis-aligned cube of edge `side` (m) centred at the origin.
+inline geometry::Polyhedron cube(double side) {
+  block::SolidSpec spec;
+  spec.kind = block::SolidKind::cube;
+  spec.volume = side * side * side;
+  return block::make_solid(spec, "test");
+}
+/// A named solid of volume `volume` (m³) centred at its centroid.
+inline geometry::Polyhedron solid(block::SolidKind kind, double volume) {
+  block::SolidSpec spec;
+  spec.kind = kind;
+  spec.volume = volume;
+  return block::make_solid(spec, "test");
+}
+/// Regular tetrahedron of edge `edge` (m).
 inline geometry::Polyhedron tetrahedron(double edge) {
-  const double s = edge / (2.0 * std::sqrt(2.0));
-  geometry::Polyhedron p;
-  p.vertices = {{s, s, s}, {s, -s, -s}, {-s, s, -s}, {-s, -s, s}};
-  p.faces = {{0, 1, 2}, {0, 3, 1}, {0, 2, 3}, {1, 3, 2}};
-  return p;
+  return solid(block::SolidKind::tetrahedron, edge * edge * edge / (6.0 * std::sqrt(2.0)));
 }
 
 /// Plane z = −x·tan(θ) (descending along +x) over [−half, half]², two triangles split

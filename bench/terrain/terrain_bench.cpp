@@ -39,6 +39,22 @@ DemGrid big_dem() {
   return dem;
 }
 
+// The queries of one DDA realization: `queries` height and 3 m box queries along a 600 m
+// path starting at (x0, y0), drifting ±40 m sideways. Returns the triangles found.
+std::size_t query_path(const Surface& s, std::int32_t queries, double x0, double y0, std::vector<std::int32_t>& out) {
+  std::size_t found = 0;
+  for (std::int32_t q = 0; q < queries; ++q) {
+    const double f = static_cast<double>(q) / queries;
+    const double x = x0 + 600.0 * f;
+    const double y = y0 + 40.0 * std::sin(6.0 * f);
+    const double z = s.height_at(x, y)->z;
+    out.clear();
+    s.triangles_in_box(Aabb{Vec3(x - 1.5, y - 1.5, z - 1.5), Vec3(x + 1.5, y + 1.5, z + 1.5)}, out);
+    found += out.size();
+  }
+  return found;
+}
+
 const Terrain& big_terrain() {
   static const Terrain terrain = [] {
     Terrain t = talus::terrain::build_grid_terrain(big_dem(), Diagonal::random, 7, "bench");
@@ -72,9 +88,8 @@ void BM_RealizeWholeSurface(benchmark::State& state) {
 }
 BENCHMARK(BM_RealizeWholeSurface)->Unit(benchmark::kMillisecond)->Iterations(5);
 
-// One realization as the DDA engine sees it: realize, then `range(0)` box queries (a
-// 3 m box around the block) and height queries along a 600 m path down the slope with
-// some lateral drift.
+// One realization as the DDA engine sees it: realize, then query_path with `range(0)`
+// queries; only the tiles along the path are realized.
 void BM_DdaQueryPattern(benchmark::State& state) {
   const Terrain& t = big_terrain();
   const auto queries = static_cast<std::int32_t>(state.range(0));
@@ -83,15 +98,7 @@ void BM_DdaQueryPattern(benchmark::State& state) {
   std::vector<std::int32_t> out;
   for (auto _ : state) {
     const Surface s = Surface::realize(t, index++);
-    for (std::int32_t q = 0; q < queries; ++q) {
-      const double f = static_cast<double>(q) / queries;
-      const double x = 1000.0 + 600.0 * f;
-      const double y = 2000.0 + 40.0 * std::sin(6.0 * f);
-      const double z = s.height_at(x, y)->z;
-      out.clear();
-      s.triangles_in_box(Aabb{Vec3(x - 1.5, y - 1.5, z - 1.5), Vec3(x + 1.5, y + 1.5, z + 1.5)}, out);
-      found += out.size();
-    }
+    found += query_path(s, queries, 1000.0, 2000.0, out);
     tiles = s.tiles_realized();
     total_tiles = s.tile_count();
   }
@@ -154,17 +161,7 @@ void BM_TinQueryPattern(benchmark::State& state) {
   const auto queries = static_cast<std::int32_t>(state.range(0));
   std::vector<std::int32_t> out;
   std::size_t found = 0;
-  for (auto _ : state) {
-    for (std::int32_t q = 0; q < queries; ++q) {
-      const double f = static_cast<double>(q) / queries;
-      const double x = 500.0 + 600.0 * f;
-      const double y = 1000.0 + 40.0 * std::sin(6.0 * f);
-      const double z = s.height_at(x, y)->z;
-      out.clear();
-      s.triangles_in_box(Aabb{Vec3(x - 1.5, y - 1.5, z - 1.5), Vec3(x + 1.5, y + 1.5, z + 1.5)}, out);
-      found += out.size();
-    }
-  }
+  for (auto _ : state) found += query_path(s, queries, 500.0, 1000.0, out);
   benchmark::DoNotOptimize(found);
   state.SetItemsProcessed(state.iterations() * queries);
 }

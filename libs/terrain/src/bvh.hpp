@@ -32,34 +32,31 @@ class Bvh {
   /// Calls visit(item) for every item of every leaf whose box overlaps `box`.
   template <class Visit>
   void overlapping(const geometry::Aabb& box, Visit&& visit) const {
-    if (nodes_.empty()) return;
-    std::int32_t stack[kMaxDepth];
-    int top = 0;
-    stack[top++] = 0;
-    while (top > 0) {
-      const Node& node = nodes_[static_cast<std::size_t>(stack[--top])];
-      if (!node.box.overlaps(box)) continue;
-      if (node.count > 0) {
-        for (std::int32_t k = node.first; k < node.first + node.count; ++k) visit(items_[static_cast<std::size_t>(k)]);
-      } else {
-        stack[top++] = node.first + 1;
-        stack[top++] = node.first;
-      }
-    }
+    traverse([&](const geometry::Aabb& b) { return b.overlaps(box); }, visit);
   }
 
   /// Calls visit(item) for the items of leaves whose box contains (x, y) in plan and reaches
   /// above `z_floor()` (re-read per node, so a caller tracking the highest hit prunes).
   template <class ZFloor, class Visit>
   void vertical(double x, double y, ZFloor&& z_floor, Visit&& visit) const {
+    traverse(
+        [&](const geometry::Aabb& b) {
+          return x >= b.lo.x() && x <= b.hi.x() && y >= b.lo.y() && y <= b.hi.y() && b.hi.z() >= z_floor();
+        },
+        visit);
+  }
+
+ private:
+  // Depth-first walk of the nodes whose box `enter` accepts, left child first.
+  template <class Enter, class Visit>
+  void traverse(Enter&& enter, Visit&& visit) const {
     if (nodes_.empty()) return;
     std::int32_t stack[kMaxDepth];
     int top = 0;
     stack[top++] = 0;
     while (top > 0) {
       const Node& node = nodes_[static_cast<std::size_t>(stack[--top])];
-      const geometry::Aabb& b = node.box;
-      if (x < b.lo.x() || x > b.hi.x() || y < b.lo.y() || y > b.hi.y() || b.hi.z() < z_floor()) continue;
+      if (!enter(node.box)) continue;
       if (node.count > 0) {
         for (std::int32_t k = node.first; k < node.first + node.count; ++k) visit(items_[static_cast<std::size_t>(k)]);
       } else {
@@ -69,7 +66,6 @@ class Bvh {
     }
   }
 
- private:
   // Median splits keep the depth near log2(n / kLeafSize); 2^60 items will not happen.
   static constexpr int kMaxDepth = 128;
   std::vector<Node> nodes_;

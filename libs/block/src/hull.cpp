@@ -71,7 +71,10 @@ geometry::Polyhedron convex_hull(const std::vector<Vec3>& points, const std::str
     for (auto v : CGAL::vertices_around_face(hull.halfedge(f), hull)) face.push_back(index[v.idx()]);
     poly.faces.push_back(std::move(face));
   }
-  return geometry::merge_coplanar_faces(poly, 1e-9 * diagonal(points));
+  // CGAL's output order follows memory addresses: make it a function of the points.
+  geometry::Polyhedron merged = geometry::merge_coplanar_faces(poly, 1e-9 * diagonal(points));
+  geometry::canonicalize(merged);
+  return merged;
 }
 
 geometry::TriangleMesh reconstruct_surface(const std::vector<Vec3>& points, const ReconstructionOptions& options,

@@ -53,7 +53,9 @@ geometry::Polyhedron simplify_to_faces(const geometry::Polyhedron& poly, std::si
     out.triangles.push_back(t);
   }
   try {
-    return check_mesh(std::move(out), RepairOptions{}, source).polyhedron;
+    geometry::Polyhedron result = check_mesh(std::move(out), RepairOptions{}, source).polyhedron;
+    geometry::canonicalize(result);
+    return result;
   } catch (const core::InputError& e) {
     throw core::InputError(source, "simplification to " + std::to_string(target_faces) +
                                        " faces broke the surface (" + e.detail() + "); ask for more faces");

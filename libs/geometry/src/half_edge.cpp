@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <tuple>
 #include <unordered_map>
 
 namespace talus::geometry {
@@ -308,6 +309,27 @@ std::size_t remove_unused_vertices(Polyhedron& poly) {
     for (auto& q : face) q = remap[q];
   poly.vertices = std::move(kept);
   return removed;
+}
+
+void canonicalize(Polyhedron& poly) {
+  std::vector<std::int32_t> order(poly.vertices.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](std::int32_t a, std::int32_t b) {
+    const Vec3 &p = poly.vertices[a], &q = poly.vertices[b];
+    return std::tie(p.x(), p.y(), p.z()) < std::tie(q.x(), q.y(), q.z());
+  });
+  std::vector<std::int32_t> rank(order.size());
+  std::vector<Vec3> sorted(order.size());
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    rank[order[i]] = static_cast<std::int32_t>(i);
+    sorted[i] = poly.vertices[order[i]];
+  }
+  poly.vertices = std::move(sorted);
+  for (auto& face : poly.faces) {
+    for (auto& q : face) q = rank[q];
+    std::rotate(face.begin(), std::min_element(face.begin(), face.end()), face.end());
+  }
+  std::sort(poly.faces.begin(), poly.faces.end());
 }
 
 TriangleMesh triangulate(const Polyhedron& poly) {

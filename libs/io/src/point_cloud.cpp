@@ -135,62 +135,173 @@ double read_binary(std::istream& in, const std::string& type, bool big_endian) {
   return as(double{});
 }
 
-std::vector<geometry::Vec3> read_ply_cloud(const std::string& path, const PointCloudOptions& options) {
+// Vertices (x, y, z of the vertex element) and faces (the vertex_indices list of the
+// face element) of a PLY file, ASCII or binary.
+struct PlyData {
+  std::vector<geometry::Vec3> points;
+  std::vector<std::vector<std::int64_t>> faces;
+};
+
+PlyData read_ply(const std::string& path, const PointCloudOptions& options, bool want_faces) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw core::InputError(path, "cannot open point cloud file");
+  if (!in) throw core::InputError(path, "cannot open file");
   const PlyHeader h = read_ply_header(in, path);
   const bool ascii = h.format == "ascii";
   const bool big = h.format == "binary_big_endian";
   if (!ascii && !big && h.format != "binary_little_endian")
     throw core::InputError(path, "unknown PLY format '" + h.format + "'");
-  std::vector<geometry::Vec3> points;
+  PlyData data;
+  std::istringstream words;
+  // The next number of the body, whatever its layout.
+  auto next_value = [&](const std::string& type) -> double {
+    if (!ascii) {
+      const double v = read_binary(in, type, big);
+      if (!in) throw core::InputError(path, "PLY file ends early");
+      return v;
+    }
+    double v = 0.0;
+    while (!(words >> v)) {
+      std::string line;
+      if (!std::getline(in, line)) throw core::InputError(path, "PLY file ends early");
+      words.clear();
+      words.str(line);
+    }
+    return v;
+  };
   for (const PlyElement& e : h.elements) {
-    const bool vertex = e.name == "vertex";
+    const bool vertex = e.name == "vertex", face = e.name == "face";
     std::array<int, 3> slot{-1, -1, -1};
     for (std::size_t k = 0; k < e.properties.size(); ++k) {
       const auto& p = e.properties[k];
-      if (!p.list && type_size(p.type) == 0) throw core::InputError(path, "unknown PLY property type '" + p.type + "'");
+      const std::string item = p.list ? p.type.substr(p.type.find(' ') + 1) : p.type;
+      const std::string count = p.list ? p.type.substr(0, p.type.find(' ')) : p.type;
+      if (type_size(item) == 0 || type_size(count) == 0)
+        throw core::InputError(path, "unknown PLY property type '" + p.type + "'");
       if (vertex && !p.list && p.name.size() == 1 && p.name[0] >= 'x' && p.name[0] <= 'z')
         slot[static_cast<std::size_t>(p.name[0] - 'x')] = static_cast<int>(k);
     }
     if (vertex && (slot[0] < 0 || slot[1] < 0 || slot[2] < 0))
       throw core::InputError(path, "PLY vertex element lacks x, y or z");
-    if (!vertex && !ascii) {
-      // Only the vertex element matters; binary elements after it need not be parsed.
-      bool fixed = std::none_of(e.properties.begin(), e.properties.end(), [](const auto& p) { return p.list; });
-      if (!fixed) break;
-    }
     for (std::size_t i = 0; i < e.count; ++i) {
       std::array<double, 3> xyz{};
-      if (ascii) {
-        std::string line;
-        while (std::getline(in, line) && line.find_first_not_of(" \t\r") == std::string::npos) {
-        }
-        if (!in) throw core::InputError(path, "PLY file ends inside element '" + e.name + "'");
-        if (!vertex) continue;
-        std::istringstream s(line);
-        for (std::size_t k = 0; k < e.properties.size(); ++k) {
-          double v = 0.0;
-          if (!(s >> v)) throw core::InputError(path, "bad PLY vertex " + std::to_string(i));
+      for (std::size_t k = 0; k < e.properties.size(); ++k) {
+        const auto& p = e.properties[k];
+        if (p.list) {
+          const std::string item = p.type.substr(p.type.find(' ') + 1);
+          const double n = next_value(p.type.substr(0, p.type.find(' ')));
+          if (!(n >= 0.0 && n < 1e6)) throw core::InputError(path, "bad PLY list length in element '" + e.name + "'");
+          std::vector<std::int64_t> list;
+          for (int j = 0; j < static_cast<int>(n); ++j) list.push_back(static_cast<std::int64_t>(next_value(item)));
+          if (face && (p.name == "vertex_indices" || p.name == "vertex_index")) data.faces.push_back(std::move(list));
+        } else {
+          const double v = next_value(p.type);
           for (int c = 0; c < 3; ++c)
             if (slot[static_cast<std::size_t>(c)] == static_cast<int>(k)) xyz[static_cast<std::size_t>(c)] = v;
         }
-      } else {
-        for (std::size_t k = 0; k < e.properties.size(); ++k) {
-          const double v = read_binary(in, e.properties[k].type, big);
-          for (int c = 0; c < 3; ++c)
-            if (slot[static_cast<std::size_t>(c)] == static_cast<int>(k)) xyz[static_cast<std::size_t>(c)] = v;
-        }
-        if (!in) throw core::InputError(path, "PLY file ends inside element '" + e.name + "'");
       }
       if (!vertex) continue;
       if (!std::isfinite(xyz[0]) || !std::isfinite(xyz[1]) || !std::isfinite(xyz[2]))
         throw core::InputError(path, "non-finite coordinate in PLY vertex " + std::to_string(i));
-      points.push_back(place(xyz[0], xyz[1], xyz[2], options));
+      data.points.push_back(place(xyz[0], xyz[1], xyz[2], options));
     }
-    if (vertex) break;
+    if (vertex && !want_faces) break;
   }
-  return points;
+  return data;
+}
+
+// Adds polygon `face` (0-based indices) to `mesh` as a fan of triangles.
+void add_polygon(geometry::TriangleMesh& mesh, const std::vector<std::int64_t>& face, const std::string& path) {
+  const auto n = static_cast<std::int64_t>(mesh.vertices.size());
+  for (std::int64_t q : face)
+    if (q < 0 || q >= n) throw core::InputError(path, "face refers to vertex " + std::to_string(q + 1) + " of " + std::to_string(n));
+  for (std::size_t k = 1; k + 1 < face.size(); ++k)
+    mesh.triangles.push_back({static_cast<std::int32_t>(face[0]), static_cast<std::int32_t>(face[k]),
+                              static_cast<std::int32_t>(face[k + 1])});
+}
+
+geometry::TriangleMesh read_obj(const std::string& path, const PointCloudOptions& options) {
+  std::ifstream in(path);
+  if (!in) throw core::InputError(path, "cannot open mesh file");
+  geometry::TriangleMesh mesh;
+  std::string line, word;
+  std::size_t number = 0;
+  while (std::getline(in, line)) {
+    ++number;
+    std::istringstream s(line);
+    if (!(s >> word)) continue;
+    if (word == "v") {
+      double x = 0, y = 0, z = 0;
+      if (!(s >> x >> y >> z)) throw core::InputError(path, "line " + std::to_string(number) + ": bad vertex");
+      if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z))
+        throw core::InputError(path, "line " + std::to_string(number) + ": non-finite vertex coordinate");
+      mesh.vertices.push_back(place(x, y, z, options));
+    } else if (word == "f") {
+      std::vector<std::int64_t> face;
+      while (s >> word) {
+        // "v", "v/vt", "v//vn" or "v/vt/vn"; negative indices count back from the last vertex.
+        const long long v = std::strtoll(word.c_str(), nullptr, 10);
+        if (v == 0) throw core::InputError(path, "line " + std::to_string(number) + ": bad face index '" + word + "'");
+        face.push_back(v > 0 ? v - 1 : static_cast<std::int64_t>(mesh.vertices.size()) + v);
+      }
+      add_polygon(mesh, face, path + ": line " + std::to_string(number));
+    }
+  }
+  return mesh;
+}
+
+geometry::TriangleMesh read_off(const std::string& path, const PointCloudOptions& options) {
+  std::ifstream in(path);
+  if (!in) throw core::InputError(path, "cannot open mesh file");
+  // Comments run from '#' to the end of the line.
+  std::string text, line;
+  while (std::getline(in, line)) text += line.substr(0, line.find('#')) + "\n";
+  std::istringstream s(text);
+  std::string magic;
+  std::size_t nv = 0, nf = 0, ne = 0;
+  if (!(s >> magic) || magic != "OFF" || !(s >> nv >> nf >> ne)) throw core::InputError(path, "bad OFF header");
+  geometry::TriangleMesh mesh;
+  for (std::size_t i = 0; i < nv; ++i) {
+    double x = 0, y = 0, z = 0;
+    if (!(s >> x >> y >> z) || !std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z))
+      throw core::InputError(path, "bad OFF vertex " + std::to_string(i));
+    mesh.vertices.push_back(place(x, y, z, options));
+  }
+  for (std::size_t f = 0; f < nf; ++f) {
+    std::size_t n = 0;
+    if (!(s >> n) || n > 1000000) throw core::InputError(path, "bad OFF face " + std::to_string(f));
+    std::vector<std::int64_t> face(n);
+    for (auto& q : face)
+      if (!(s >> q)) throw core::InputError(path, "bad OFF face " + std::to_string(f));
+    std::getline(s, line);  // colours, if any
+    add_polygon(mesh, face, path);
+  }
+  return mesh;
+}
+
+geometry::TriangleMesh read_ascii_stl(const std::string& path, const PointCloudOptions& options) {
+  std::ifstream in(path);
+  geometry::TriangleMesh mesh;
+  std::string word;
+  while (in >> word) {
+    if (word != "vertex") continue;
+    double x = 0, y = 0, z = 0;
+    if (!(in >> x >> y >> z) || !std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z))
+      throw core::InputError(path, "bad STL vertex");
+    mesh.vertices.push_back(place(x, y, z, options));
+    if (mesh.vertices.size() % 3 == 0) {
+      const auto b = static_cast<std::int32_t>(mesh.vertices.size() - 3);
+      mesh.triangles.push_back({b, b + 1, b + 2});
+    }
+  }
+  return mesh;
+}
+
+bool is_ascii_stl(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string head(512, '\0');
+  in.read(head.data(), static_cast<std::streamsize>(head.size()));
+  head.resize(static_cast<std::size_t>(in.gcount()));
+  return head.rfind("solid", 0) == 0 && head.find("facet") != std::string::npos;
 }
 
 }  // namespace
@@ -199,7 +310,7 @@ std::vector<geometry::Vec3> read_point_cloud(const std::string& path, const Poin
   if (!std::filesystem::is_regular_file(path)) throw core::InputError(path, "cannot open point cloud file");
   const std::string ext = lower_extension(path);
   std::vector<geometry::Vec3> points;
-  if (ext == ".ply") points = read_ply_cloud(path, options);
+  if (ext == ".ply") points = read_ply(path, options, false).points;
   else if (is_text_cloud_extension(ext)) points = read_text_cloud(path, options);
   else throw core::InputError(path, "unknown point cloud extension '" + ext + "' (use .xyz, .txt, .pts, .csv or .ply)");
   if (points.empty()) throw core::InputError(path, "empty point cloud: no points");
@@ -219,6 +330,37 @@ bool is_point_cloud_file(const std::string& path) {
   } catch (const core::InputError&) {
     return false;
   }
+}
+
+ImportedMesh import_mesh_precise(const std::string& path, const MeshImportOptions& options) {
+  const std::string ext = lower_extension(path);
+  const bool own = ext == ".obj" || ext == ".off" || ext == ".ply" || (ext == ".stl" && is_ascii_stl(path));
+  if (!own) return import_mesh(path, options);
+  if (!std::filesystem::is_regular_file(path)) throw core::InputError(path, "cannot open mesh file");
+  if (std::filesystem::file_size(path) == 0) throw core::InputError(path, "empty mesh file");
+  PointCloudOptions placement;
+  placement.scale = options.scale;
+  placement.up = options.up;
+  ImportedMesh out;
+  out.source_meshes = 1;
+  if (ext == ".obj") out.mesh = read_obj(path, placement);
+  else if (ext == ".off") out.mesh = read_off(path, placement);
+  else if (ext == ".stl") out.mesh = read_ascii_stl(path, placement);
+  else {
+    PlyData ply = read_ply(path, placement, true);
+    out.mesh.vertices = std::move(ply.points);
+    for (const auto& face : ply.faces) add_polygon(out.mesh, face, path);
+  }
+  if (out.mesh.triangles.empty()) throw core::InputError(path, "mesh has no triangles");
+  if (options.weld) {
+    double tol = options.weld_tolerance;
+    if (tol <= 0.0) tol = 1e-9 * std::max(out.mesh.bounds().extent().norm(), 1e-300);
+    const std::size_t before = out.mesh.triangles.size();
+    out.welded_vertices = geometry::weld_vertices(out.mesh, tol);
+    out.dropped_triangles = before - out.mesh.triangles.size();
+    if (out.mesh.triangles.empty()) throw core::InputError(path, "every triangle is degenerate");
+  }
+  return out;
 }
 
 }  // namespace talus::io

@@ -83,6 +83,11 @@ Polyhedron merge_coplanar_faces(const Polyhedron& poly, double tolerance);
 /// Removes vertices no face uses, renumbering the faces; returns how many were removed.
 std::size_t remove_unused_vertices(Polyhedron& poly);
 
+/// Puts a polyhedron in a canonical order that depends only on its geometry: vertices
+/// sorted by (x, y, z), each face starting at its smallest vertex index, faces sorted.
+/// Used on the output of algorithms whose element order follows memory addresses.
+void canonicalize(Polyhedron& poly);
+
 /// Fan triangulation of every face (exact for the planar convex faces Talus stores).
 TriangleMesh triangulate(const Polyhedron& poly);
 

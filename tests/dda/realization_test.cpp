@@ -63,7 +63,7 @@ TEST(DdaContacts, PrunedSearchMatchesBruteForce) {
   const terrain::Surface surface = terrain::Surface::realize(t, 2);
   const core::RandomStream rng(9, core::Stream::release, 0);
   std::size_t total = 0;
-  std::vector<std::int32_t> scratch;
+  TerrainPatch patch;
   for (const geometry::Polyhedron& poly : {testing::tetrahedron(2.04), testing::cube(1.0)}) {
     const Model m = Model::build(Settings{}, poly);
     for (std::uint64_t k = 0; k < 200; ++k) {
@@ -83,7 +83,7 @@ TEST(DdaContacts, PrunedSearchMatchesBruteForce) {
       std::vector<Vec3> world;
       for (const Vec3& v : m.vertices) world.push_back(pose.centre + pose.map * v);
       std::vector<Contact> fast, slow;
-      detail::detect_contacts(m, surface, pose, world, 0.05, 0.1, scratch, fast);
+      detail::detect_contacts(m, surface, pose, world, 0.05, 0.1, patch, fast);
       detail::detect_contacts_brute_force(m, surface, pose, world, 0.05, 0.1, slow);
       const auto key = [](const Contact& c) { return std::make_tuple(c.kind, c.block_feature, c.terrain_feature); };
       const auto by_key = [&](const Contact& a, const Contact& b) { return key(a) < key(b); };

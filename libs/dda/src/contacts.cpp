@@ -11,23 +11,6 @@ namespace talus::dda::detail {
 
 namespace {
 
-struct TriangleData {
-  std::int32_t index;
-  std::array<std::int32_t, 3> ids;
-  std::array<Vec3, 3> p;
-  Vec3 normal;
-  geometry::Aabb box;
-};
-
-struct TerrainEdge {
-  std::int32_t a, b;       // vertex ids, a < b
-  Vec3 pa, pb;
-  Vec3 normal_sum;         // sum of the normals of the candidate triangles sharing it
-  std::int32_t triangle;   // one of them (material)
-  int count;
-  bool flat;
-};
-
 // Point in polygon (crossing number) in the face's (u, v) coordinates.
 bool inside_polygon(const std::vector<Eigen::Vector2d>& poly, const Eigen::Vector2d& q) {
   bool inside = false;
@@ -56,23 +39,69 @@ bool line_parameters(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3&
   return true;
 }
 
-void gather(const terrain::Surface& surface, const std::vector<std::int32_t>& list,
-            std::vector<TriangleData>& tris) {
-  tris.clear();
+// Gathers the triangles `list` of `surface` into `patch`: corners, normals, the
+// distinct vertices, and the edges that are ridges (not between coplanar triangles).
+void fill_patch(const terrain::Surface& surface, const std::vector<std::int32_t>& list, TerrainPatch& patch) {
+  patch.triangles.clear();
+  patch.vertices.clear();
+  patch.ridges.clear();
   for (std::int32_t t : list) {
-    TriangleData d;
+    TerrainPatch::Triangle d;
     d.index = t;
     d.ids = surface.triangle(static_cast<std::size_t>(t));
     d.p = surface.triangle_vertices(static_cast<std::size_t>(t));
-    d.normal = surface.normal(static_cast<std::size_t>(t));
-    for (const Vec3& p : d.p) d.box.add(p);
-    tris.push_back(d);
+    // Counter-clockwise from above / outside, as Surface::normal.
+    d.normal = (d.p[1] - d.p[0]).cross(d.p[2] - d.p[0]).normalized();
+    for (const Vec3& q : d.p) d.box.add(q);
+    patch.triangles.push_back(d);
+    for (int k = 0; k < 3; ++k) {
+      patch.vertices.push_back(TerrainPatch::Vertex{d.ids[k], t, d.p[k]});
+      int i = k, j = (k + 1) % 3;
+      if (d.ids[i] > d.ids[j]) std::swap(i, j);
+      TerrainPatch::Ridge e;
+      e.a = d.ids[i];
+      e.b = d.ids[j];
+      e.pa = d.p[i];
+      e.pb = d.p[j];
+      e.normal_sum = d.normal;
+      e.triangle = t;
+      patch.ridges.push_back(e);
+    }
   }
+  std::sort(patch.vertices.begin(), patch.vertices.end(),
+            [](const TerrainPatch::Vertex& x, const TerrainPatch::Vertex& y) { return x.id < y.id; });
+  patch.vertices.erase(std::unique(patch.vertices.begin(), patch.vertices.end(),
+                                   [](const TerrainPatch::Vertex& x, const TerrainPatch::Vertex& y) { return x.id == y.id; }),
+                       patch.vertices.end());
+  auto& edges = patch.ridges;
+  std::sort(edges.begin(), edges.end(), [](const TerrainPatch::Ridge& x, const TerrainPatch::Ridge& y) {
+    return x.a != y.a ? x.a < y.a : x.b < y.b;
+  });
+  // An edge between coplanar triangles is no ridge: the vertex contacts of both sides
+  // carry it.
+  std::size_t kept = 0;
+  for (std::size_t k = 0; k < edges.size();) {
+    std::size_t end = k + 1;
+    while (end < edges.size() && edges[end].a == edges[k].a && edges[end].b == edges[k].b) ++end;
+    TerrainPatch::Ridge e = edges[k];
+    bool flat = false;
+    for (std::size_t m = k + 1; m < end; ++m) {
+      flat = flat || e.normal_sum.dot(edges[m].normal_sum) > 1.0 - 1e-10;
+      e.normal_sum += edges[m].normal_sum;
+    }
+    if (!flat) {
+      e.box = geometry::Aabb{};
+      e.box.add(e.pa);
+      e.box.add(e.pb);
+      edges[kept++] = e;
+    }
+    k = end;
+  }
+  edges.resize(kept);
 }
 
-void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& world,
-               const std::vector<TriangleData>& tris, double ds, double depth, bool prune,
-               std::vector<Contact>& out) {
+void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& world, const TerrainPatch& patch,
+               double ds, double depth, bool prune, std::vector<Contact>& out) {
   // Boxes are inflated by the larger of the search distance and the depth limit: a
   // feature may be found up to `depth` below a surface.
   const double margin = std::max(ds, depth);
@@ -82,7 +111,7 @@ void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& wo
 
   // Block vertex – terrain triangle.
   const std::size_t first = out.size();
-  for (const TriangleData& tri : tris) {
+  for (const TerrainPatch::Triangle& tri : patch.triangles) {
     if (prune && !tri.box.overlaps(reach)) continue;
     const geometry::Aabb tbox = tri.box.inflated(margin);
     const Vec3 e0 = tri.p[1] - tri.p[0], e1 = tri.p[2] - tri.p[1], e2 = tri.p[0] - tri.p[2];
@@ -113,22 +142,10 @@ void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& wo
   }
 
   // Terrain vertex – block face (a spike of rough ground piercing a face between
-  // block vertices). Tested in the body frame, where face polygons are stored.
-  std::int32_t previous = -1;
-  std::vector<std::pair<std::int32_t, std::int32_t>> verts;  // (vertex id, triangle)
-  verts.reserve(tris.size() * 3);
-  for (const TriangleData& tri : tris)
-    for (int k = 0; k < 3; ++k) verts.emplace_back(tri.ids[k], tri.index);
-  std::sort(verts.begin(), verts.end());
-  for (const auto& [vid, tindex] : verts) {
-    if (vid == previous) continue;
-    previous = vid;
-    const TriangleData* tri = nullptr;
-    for (const TriangleData& t : tris)
-      if (t.index == tindex) tri = &t;
-    const Vec3 q = tri->p[tri->ids[0] == vid ? 0 : (tri->ids[1] == vid ? 1 : 2)];
-    if (prune && !reach.contains(q)) continue;
-    const Vec3 qb = pose.inverse_map * (q - pose.centre);
+  // block vertices), tested in the body frame where the face polygons are stored.
+  for (const TerrainPatch::Vertex& tv : patch.vertices) {
+    if (prune && !reach.contains(tv.p)) continue;
+    const Vec3 qb = pose.inverse_map * (tv.p - pose.centre);
     int best = -1;
     double best_gap = -depth;
     for (std::size_t f = 0; f < model.faces.size(); ++f) {
@@ -141,44 +158,24 @@ void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& wo
     }
     if (best < 0) continue;
     const BlockFace& face = model.faces[best];
-    const Vec3 nb = (pose.rotation * face.normal).normalized();
     const Vec3 foot_body = qb - (face.normal.dot(qb) - face.offset) * face.normal;
     Contact c;
     c.kind = ContactKind::face_vertex;
     c.block_feature = best;
-    c.terrain_feature = vid;
-    c.triangle = tindex;
+    c.terrain_feature = tv.id;
+    c.triangle = tv.triangle;
     c.point = pose.centre + pose.map * foot_body;
-    c.normal = -nb;
-    c.gap = (c.point - q).dot(c.normal);
+    c.normal = -(pose.rotation * face.normal).normalized();
+    c.gap = (c.point - tv.p).dot(c.normal);
     out.push_back(c);
   }
 
-  // Block edge – terrain edge crossings. Terrain edges between coplanar triangles are
-  // no ridge and are skipped: the vertex contacts of both sides carry them.
-  std::vector<TerrainEdge> edges;
-  edges.reserve(tris.size() * 3);
-  for (const TriangleData& tri : tris)
-    for (int k = 0; k < 3; ++k) {
-      int i = k, j = (k + 1) % 3;
-      if (tri.ids[i] > tri.ids[j]) std::swap(i, j);
-      edges.push_back(TerrainEdge{tri.ids[i], tri.ids[j], tri.p[i], tri.p[j], tri.normal, tri.index, 1, false});
-    }
-  std::sort(edges.begin(), edges.end(), [](const TerrainEdge& x, const TerrainEdge& y) {
-    return x.a != y.a ? x.a < y.a : x.b < y.b;
-  });
-  std::size_t kept = 0;
-  for (std::size_t k = 0; k < edges.size(); ++k) {
-    if (kept > 0 && edges[kept - 1].a == edges[k].a && edges[kept - 1].b == edges[k].b) {
-      TerrainEdge& e = edges[kept - 1];
-      e.flat = e.normal_sum.dot(edges[k].normal_sum) > 1.0 - 1e-10;
-      e.normal_sum += edges[k].normal_sum;
-      ++e.count;
-    } else {
-      edges[kept++] = edges[k];
-    }
-  }
-  edges.resize(kept);
+  // Block edge – terrain ridge crossings.
+  thread_local std::vector<const TerrainPatch::Ridge*> near;
+  near.clear();
+  for (const TerrainPatch::Ridge& r : patch.ridges)
+    if (!prune || r.box.overlaps(reach)) near.push_back(&r);
+  if (near.empty()) return;
   for (std::size_t be = 0; be < model.edges.size(); ++be) {
     const BlockEdge& bedge = model.edges[be];
     if (!bedge.convex) continue;
@@ -188,29 +185,23 @@ void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& wo
     ebox.add(p0);
     ebox.add(p1);
     ebox = ebox.inflated(margin);
-    for (const TerrainEdge& te : edges) {
-      if (te.flat) continue;
-      if (prune) {
-        geometry::Aabb tb;
-        tb.add(te.pa);
-        tb.add(te.pb);
-        if (!tb.overlaps(ebox)) continue;
-      }
+    for (const TerrainPatch::Ridge* te : near) {
+      if (prune && !te->box.overlaps(ebox)) continue;
       double s = 0.0, t = 0.0;
-      if (!line_parameters(p0, p1, te.pa, te.pb, s, t)) continue;
+      if (!line_parameters(p0, p1, te->pa, te->pb, s, t)) continue;
       constexpr double kEnd = 1e-6;  // ends are vertex contacts
       if (s <= kEnd || s >= 1.0 - kEnd || t <= kEnd || t >= 1.0 - kEnd) continue;
-      Vec3 n = (p1 - p0).cross(te.pb - te.pa).normalized();
-      if (n.dot(te.normal_sum) < 0.0) n = -n;
+      Vec3 n = (p1 - p0).cross(te->pb - te->pa).normalized();
+      if (n.dot(te->normal_sum) < 0.0) n = -n;
       const Vec3 pc = p0 + s * (p1 - p0);
-      const Vec3 qc = te.pa + t * (te.pb - te.pa);
+      const Vec3 qc = te->pa + t * (te->pb - te->pa);
       const double gap = (pc - qc).dot(n);
       if (gap >= ds || gap <= -depth) continue;
       Contact c;
       c.kind = ContactKind::edge_edge;
       c.block_feature = static_cast<std::int32_t>(be);
-      c.terrain_feature = (static_cast<std::int64_t>(te.a) << 32) | static_cast<std::int64_t>(te.b);
-      c.triangle = te.triangle;
+      c.terrain_feature = (static_cast<std::int64_t>(te->a) << 32) | static_cast<std::int64_t>(te->b);
+      c.triangle = te->triangle;
       c.point = pc;
       c.normal = n;
       c.gap = gap;
@@ -223,14 +214,19 @@ void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& wo
 
 void detect_contacts(const Model& model, const terrain::Surface& surface, const Pose& pose,
                      const std::vector<Vec3>& world, double search_distance, double depth_limit,
-                     std::vector<std::int32_t>& triangles, std::vector<Contact>& out) {
+                     TerrainPatch& patch, std::vector<Contact>& out) {
   geometry::Aabb box;
   for (const Vec3& p : world) box.add(p);
-  triangles.clear();
-  surface.triangles_in_box(box.inflated(std::max(search_distance, depth_limit)), triangles);
-  thread_local std::vector<TriangleData> tris;
-  gather(surface, triangles, tris);
-  detect_in(model, pose, world, tris, search_distance, depth_limit, true, out);
+  box = box.inflated(std::max(search_distance, depth_limit));
+  if (patch.surface != &surface || patch.box.empty() || !patch.box.contains(box.lo) || !patch.box.contains(box.hi)) {
+    // Gather with a margin of half the block's radius, so the next steps reuse it.
+    patch.surface = &surface;
+    patch.box = box.inflated(0.5 * model.radius);
+    patch.query.clear();
+    surface.triangles_in_box(patch.box, patch.query);
+    fill_patch(surface, patch.query, patch);
+  }
+  detect_in(model, pose, world, patch, search_distance, depth_limit, true, out);
 }
 
 void detect_contacts_brute_force(const Model& model, const terrain::Surface& surface, const Pose& pose,
@@ -238,9 +234,9 @@ void detect_contacts_brute_force(const Model& model, const terrain::Surface& sur
                                  double depth_limit, std::vector<Contact>& out) {
   std::vector<std::int32_t> all(surface.triangle_count());
   std::iota(all.begin(), all.end(), 0);
-  std::vector<TriangleData> tris;
-  gather(surface, all, tris);
-  detect_in(model, pose, world, tris, search_distance, depth_limit, false, out);
+  TerrainPatch patch;
+  fill_patch(surface, all, patch);
+  detect_in(model, pose, world, patch, search_distance, depth_limit, false, out);
 }
 
 }  // namespace talus::dda::detail

@@ -558,8 +558,7 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
       PhaseTimer timer(timing, s.times.detect);
       contacts.clear();
       const double reach = std::max(2.0 * predicted_reach(model, s, dt), limit);
-      detail::detect_contacts(model, *ground.surface, pose, s.world_vertices, reach, depth, s.scratch_triangles,
-                              contacts);
+      detail::detect_contacts(model, *ground.surface, pose, s.world_vertices, reach, depth, s.patch, contacts);
       carry_contacts(s.contacts, contacts);
     }
     if (!s.friction_drawn && !contacts.empty()) {

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 #pragma once
 #include <Eigen/Geometry>
+#include <array>
 #include <cstdint>
 #include <string_view>
 #include <vector>
@@ -99,6 +100,38 @@ struct TrajectorySample {
   double energy = 0.0;             ///< kinetic + potential (J), potential from z = 0
 };
 
+/// The terrain features near the block, gathered once and reused by the contact search
+/// of the following steps while the block's search box stays inside `box` (scratch: the
+/// result never depends on it).
+struct TerrainPatch {
+  const void* surface = nullptr;     ///< the Surface it was gathered from
+  geometry::Aabb box;                ///< the queried box (m)
+  struct Triangle {
+    std::int32_t index = -1;
+    std::array<std::int32_t, 3> ids{};
+    std::array<Vec3, 3> p;           ///< corners (m)
+    Vec3 normal = Vec3::UnitZ();     ///< unit, up / outward
+    geometry::Aabb box;
+  };
+  struct Vertex {
+    std::int32_t id = -1;
+    std::int32_t triangle = -1;      ///< one triangle using it (material)
+    Vec3 p = Vec3::Zero();
+  };
+  /// An edge between two non-coplanar triangles, or on the patch border.
+  struct Ridge {
+    std::int32_t a = -1, b = -1;     ///< vertex ids, a < b
+    Vec3 pa = Vec3::Zero(), pb = Vec3::Zero();
+    Vec3 normal_sum = Vec3::Zero();  ///< sum of the adjacent triangles' normals
+    std::int32_t triangle = -1;
+    geometry::Aabb box;
+  };
+  std::vector<Triangle> triangles;
+  std::vector<Vertex> vertices;
+  std::vector<Ridge> ridges;
+  std::vector<std::int32_t> query;   ///< scratch for Surface::triangles_in_box
+};
+
 /// Release conditions of one realization.
 struct Release {
   Vec3 position = Vec3::Zero();  ///< centroid (m)
@@ -141,7 +174,9 @@ struct State {
   std::vector<TrajectorySample> trajectory;
   double next_sample_time = 0.0;
 
-  // Scratch buffers, kept to avoid allocations per step.
+  // Scratch buffers, kept to avoid allocations per step. A State is stepped with one
+  // Ground throughout (the patch is re-gathered if the surface changes).
+  TerrainPatch patch;
   std::vector<std::int32_t> scratch_triangles;
   std::vector<Contact> scratch_contacts;
 };

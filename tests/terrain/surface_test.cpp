@@ -4,6 +4,7 @@
 #include <bit>
 #include <cmath>
 #include <set>
+#include <thread>
 
 #include "talus/core/error.hpp"
 #include "talus/core/random.hpp"
@@ -418,6 +419,28 @@ TEST(TinSurface, RealizationSharesTheTreeAndEqualsRealize) {
   // from_mesh keeps its mesh alive for the realizations made from it.
   const Surface from_mesh = Surface::from_mesh(general_tin()).realization(1u);
   EXPECT_EQ(from_mesh.vertex(3), general_tin().vertices[3]);
+}
+
+// Realizations made and queried on several threads at once give the same bits as
+// made one after the other on one thread.
+TEST(TinSurface, RealizationsOnThreadsMatchSerial) {
+  Terrain t;
+  t.mesh = general_tin();
+  t.roughness = Roughness{0.2, 5};
+  const Surface first = Surface::realize(t, 0u);
+  const auto sample = [&first](std::uint32_t index) {
+    const Surface s = first.realization(index);
+    std::vector<double> z;
+    for (int k = 0; k < 50; ++k) z.push_back(s.height_at(0.5 + 0.47 * k, 12.0 + 0.2 * k)->z);
+    return z;
+  };
+  std::vector<std::vector<double>> serial, threaded(4);
+  for (std::uint32_t i = 0; i < 4; ++i) serial.push_back(sample(10 + i));
+  std::vector<std::thread> threads;
+  for (std::uint32_t i = 0; i < 4; ++i) threads.emplace_back([&, i] { threaded[i] = sample(10 + i); });
+  for (auto& th : threads) th.join();
+  EXPECT_EQ(threaded, serial);
+  EXPECT_NE(serial[0], serial[1]);
 }
 
 TEST(GridSurface, RealizationEqualsRealize) {

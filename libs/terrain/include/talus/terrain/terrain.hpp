@@ -149,10 +149,14 @@ class Surface {
   void realize_all() const;
 
   /// Appends to `out` the triangles whose bounding boxes may overlap `box` (a few more,
-  /// never fewer). O(cells under the box) on a grid; O(log n + k) on a TIN.
+  /// never fewer; each once). O(cells under the box) on a grid, by index arithmetic,
+  /// realizing the tiles under the box; O(log n + k) on a TIN.
   void triangles_in_box(const Aabb& box, std::vector<std::int32_t>& out) const;
   /// The highest surface point on the vertical through (x, y): elevation (m) and its
-  /// triangle; nullopt where the vertical misses the terrain.
+  /// triangle; nullopt where the vertical misses the terrain (outside the grid or TIN).
+  /// O(1) on a grid (the cell, then the triangle by the diagonal); on a TIN a vertical
+  /// ray through the BVH, keeping the highest hit (vertical triangles are skipped: their
+  /// top edge belongs to a neighbour).
   struct Hit {
     double z = 0.0;
     std::int32_t triangle = -1;

@@ -200,7 +200,7 @@ TEST_F(BlockGen, CloudHullAndSimplificationAreReported) {
   write_text(path("box.xyz"), "0 0 0\n2 0 0\n0 1 0\n2 1 0\n0 0 0.5\n2 0 0.5\n0 1 0.5\n2 1 0.5\n1 0.5 0.25\n");
   write_text(path("lod.yaml"), "blocks:\n"
                                "  - {cloud: box.xyz, weight: 2}\n"
-                               "  - name: scan\n    solid: ellipsoid\n    resolution: 16\n    roughness: 0.03\n"
+                               "  - name: scan\n    solid: ellipsoid\n    resolution: 16\n    roughness: 0.1\n"
                                "    volume: 1\n    input: {simplify: {mode: faces, target_faces: 200}}\n");
   const Outcome r = run({"-c", "lod.yaml", "-o", "lod.h5", "-v"});
   ASSERT_EQ(r.code, 0) << r.err;

@@ -203,13 +203,12 @@ TEST(Hull, CubeCloudGivesSixQuadsWithInteriorPointsIgnored) {
 
 TEST(Hull, AdvancingFrontFollowsAConcaveCloud) {
   // Points of a rough (concave) ellipsoid: the hull fills the dents, the reconstruction
-  // keeps them. (Much rougher point-to-point noise leaves holes in the front: an error
-  // unless repair.fill_holes is set.)
+  // keeps them.
   SolidSpec spec;
   spec.kind = SolidKind::ellipsoid;
   spec.volume = 0.0;
   spec.resolution = 10;
-  spec.roughness = 0.02;
+  spec.roughness = 0.1;
   spec.dimensions = Vec3(2, 1.5, 1);
   const geometry::Polyhedron rough = make_solid(spec, "test");
   const double truth = exact_volume(rough).value;
@@ -217,9 +216,9 @@ TEST(Hull, AdvancingFrontFollowsAConcaveCloud) {
   const CheckedMesh c = check_mesh(reconstruct_surface(rough.vertices, ReconstructionOptions{}, "c"),
                                    RepairOptions{}, "c");
   const double concave = exact_volume(c.polyhedron).value;
-  EXPECT_GT(hull, truth * 1.04);
-  // The reconstruction may choose other diagonals than the generator (measured 0.1 %);
-  // 0.5 % is far below the hull's excess of 4.8 %.
+  EXPECT_GT(hull, truth * 1.03);  // measured +4 %
+  // The reconstruction may choose other diagonals than the generator (measured −0.07 %);
+  // 0.5 % is far below the hull's excess.
   EXPECT_NEAR(concave, truth, 0.005 * truth);
 }
 
@@ -228,19 +227,17 @@ TEST(Simplify, ScanToFewFacesReportsSmallChanges) {
   spec.kind = SolidKind::ellipsoid;
   spec.volume = 1.0;
   spec.resolution = 20;  // 8000 faces
-  spec.roughness = 0.01;
+  spec.roughness = 0.1;
   spec.dimensions = Vec3(1.8, 1.2, 0.9);
   const Block fine = make_block("fine", make_solid(spec, "t"), 2800.0, "t");
   const Block coarse = make_block("coarse", simplify_to_faces(fine.polyhedron, 500, "t"), 2800.0, "t");
   EXPECT_LE(coarse.polyhedron.faces.size(), 500u);
   const SimplifyReport r = compare(fine, coarse);
   // Lindström–Turk placement keeps the volume of each collapse (measured: 0 to
-  // round-off); the inertia moves by about 2e-4. Smoothing away the 1 % roughness
-  // removes surface area, so the sphericity rises (measured +0.029).
+  // round-off); the inertia moves by about 1e-4 and the sphericity by a few 1e-3.
   EXPECT_LT(std::abs(r.volume_change), 1e-9);
   EXPECT_LT(r.inertia_change, 1e-3);
-  EXPECT_GT(r.sphericity_change, 0.0);
-  EXPECT_LT(r.sphericity_change, 0.05);
+  EXPECT_LT(std::abs(r.sphericity_change), 0.01);
   EXPECT_TRUE(contains(r.describe(), "simplified 8000 -> ")) << r.describe();
 
   const Block hull = make_block("hull", simplify_to_hull(fine.polyhedron, "t"), 2800.0, "t");

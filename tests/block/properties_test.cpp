@@ -151,7 +151,7 @@ TEST(Properties, ExactAndDoubleVolumesAgreeOn100kFaces) {
   spec.volume = 0.0;
   spec.dimensions = Vec3(2.0, 1.3, 0.8);
   spec.resolution = 71;  // 20·71² = 100 820 triangles
-  spec.roughness = 0.05;
+  spec.roughness = 0.1;
   spec.seed = 7;
   const Polyhedron scan = make_solid(spec, "test");
   ASSERT_EQ(scan.faces.size(), 100820u);

@@ -44,7 +44,8 @@ void BlockSettings::visit(core::SettingsVisitor& v) {
   v.field("dimensions", dimensions, "m", "box edges, or ellipsoid diameters, along x, y, z");
   v.field("resolution", resolution, "-", "ellipsoid: geodesic frequency n (20 n^2 triangles)");
   v.field("roughness", roughness, "-",
-          "ellipsoid: sd of the relative radial noise of each vertex (0..0.3); > 0 makes a rough, concave rock");
+          "ellipsoid: sd of the relative height of 40 random smooth bumps and dents (0..0.3); > 0 makes a "
+          "concave rock");
   v.field("elongation", elongation, "-", "rock: target L2/L1 along the principal axes");
   v.field("flatness", flatness, "-", "rock: target L3/L2 along the principal axes");
   v.field("points", points, "-", "rock: number of random points whose convex hull is the rock");

@@ -120,12 +120,29 @@ Polyhedron make_ellipsoid(const SolidSpec& spec, const std::string& source) {
                 "ellipsoid roughness must be between 0 and 0.3, got " + core::format_number(spec.roughness));
   geometry::TriangleMesh mesh = geodesic_sphere(spec.resolution);
   if (spec.roughness > 0.0) {
-    // Radial noise keeps the surface star-shaped about the centre (every radius stays
-    // above 0.1), so it cannot self-intersect.
+    // Rocky relief: kBumps smooth bumps and dents of random centre and height on the
+    // unit sphere, (1 − d²/w²)² within angular chord w of their centre. The relief is a
+    // function of direction only, so every resolution samples the same rock. Radii stay
+    // above 0.1, so the surface stays star-shaped about the centre and cannot
+    // self-intersect.
+    constexpr int kBumps = 40;
+    constexpr double kWidth = 0.6;  // chord length on the unit sphere (≈ 35°)
     const core::RandomStream rng(spec.seed, core::Stream::block_shape, spec.index);
-    for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
-      const double z = std::clamp(rng.normal(i), -3.0, 3.0);
-      mesh.vertices[i] *= 1.0 + spec.roughness * z;
+    std::array<double, 4> draw{};
+    std::vector<std::pair<Vec3, double>> bumps;
+    for (int k = 0; k < kBumps; ++k) {
+      rng.normals(4 * static_cast<std::uint64_t>(k), draw.data(), 4);
+      Vec3 centre(draw[0], draw[1], draw[2]);
+      if (centre.norm() < 1e-12) centre = Vec3::UnitZ();
+      bumps.emplace_back(centre.normalized(), spec.roughness * std::clamp(draw[3], -3.0, 3.0));
+    }
+    for (Vec3& p : mesh.vertices) {
+      double r = 1.0;
+      for (const auto& [centre, height] : bumps) {
+        const double q = (p - centre).squaredNorm() / (kWidth * kWidth);
+        if (q < 1.0) r += height * (1.0 - q) * (1.0 - q);
+      }
+      p *= std::max(r, 0.1);
     }
   }
   for (Vec3& p : mesh.vertices) p = p.cwiseProduct(0.5 * spec.dimensions);

@@ -256,6 +256,7 @@ Polyhedron merge_coplanar_faces(const Polyhedron& poly, double tolerance) {
   }
   Polyhedron out;
   out.vertices = poly.vertices;
+  std::vector<char> keep(static_cast<std::size_t>(regions), 0);
   for (std::int32_t r = 0; r < regions; ++r) {
     std::vector<std::int32_t> loop;
     bool merged = false;
@@ -283,13 +284,12 @@ Polyhedron merge_coplanar_faces(const Polyhedron& poly, double tolerance) {
       }
       merged = convex;
     }
-    if (merged) {
-      out.faces.push_back(std::move(loop));
-    } else {
-      for (std::size_t f = 0; f < nf; ++f)
-        if (region[f] == r) out.faces.push_back(poly.faces[f]);
-    }
+    if (merged) out.faces.push_back(std::move(loop));
+    else keep[static_cast<std::size_t>(r)] = 1;
   }
+  // Regions left as they were keep their faces, in input order.
+  for (std::size_t f = 0; f < nf; ++f)
+    if (keep[static_cast<std::size_t>(region[f])]) out.faces.push_back(poly.faces[f]);
   remove_unused_vertices(out);
   return out;
 }

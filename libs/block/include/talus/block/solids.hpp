@@ -25,8 +25,9 @@ struct SolidSpec {
   geometry::Vec3 dimensions = geometry::Vec3::Ones();
   /// Ellipsoid: geodesic frequency n, giving 20·n² triangles (n ≥ 1).
   int resolution = 8;
-  /// Ellipsoid: standard deviation of the relative radial noise of each vertex (−), up to
-  /// 0.3; 0 gives a smooth convex ellipsoid, more a rough, concave scanned-like rock.
+  /// Ellipsoid: standard deviation of the relative height of 40 random smooth bumps and
+  /// dents (−), up to 0.3; 0 gives a smooth convex ellipsoid, more a rough, concave rock
+  /// (the same rock at every resolution).
   double roughness = 0.0;
   /// Rock: target L2/L1 along the principal axes (−), in (0, 1].
   double elongation = 0.7;

@@ -1,0 +1,134 @@
+// SPDX-License-Identifier: MIT
+// Cost of DDA steps by kind and phase, and of one whole bench-slope realization.
+#include <benchmark/benchmark.h>
+
+#include "../../tests/dda/dda_fixtures.hpp"
+#include "talus/terrain/build.hpp"
+#include "talus/terrain/synthetic.hpp"
+
+namespace {
+
+using namespace talus;
+using namespace talus::dda;
+
+terrain::Terrain rough_bench_slope() {
+  terrain::Terrain t = terrain::build_grid_terrain(terrain::make_synthetic(terrain::SyntheticSlope{}, "bench"),
+                                                   terrain::Diagonal::alternating, 11, "bench");
+  t.roughness.sigma = 0.2;  // R = 1/4
+  return t;
+}
+
+void report_phases(benchmark::State& bm, const State& s, double steps) {
+  bm.counters["detect_ns"] = 1e9 * s.times.detect / steps;
+  bm.counters["assemble_ns"] = 1e9 * s.times.assemble / steps;
+  bm.counters["open_close_ns"] = 1e9 * s.times.open_close / steps;
+  bm.counters["solve_ns"] = 1e9 * s.times.solve / steps;
+  bm.counters["update_ns"] = 1e9 * s.times.update / steps;
+  bm.counters["contacts"] = static_cast<double>(s.counters.contacts) / static_cast<double>(s.counters.contact_steps);
+}
+
+// A 1 m³ dodecahedron (6-DOF) settled on the first bench of the rough slope: the cost
+// of a contact step at rest. Arg 1 turns the per-phase timers on.
+void BM_ContactStepResting(benchmark::State& bm) {
+  const terrain::Terrain t = rough_bench_slope();
+  const terrain::Surface surface = terrain::Surface::realize(t, 0);
+  const Ground g{&surface, t.materials};
+  Settings set;
+  set.rest_dwell = 1e9;
+  set.max_steps = 1 << 30;
+  set.time_phases = bm.range(0) != 0;
+  const Model m = Model::build(set, testing::solid(block::SolidKind::dodecahedron, 1.0));
+  Release r;
+  r.position = Vec3(7.0, 20.0, surface.height_at(7.0, 20.0)->z + 1.0);
+  State s = start(m, r, core::RandomStream(1, core::Stream::impact, 0));
+  for (int i = 0; i < 3000; ++i) step(m, g, s);
+  s.times = PhaseTimes{};
+  const std::uint64_t before = s.counters.contact_steps;
+  for (auto _ : bm) step(m, g, s);
+  if (s.end != EndReason::running) bm.SkipWithError("the resting block ended");
+  report_phases(bm, s, static_cast<double>(s.counters.contact_steps - before));
+  bm.SetItemsProcessed(bm.iterations());
+}
+BENCHMARK(BM_ContactStepResting)->Arg(0)->Arg(1);
+
+// The dodecahedron rolling and sliding down the rough 1:1 slope: batches of 500 contact
+// steps from the same checkpoint.
+void BM_ContactStepMoving(benchmark::State& bm) {
+  const terrain::Terrain t = rough_bench_slope();
+  const terrain::Surface surface = terrain::Surface::realize(t, 0);
+  const Ground g{&surface, t.materials};
+  Settings set;
+  set.time_phases = bm.range(0) != 0;
+  const Model m = Model::build(set, testing::solid(block::SolidKind::dodecahedron, 1.0));
+  Release r;
+  r.position = Vec3(9.5, 20.0, surface.height_at(9.5, 20.0)->z + 0.9);
+  State checkpoint = start(m, r, core::RandomStream(1, core::Stream::impact, 0));
+  while (checkpoint.counters.contact_steps == 0) step(m, g, checkpoint);
+  std::uint64_t steps = 0;
+  State s;
+  for (auto _ : bm) {
+    s = checkpoint;
+    for (int i = 0; i < 500; ++i) step(m, g, s);
+    steps += 500;
+  }
+  bm.SetItemsProcessed(static_cast<std::int64_t>(steps));
+  bm.counters["contact_share"] = static_cast<double>(s.counters.contact_steps - checkpoint.counters.contact_steps) / 500.0;
+  if (set.time_phases) {
+    State delta = s;
+    delta.times.detect -= checkpoint.times.detect;
+    delta.times.assemble -= checkpoint.times.assemble;
+    delta.times.open_close -= checkpoint.times.open_close;
+    delta.times.solve -= checkpoint.times.solve;
+    delta.times.update -= checkpoint.times.update;
+    report_phases(bm, delta, 500.0);
+  }
+}
+BENCHMARK(BM_ContactStepMoving)->Arg(0)->Arg(1);
+
+// Free flight high above the slope: the exact parabola, no contact search.
+void BM_FlightStep(benchmark::State& bm) {
+  const terrain::Terrain t = rough_bench_slope();
+  const terrain::Surface surface = terrain::Surface::realize(t, 0);
+  const Ground g{&surface, t.materials};
+  const Model m = Model::build(Settings{}, testing::cube(1.0));
+  Release r;
+  r.position = Vec3(30.0, 20.0, 200.0);
+  r.velocity = Vec3(0.0, 0.0, 20.0);
+  r.angular_velocity = Vec3(3.0, 1.0, 0.0);
+  const State checkpoint = start(m, r, core::RandomStream(1, core::Stream::impact, 0));
+  State s;
+  std::uint64_t steps = 0;
+  for (auto _ : bm) {
+    s = checkpoint;
+    for (int i = 0; i < 1000; ++i) step(m, g, s);
+    steps += 1000;
+  }
+  if (s.counters.contact_steps != 0) bm.SkipWithError("the flight touched the terrain");
+  bm.SetItemsProcessed(static_cast<std::int64_t>(steps));
+}
+BENCHMARK(BM_FlightStep);
+
+// One deterministic realization: a 1 m³ cube released 2.5 m above the crest of the
+// bench slope, R = 1/4 (σ = 0.2 m), 6-DOF, default settings.
+void BM_BenchSlopeRealization(benchmark::State& bm) {
+  const terrain::Terrain t = rough_bench_slope();
+  const terrain::Surface surface = terrain::Surface::realize(t, 0);
+  const Ground g{&surface, t.materials};
+  Settings set;
+  set.dof = bm.range(0) != 0 ? "full12" : "rigid6";
+  const Model m = Model::build(set, testing::cube(1.0));
+  Release r;
+  r.position = Vec3(1.0, 20.0, 29.0 + 2.5);
+  Summary out;
+  for (auto _ : bm) {
+    out = run(m, g, r, core::RandomStream(3, core::Stream::impact, 0));
+    benchmark::DoNotOptimize(out.runout);
+  }
+  bm.counters["steps"] = static_cast<double>(out.steps);
+  bm.counters["contact_steps"] = static_cast<double>(out.counters.contact_steps);
+  bm.counters["runout_m"] = out.runout;
+  bm.counters["sim_time_s"] = out.time;
+}
+BENCHMARK(BM_BenchSlopeRealization)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
+}  // namespace

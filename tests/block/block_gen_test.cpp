@@ -216,5 +216,21 @@ TEST_F(BlockGen, CloudHullAndSimplificationAreReported) {
   EXPECT_TRUE(contains(blocks[1].notes.back(), "volume")) << blocks[1].notes.back();
 }
 
+// The documented examples stay valid: every key is known, and those that need no
+// external file run.
+TEST_F(BlockGen, DocumentedConfigsAreValid) {
+  const std::string dir = std::string(TALUS_SOURCE_DIR) + "/configs/blocks/";
+  for (const char* name : {"box.yaml", "rock.yaml", "scan-simplified.yaml", "cloud-hull.yaml"}) {
+    const Outcome r = run({"-c", dir + name, "--print-config"});
+    EXPECT_EQ(r.code, 0) << name << ": " << r.err;
+  }
+  Outcome r = run({"-c", dir + "box.yaml", "-o", "box.h5"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NEAR(io::read_block_file(path("box.h5"))[0].volume_exact, 1.0, 1e-15);
+  r = run({"-c", dir + "rock.yaml", "-o", "rocks.h5"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(io::read_block_file(path("rocks.h5")).size(), 4u);
+}
+
 }  // namespace
 }  // namespace talus::block

@@ -55,6 +55,9 @@ struct TinReport {
 /// their shared edge in opposite directions, starting from its first triangle) and then
 /// turned over as a whole when its area-weighted mean normal points down (z < 0), so a
 /// height-field TIN faces up. Walls and overhangs are kept. Repairs go to `report`.
+/// Orientation follows shared vertex ids: weld STL-like input first (geometry::
+/// weld_vertices; io::import_mesh does by default), or every triangle is its own
+/// component and an overhang's underside would be turned up.
 Terrain build_tin_terrain(const std::vector<geometry::TriangleMesh>& parts,
                           const std::vector<std::string>& part_names, const std::string& source,
                           TinReport* report = nullptr);

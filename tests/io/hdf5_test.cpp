@@ -118,5 +118,36 @@ TEST(AtomicOutput, UncommittedLeavesNothing) {
   EXPECT_THROW(AtomicOutput("/nonexistent-dir/x.h5"), core::RuntimeError);
 }
 
+TEST(Hdf5, AppendableDatasetsGrowAcrossReopening) {
+  const std::string path = temp_file("append.h5");
+  {
+    const h5::File f = h5::File::create(path);
+    const h5::Group root = f.root();
+    root.create_appendable("rows", h5::Group::Element::f64, 3, "m", 2);
+    root.create_appendable("ids", h5::Group::Element::i64);
+    const std::vector<double> a = {1, 2, 3, 4, 5, 6};
+    root.append("rows", a.data(), 2);
+    const std::vector<std::int64_t> ids = {7};
+    root.append("ids", ids.data(), 1);
+    EXPECT_THROW(root.append("missing", ids.data(), 1), core::RuntimeError);
+    EXPECT_THROW(root.append("rows", ids.data(), 1), core::RuntimeError);  // wrong element type
+  }
+  {
+    // A resumed journal appends after what an earlier process wrote.
+    const h5::File f = h5::File::open_rw(path);
+    const std::vector<double> b = {7, 8, 9};
+    f.root().append("rows", b.data(), 1);
+    const std::vector<std::int64_t> ids = {8, 9};
+    f.root().append("ids", ids.data(), 2);
+  }
+  const h5::File f = h5::File::open(path);
+  EXPECT_EQ(f.root().shape("rows"), (h5::Shape{3, 3}));
+  EXPECT_EQ(f.root().read_doubles("rows"), (std::vector<double>{1, 2, 3, 4, 5, 6, 7, 8, 9}));
+  EXPECT_EQ(f.root().read_int64("ids"), (std::vector<std::int64_t>{7, 8, 9}));
+  EXPECT_EQ(f.root().dataset_attr_string("rows", "unit"), "m");
+  std::filesystem::remove(path);
+  EXPECT_THROW(h5::File::open_rw(path), core::InputError);
+}
+
 }  // namespace
 }  // namespace talus::io

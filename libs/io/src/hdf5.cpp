@@ -96,6 +96,20 @@ File File::open(const std::string& path) {
   return File(Group(handle, "/", path));
 }
 
+File File::open_rw(const std::string& path) {
+  silence_hdf5();
+  if (H5Fis_hdf5(path.c_str()) <= 0) {
+    FILE* f = std::fopen(path.c_str(), "rb");
+    if (!f) throw InputError(path, "cannot open file (missing or unreadable)");
+    std::fclose(f);
+    throw InputError(path, "not an HDF5 file (or truncated)");
+  }
+  Id id(H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT));
+  if (!id.valid()) throw InputError(path, "cannot open HDF5 file for writing");
+  auto handle = std::make_shared<Group::Handle>(Group::Handle{std::move(id)});
+  return File(Group(handle, "/", path));
+}
+
 void File::flush() const { H5Fflush(root_.handle_->id.get(), H5F_SCOPE_GLOBAL); }
 
 Group Group::create_group(const std::string& name) const {
@@ -281,6 +295,77 @@ void Group::write_strings(const std::string& name, const std::vector<std::string
   for (const auto& v : values) ptrs.push_back(v.c_str());
   if (!values.empty()) H5Dwrite(set.get(), type.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, ptrs.data());
 }
+
+namespace {
+
+hid_t element_type(Group::Element element) {
+  switch (element) {
+    case Group::Element::f64: return H5T_NATIVE_DOUBLE;
+    case Group::Element::i64: return H5T_NATIVE_INT64;
+    case Group::Element::i32: return H5T_NATIVE_INT32;
+    case Group::Element::u8: return H5T_NATIVE_UINT8;
+  }
+  return H5T_NATIVE_DOUBLE;
+}
+
+template <class T>
+void append_rows(hid_t parent, const std::string& file, const std::string& where,
+                 const std::string& name, const T* data, std::uint64_t rows) {
+  if (H5Lexists(parent, name.c_str(), H5P_DEFAULT) <= 0)
+    throw core::RuntimeError(file + ": cannot append to missing dataset " + where);
+  Id set(H5Dopen2(parent, name.c_str(), H5P_DEFAULT));
+  Id stored(H5Dget_type(set.get()));
+  if (!set.valid() || H5Tequal(stored.get(), native_type<T>()) <= 0)
+    throw core::RuntimeError(file + ": " + where + " is not an appendable dataset of this type");
+  if (rows == 0) return;
+  Shape shape = dataset_shape(set.get());
+  std::vector<hsize_t> dims(shape.begin(), shape.end());
+  std::vector<hsize_t> start(dims.size(), 0);
+  std::vector<hsize_t> count(dims);
+  start[0] = dims[0];
+  count[0] = rows;
+  dims[0] += rows;
+  if (H5Dset_extent(set.get(), dims.data()) < 0)
+    throw core::RuntimeError(file + ": cannot extend dataset " + where);
+  Id space(H5Dget_space(set.get()));
+  H5Sselect_hyperslab(space.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr);
+  Id memory(H5Screate_simple(static_cast<int>(count.size()), count.data(), nullptr));
+  if (H5Dwrite(set.get(), native_type<T>(), memory.get(), space.get(), H5P_DEFAULT, data) < 0)
+    throw core::RuntimeError(file + ": cannot append to dataset " + where);
+}
+
+}  // namespace
+
+void Group::create_appendable(const std::string& name, Element element, std::uint64_t columns,
+                              std::string_view unit, std::uint64_t chunk_rows) const {
+  std::vector<hsize_t> dims = {0};
+  std::vector<hsize_t> max_dims = {H5S_UNLIMITED};
+  std::vector<hsize_t> chunk = {std::max<hsize_t>(chunk_rows, 1)};
+  if (columns > 0) {
+    dims.push_back(columns);
+    max_dims.push_back(columns);
+    chunk.push_back(columns);
+  }
+  Id space(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), max_dims.data()));
+  Id dcpl = no_times_plist(H5P_DATASET_CREATE);
+  H5Pset_chunk(dcpl.get(), static_cast<int>(chunk.size()), chunk.data());
+  H5Pset_shuffle(dcpl.get());
+  H5Pset_deflate(dcpl.get(), 4);
+  Id set(H5Dcreate2(handle_->id.get(), name.c_str(), element_type(element), space.get(), H5P_DEFAULT,
+                    dcpl.get(), H5P_DEFAULT));
+  if (!set.valid()) throw core::RuntimeError(file_name_ + ": cannot create dataset " + where(name));
+  if (!unit.empty()) write_string_attr(set.get(), "unit", std::string(unit));
+}
+
+#define TALUS_H5_APPEND(T)                                                                  \
+  void Group::append(const std::string& name, const T* data, std::uint64_t rows) const {    \
+    append_rows<T>(handle_->id.get(), file_name_, where(name), name, data, rows);           \
+  }
+TALUS_H5_APPEND(double)
+TALUS_H5_APPEND(std::int64_t)
+TALUS_H5_APPEND(std::int32_t)
+TALUS_H5_APPEND(std::uint8_t)
+#undef TALUS_H5_APPEND
 
 Shape Group::shape(const std::string& name) const {
   Id set = open_dataset(handle_->id.get(), file_name_, where(name), name);

@@ -37,6 +37,19 @@ class Group {
              std::string_view unit = {}, bool compress = false) const;
   void write_strings(const std::string& name, const std::vector<std::string>& values) const;
 
+  // Appendable datasets: chunked, deflated, unlimited along the first axis, for outputs
+  // that grow as work finishes (crash-safe journals). Rows are `columns` values wide
+  // (columns = 0 makes a 1-D dataset). Appending to a missing dataset or with the wrong
+  // element type throws core::RuntimeError.
+  enum class Element { f64, i64, i32, u8 };
+  void create_appendable(const std::string& name, Element element, std::uint64_t columns = 0,
+                         std::string_view unit = {}, std::uint64_t chunk_rows = 1024) const;
+  /// Appends `rows` rows (rows × max(columns, 1) values, row-major) to an appendable dataset.
+  void append(const std::string& name, const double* data, std::uint64_t rows) const;
+  void append(const std::string& name, const std::int64_t* data, std::uint64_t rows) const;
+  void append(const std::string& name, const std::int32_t* data, std::uint64_t rows) const;
+  void append(const std::string& name, const std::uint8_t* data, std::uint64_t rows) const;
+
   /// Shape of a dataset; throws if it is missing.
   Shape shape(const std::string& name) const;
   /// Reads a dataset, converting to the requested type. If `expected` is given, the
@@ -84,6 +97,9 @@ class File {
   static File create(const std::string& path);
   /// Opens an existing file read-only; throws InputError if it is missing or not HDF5.
   static File open(const std::string& path);
+  /// Opens an existing file for reading and appending (resuming a journal); throws
+  /// InputError if it is missing, not HDF5, or cannot be opened for writing.
+  static File open_rw(const std::string& path);
   Group root() const { return root_; }
   /// Flushes buffered data to disk.
   void flush() const;

@@ -1,13 +1,12 @@
 #include "talus/block/hull.hpp"
 
 #include <CGAL/Advancing_front_surface_reconstruction.h>
-#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
-#include <CGAL/Surface_mesh.h>
 #include <CGAL/convex_hull_3.h>
 
 #include <array>
 #include <cmath>
 
+#include "cgal_mesh.hpp"
 #include "talus/block/block.hpp"
 #include "talus/core/error.hpp"
 #include "talus/geometry/half_edge.hpp"
@@ -15,8 +14,7 @@
 namespace talus::block {
 
 using geometry::Vec3;
-using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
-using Point = Kernel::Point_3;
+using cgal::Point;
 
 namespace {
 
@@ -57,20 +55,9 @@ void require_volume_spanning(const std::vector<Vec3>& points, const std::string&
 geometry::Polyhedron convex_hull(const std::vector<Vec3>& points, const std::string& source) {
   require_volume_spanning(points, source);
   const std::vector<Point> p = to_points(points);
-  CGAL::Surface_mesh<Point> hull;
+  cgal::SurfaceMesh hull;
   CGAL::convex_hull_3(p.begin(), p.end(), hull);
-  geometry::Polyhedron poly;
-  std::vector<std::int32_t> index(hull.number_of_vertices() + hull.number_of_removed_vertices(), -1);
-  for (auto v : hull.vertices()) {
-    index[v.idx()] = static_cast<std::int32_t>(poly.vertices.size());
-    const Point& q = hull.point(v);
-    poly.vertices.emplace_back(q.x(), q.y(), q.z());
-  }
-  for (auto f : hull.faces()) {
-    std::vector<std::int32_t> face;
-    for (auto v : CGAL::vertices_around_face(hull.halfedge(f), hull)) face.push_back(index[v.idx()]);
-    poly.faces.push_back(std::move(face));
-  }
+  const geometry::Polyhedron poly = geometry::to_polyhedron(cgal::from_surface_mesh(hull));
   // CGAL's output order follows memory addresses: make it a function of the points.
   geometry::Polyhedron merged = geometry::merge_coplanar_faces(poly, 1e-9 * diagonal(points));
   geometry::canonicalize(merged);
@@ -97,10 +84,7 @@ geometry::TriangleMesh reconstruct_surface(const std::vector<Vec3>& points, cons
                               static_cast<std::int32_t>(f[2])});
   if (mesh.triangles.empty()) throw core::InputError(source, "surface reconstruction produced no triangles");
   // The reconstruction's global orientation is arbitrary: point it outward.
-  geometry::Polyhedron poly;
-  poly.vertices = mesh.vertices;
-  for (const auto& t : mesh.triangles) poly.faces.push_back({t[0], t[1], t[2]});
-  if (exact_volume(poly).value < 0.0)
+  if (exact_volume(geometry::to_polyhedron(mesh)).value < 0.0)
     for (auto& t : mesh.triangles) std::swap(t[1], t[2]);
   return mesh;
 }

@@ -1,16 +1,15 @@
 #include "talus/block/mesh_check.hpp"
 
-#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Polygon_mesh_processing/border.h>
 #include <CGAL/Polygon_mesh_processing/self_intersections.h>
 #include <CGAL/Polygon_mesh_processing/triangulate_hole.h>
-#include <CGAL/Surface_mesh.h>
 
 #include <algorithm>
 #include <cmath>
 #include <map>
 #include <unordered_map>
 
+#include "cgal_mesh.hpp"
 #include "talus/block/block.hpp"
 #include "talus/core/error.hpp"
 #include "talus/core/log.hpp"
@@ -20,9 +19,9 @@ namespace talus::block {
 
 using geometry::TriangleMesh;
 using geometry::Vec3;
-using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
-using Point = Kernel::Point_3;
-using SurfaceMesh = CGAL::Surface_mesh<Point>;
+using cgal::from_surface_mesh;
+using cgal::SurfaceMesh;
+using cgal::to_surface_mesh;
 namespace PMP = CGAL::Polygon_mesh_processing;
 
 namespace {
@@ -36,44 +35,6 @@ std::string where(const TriangleMesh& mesh, std::int64_t vertex) {
   const Vec3& p = mesh.vertices[static_cast<std::size_t>(vertex)];
   return " near (" + core::format_number(p.x()) + ", " + core::format_number(p.y()) + ", " +
          core::format_number(p.z()) + ")";
-}
-
-geometry::Polyhedron as_polyhedron(const TriangleMesh& mesh) {
-  geometry::Polyhedron poly;
-  poly.vertices = mesh.vertices;
-  for (const auto& t : mesh.triangles) poly.faces.push_back({t[0], t[1], t[2]});
-  return poly;
-}
-
-SurfaceMesh to_surface_mesh(const TriangleMesh& mesh, const std::string& source) {
-  SurfaceMesh sm;
-  std::vector<SurfaceMesh::Vertex_index> v;
-  v.reserve(mesh.vertices.size());
-  for (const Vec3& p : mesh.vertices) v.push_back(sm.add_vertex(Point(p.x(), p.y(), p.z())));
-  for (const auto& t : mesh.triangles)
-    if (sm.add_face(v[t[0]], v[t[1]], v[t[2]]) == SurfaceMesh::null_face())
-      throw core::InputError(source, "non-manifold: faces around a vertex do not form one fan");
-  return sm;
-}
-
-TriangleMesh from_surface_mesh(const SurfaceMesh& sm) {
-  TriangleMesh mesh;
-  std::vector<std::int32_t> index(sm.number_of_vertices() + sm.number_of_removed_vertices(), -1);
-  for (auto v : sm.vertices()) {
-    index[v.idx()] = static_cast<std::int32_t>(mesh.vertices.size());
-    const Point& p = sm.point(v);
-    mesh.vertices.emplace_back(p.x(), p.y(), p.z());
-  }
-  for (auto f : sm.faces()) {
-    std::array<std::int32_t, 3> t{};
-    int k = 0;
-    for (auto v : CGAL::vertices_around_face(sm.halfedge(f), sm)) {
-      if (k < 3) t[static_cast<std::size_t>(k)] = index[v.idx()];
-      ++k;
-    }
-    if (k == 3) mesh.triangles.push_back(t);
-  }
-  return mesh;
 }
 
 // Flips triangles so that every shared edge is traversed in opposite directions, by a
@@ -200,7 +161,7 @@ CheckedMesh check_mesh(TriangleMesh mesh, const RepairOptions& repair, const std
     const auto& t = mesh.triangles[f];
     const Vec3 &a = mesh.vertices[t[0]], &b = mesh.vertices[t[1]], &c = mesh.vertices[t[2]];
     const bool bad = t[0] == t[1] || t[1] == t[2] || t[0] == t[2] ||
-                     CGAL::collinear(Point(a.x(), a.y(), a.z()), Point(b.x(), b.y(), b.z()), Point(c.x(), c.y(), c.z()));
+                     CGAL::collinear(cgal::point(a), cgal::point(b), cgal::point(c));
     if (bad && degenerate++ == 0) example = f;
   }
   if (degenerate)
@@ -229,14 +190,14 @@ CheckedMesh check_mesh(TriangleMesh mesh, const RepairOptions& repair, const std
   }
 
   geometry::HalfEdgeMesh he;
-  geometry::TopologyReport topo = geometry::HalfEdgeMesh::build(mesh.vertices, as_polyhedron(mesh).faces, he);
+  geometry::TopologyReport topo = geometry::HalfEdgeMesh::build(mesh.vertices, geometry::to_polyhedron(mesh).faces, he);
   if (topo.defect == geometry::TopologyDefect::inconsistent_orientation) {
     if (!repair.orient)
       throw core::InputError(source, topo.describe() + where(mesh, topo.vertex) +
                                          "; set repair.orient to re-orient");
     const std::size_t flipped = orient_consistently(mesh, source);
     out.repairs.push_back("oriented: flipped " + std::to_string(flipped) + " triangle(s) to agree with their neighbours");
-    topo = geometry::HalfEdgeMesh::build(mesh.vertices, as_polyhedron(mesh).faces, he);
+    topo = geometry::HalfEdgeMesh::build(mesh.vertices, geometry::to_polyhedron(mesh).faces, he);
   }
   if (topo.defect == geometry::TopologyDefect::open_boundary) {
     const std::vector<std::size_t> holes = hole_sizes(mesh);
@@ -260,7 +221,7 @@ CheckedMesh check_mesh(TriangleMesh mesh, const RepairOptions& repair, const std
     mesh = from_surface_mesh(sm);
     out.repairs.push_back("filled " + std::to_string(holes.size()) + " hole(s) (" + std::to_string(topo.count) +
                           " boundary edges) with " + std::to_string(added) + " triangle(s)");
-    topo = geometry::HalfEdgeMesh::build(mesh.vertices, as_polyhedron(mesh).faces, he);
+    topo = geometry::HalfEdgeMesh::build(mesh.vertices, geometry::to_polyhedron(mesh).faces, he);
   }
   if (!topo.ok()) throw core::InputError(source, topo.describe() + where(mesh, topo.vertex));
   const std::size_t pieces = he.connected_components();
@@ -275,7 +236,7 @@ CheckedMesh check_mesh(TriangleMesh mesh, const RepairOptions& repair, const std
                                        " pair(s) of triangles intersect (e.g. triangles " + std::to_string(first) +
                                        " and " + std::to_string(second) + where(mesh, mesh.triangles[first][0]) + ")");
 
-  geometry::Polyhedron poly = as_polyhedron(mesh);
+  geometry::Polyhedron poly = geometry::to_polyhedron(mesh);
   geometry::remove_unused_vertices(poly);
   const ExactVolume signed_volume = exact_volume(poly);
   if (signed_volume.value == 0.0 && signed_volume.rational == "0")

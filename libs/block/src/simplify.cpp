@@ -1,12 +1,11 @@
 #include "talus/block/simplify.hpp"
 
-#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
-#include <CGAL/Surface_mesh.h>
 #include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/Count_stop_predicate.h>
 #include <CGAL/Surface_mesh_simplification/edge_collapse.h>
 
 #include <cstdio>
 
+#include "cgal_mesh.hpp"
 #include "talus/block/hull.hpp"
 #include "talus/block/mesh_check.hpp"
 #include "talus/core/error.hpp"
@@ -14,9 +13,7 @@
 
 namespace talus::block {
 
-using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
-using Point = Kernel::Point_3;
-using SurfaceMesh = CGAL::Surface_mesh<Point>;
+using cgal::SurfaceMesh;
 namespace SMS = CGAL::Surface_mesh_simplification;
 
 std::string SimplifyReport::describe() const {
@@ -32,26 +29,12 @@ geometry::Polyhedron simplify_to_faces(const geometry::Polyhedron& poly, std::si
     throw core::InputError(source, "simplify.target_faces must be at least 4, got " + std::to_string(target_faces));
   const geometry::TriangleMesh tri = geometry::triangulate(poly);
   if (tri.triangles.size() <= target_faces) return poly;
-  SurfaceMesh sm;
-  std::vector<SurfaceMesh::Vertex_index> v;
-  for (const auto& p : tri.vertices) v.push_back(sm.add_vertex(Point(p.x(), p.y(), p.z())));
-  for (const auto& t : tri.triangles) sm.add_face(v[t[0]], v[t[1]], v[t[2]]);
+  SurfaceMesh sm = cgal::to_surface_mesh(tri, source);
   // A closed triangle mesh has 3F/2 edges.
   SMS::Count_stop_predicate<SurfaceMesh> stop(target_faces * 3 / 2);
   SMS::edge_collapse(sm, stop);
   sm.collect_garbage();
-  geometry::TriangleMesh out;
-  for (auto vi : sm.vertices()) {
-    const Point& p = sm.point(vi);
-    out.vertices.emplace_back(p.x(), p.y(), p.z());
-  }
-  for (auto f : sm.faces()) {
-    std::array<std::int32_t, 3> t{};
-    std::size_t k = 0;
-    for (auto vi : CGAL::vertices_around_face(sm.halfedge(f), sm))
-      if (k < 3) t[k++] = static_cast<std::int32_t>(vi.idx());
-    out.triangles.push_back(t);
-  }
+  geometry::TriangleMesh out = cgal::from_surface_mesh(sm);
   try {
     geometry::Polyhedron result = check_mesh(std::move(out), RepairOptions{}, source).polyhedron;
     geometry::canonicalize(result);

@@ -102,13 +102,6 @@ geometry::TriangleMesh geodesic_sphere(int n) {
   return mesh;
 }
 
-Polyhedron to_polyhedron(const geometry::TriangleMesh& mesh) {
-  Polyhedron poly;
-  poly.vertices = mesh.vertices;
-  for (const auto& t : mesh.triangles) poly.faces.push_back({t[0], t[1], t[2]});
-  return poly;
-}
-
 void require_range(bool ok, const std::string& source, const std::string& what) {
   if (!ok) throw core::InputError(source, what);
 }
@@ -146,7 +139,7 @@ Polyhedron make_ellipsoid(const SolidSpec& spec, const std::string& source) {
     }
   }
   for (Vec3& p : mesh.vertices) p = p.cwiseProduct(0.5 * spec.dimensions);
-  return to_polyhedron(mesh);
+  return geometry::to_polyhedron(mesh);
 }
 
 Polyhedron make_rock(const SolidSpec& spec, const std::string& source) {

@@ -340,4 +340,12 @@ TriangleMesh triangulate(const Polyhedron& poly) {
   return mesh;
 }
 
+Polyhedron to_polyhedron(const TriangleMesh& mesh) {
+  Polyhedron poly;
+  poly.vertices = mesh.vertices;
+  poly.faces.reserve(mesh.triangles.size());
+  for (const auto& t : mesh.triangles) poly.faces.push_back({t[0], t[1], t[2]});
+  return poly;
+}
+
 }  // namespace talus::geometry

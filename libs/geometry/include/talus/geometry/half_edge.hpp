@@ -91,4 +91,7 @@ void canonicalize(Polyhedron& poly);
 /// Fan triangulation of every face (exact for the planar convex faces Talus stores).
 TriangleMesh triangulate(const Polyhedron& poly);
 
+/// The triangles of a mesh as the faces of a polyhedron (no checks).
+Polyhedron to_polyhedron(const TriangleMesh& mesh);
+
 }  // namespace talus::geometry

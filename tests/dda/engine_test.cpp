@@ -40,8 +40,8 @@ TEST(DdaFlight, ProjectileIsExact) {
     EXPECT_LT(f.position_error, 1e-10) << dof;
     EXPECT_LT(f.velocity_error, 1e-10) << dof;
     EXPECT_EQ(f.contact_steps, 0u) << dof;
-    // Apex of the centroid: 500 + 8²/(2g) m above the ground at z = 0.
-    EXPECT_NEAR(f.max_jump_height, 500.0 + 8.0 * 8.0 / (2 * kG), 1e-3) << dof;
+    // No terrain contact yet: the release flight is no jump.
+    EXPECT_EQ(f.max_jump_height, 0.0) << dof;
   }
 }
 

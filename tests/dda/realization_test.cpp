@@ -54,6 +54,10 @@ TEST(DdaRealization, IsDeterministic) {
   EXPECT_NE(a.final_position, c.final_position);
   EXPECT_FALSE(is_failure(a.end)) << to_string(a.end);
   EXPECT_GT(a.impacts, 0u);
+  // After landing, the centroid of a unit cube is at least half an edge above the ground
+  // (less the roughness under its corners), and the release drop (2.5 m) is not counted.
+  EXPECT_GT(a.max_jump_height, 0.3);
+  EXPECT_LT(a.max_jump_height, 2.5);
 }
 
 // The pruned contact search finds exactly what testing every triangle finds, over

@@ -412,7 +412,8 @@ void finish_step(const Model& model, const Ground& ground, State& s, double dt) 
   double height = std::numeric_limits<double>::quiet_NaN();
   if (const auto hit = surf.height_at(s.position.x(), s.position.y())) {
     height = s.position.z() - hit->z;
-    s.max_jump_height = std::max(s.max_jump_height, height);
+    // Jumps count from the first terrain contact on: the release drop is no jump.
+    if (s.counters.contact_steps > 0) s.max_jump_height = std::max(s.max_jump_height, height);
   }
   if (model.settings.trajectory_interval > 0.0 && s.time + 1e-12 >= s.next_sample_time) {
     s.trajectory.push_back(TrajectorySample{s.time, s.position, s.velocity.head<3>(), height,

@@ -39,7 +39,7 @@ struct Summary {
   double runout = 0.0;     ///< along the main direction from the release point (m)
   double lateral = 0.0;    ///< across it, positive to the left of the main direction (m)
   double max_speed = 0.0;  ///< centroid (m/s)
-  double max_jump_height = 0.0;  ///< centroid above the terrain surface (m)
+  double max_jump_height = 0.0;  ///< centroid above the terrain surface, from the first contact on (m)
   std::uint64_t impacts = 0;
   Counters counters;
   PhaseTimes times;

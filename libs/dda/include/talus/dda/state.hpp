@@ -166,7 +166,7 @@ struct State {
   Release release;
   std::uint64_t impacts = 0;
   double max_speed = 0.0;             ///< centroid (m/s)
-  double max_jump_height = 0.0;       ///< centroid above the terrain (m)
+  double max_jump_height = 0.0;       ///< centroid above the terrain after the first contact (m)
   double rest_time = 0.0;             ///< time spent below the rest threshold (s)
   EndReason end = EndReason::running;
   Counters counters;

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "talus/dda/engine.hpp"
 
+#include <Eigen/Cholesky>
 #include <Eigen/LU>
 #include <algorithm>
 #include <chrono>
@@ -73,6 +74,14 @@ void update_world_vertices(const Model& model, State& s) {
     s.world_vertices[i] = p.centre + p.map * model.vertices[i];
 }
 
+// ½mv² + ½ωᵀJω: the rigid part of the kinetic energy (J).
+double rigid_kinetic_energy(const Model& model, const State& s) {
+  const Vec3 v = s.velocity.head<3>();
+  const Vec3 w = s.velocity.segment<3>(3);
+  const Vec3 wb = s.orientation.conjugate() * w;  // body frame
+  return 0.5 * model.mass * v.squaredNorm() + 0.5 * wb.dot(model.inertia * wb);
+}
+
 Vec3 gravity_vector(const Model& model) { return Vec3(0.0, 0.0, -model.settings.gravity); }
 
 // Voigt (εx εy εz γyz γzx γxy) of a symmetric strain tensor.
@@ -94,6 +103,30 @@ template <int N>
 using MatN = Eigen::Matrix<double, N, N>;
 template <int N>
 using VecN = Eigen::Matrix<double, N, 1>;
+
+// T(r) restricted to the N unknowns of the path (3×6 rigid or 3×12 full).
+template <int N>
+Eigen::Matrix<double, 3, N> dof_matrix(const Vec3& r) {
+  if constexpr (N == 6) {
+    Eigen::Matrix<double, 3, 6> t;
+    t << 1, 0, 0, 0, r.z(), -r.y(),  //
+        0, 1, 0, -r.z(), 0, r.x(),   //
+        0, 0, 1, r.y(), -r.x(), 0;
+    return t;
+  } else {
+    return displacement_matrix(r);
+  }
+}
+
+// Displacement of the point r (relative to the centroid) for the step displacement d.
+template <int N>
+Vec3 point_displacement(const Vec3& r, const VecN<N>& d) {
+  if constexpr (N == 6) {
+    return d.template head<3>() + d.template tail<3>().cross(r);
+  } else {
+    return displacement_matrix(r) * d;
+  }
+}
 
 template <int N>
 MatN<N> current_mass(const Model& model, const Pose& pose) {
@@ -152,12 +185,12 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
     for (std::size_t i = 0; i < contacts.size(); ++i) {
       const Contact& c = contacts[i];
       Work<N>& w = work[i];
-      w.t = displacement_matrix(c.point - pose.centre).template leftCols<N>();
+      w.t = dof_matrix<N>(c.point - pose.centre);
       w.gn = w.t.transpose() * c.normal;
       w.g0 = c.gap - c.gap_offset;
       if (c.anchored) {
         const Vec3 xa = pose.centre + pose.map * c.body_anchor;
-        w.ta = displacement_matrix(xa - pose.centre).template leftCols<N>();
+        w.ta = dof_matrix<N>(xa - pose.centre);
         const Vec3 s_raw = xa - c.ground_anchor;
         w.s0 = s_raw - c.normal * c.normal.dot(s_raw);
       }
@@ -210,7 +243,11 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
     }
     {
       PhaseTimer timer(timing, times.solve);
-      d = Eigen::PartialPivLU<MatN<N>>(k).solve(f);
+      // Symmetric positive definite unless a contact slides (implicit friction).
+      bool sliding = false;
+      for (const Contact& c : contacts) sliding = sliding || c.mode == ContactMode::sliding;
+      if (sliding) d = Eigen::PartialPivLU<MatN<N>>(k).solve(f);
+      else d = Eigen::LLT<MatN<N>>(k).solve(f);
     }
     PhaseTimer timer(timing, times.open_close);
     if (!d.allFinite()) return out;
@@ -426,7 +463,10 @@ void finish_step(const Model& model, const Ground& ground, State& s, double dt) 
     end_with(s, EndReason::left_terrain);
     return;
   }
-  if (kinetic_energy(model, s) < model.settings.rest_kinetic_energy * model.mass) {
+  // The rigid part bounds the 12-DOF energy from below: skip the 12×12 product when it
+  // already rules out rest.
+  const double rest_energy = model.settings.rest_kinetic_energy * model.mass;
+  if (rigid_kinetic_energy(model, s) < rest_energy && kinetic_energy(model, s) < rest_energy) {
     s.rest_time += dt;
     if (s.rest_time >= model.settings.rest_dwell) {
       end_with(s, EndReason::rest);
@@ -456,6 +496,13 @@ geometry::Aabb swept_sphere_box(const Model& model, const State& s, double h) {
 // True when no terrain triangle can be touched before time + h.
 bool clear_of_terrain(const Model& model, const Ground& ground, State& s, double h) {
   const geometry::Aabb box = swept_sphere_box(model, s, h).inflated(model.max_step_displacement());
+  const TerrainPatch& patch = s.patch;
+  if (patch.surface == ground.surface && !patch.box.empty() && patch.box.contains(box.lo) && patch.box.contains(box.hi)) {
+    // The patch under the block holds every triangle that can meet the box.
+    for (const TerrainPatch::Triangle& t : patch.triangles)
+      if (t.box.overlaps(box)) return false;
+    return true;
+  }
   s.scratch_triangles.clear();
   ground.surface->triangles_in_box(box, s.scratch_triangles);
   for (std::int32_t t : s.scratch_triangles) {
@@ -490,6 +537,8 @@ bool flight_step(const Model& model, const Ground& ground, State& s) {
     // Look ahead over a long horizon first, then shorter ones.
     bool clear = false;
     for (const double h : {64.0 * dt, 8.0 * dt, dt}) {
+      // Right after contact the long horizons would fail anyway: test one step.
+      if (h > dt && s.counters.steps > 0 && s.last_step_contact) continue;
       if (clear_of_terrain(model, ground, s, h)) {
         s.clear_until = s.time + h;
         clear = true;
@@ -513,6 +562,7 @@ bool flight_step(const Model& model, const Ground& ground, State& s) {
     apply_displacement<12>(model, s, d, dt);
   }
   ++s.counters.flight_steps;
+  s.last_step_contact = false;
   return true;
 }
 
@@ -530,7 +580,7 @@ double time_of_impact(const Model& model, const State& s, const Pose& pose, cons
     const Contact& c = contacts[i];
     const double g0 = c.gap - c.gap_offset;
     if (start_modes[i] != ContactMode::open || c.mode == ContactMode::open || g0 <= 0.0) continue;
-    const VecN<N> gn = displacement_matrix(c.point - pose.centre).template leftCols<N>().transpose() * c.normal;
+    const VecN<N> gn = dof_matrix<N>(c.point - pose.centre).transpose() * c.normal;
     const double a1 = gn.dot(v0);
     const double a2 = gn.dot(acc);
     if (-a1 < model.settings.impact_min_normal_speed) continue;
@@ -580,7 +630,7 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
     } else {
       double moved = 0.0;
       for (const Vec3& x : s.world_vertices) {
-        const Vec3 u = displacement_matrix(x - pose.centre).template leftCols<N>() * d;
+        const Vec3 u = point_displacement<N>(x - pose.centre, d);
         moved = std::max(moved, u.norm());
       }
       if (moved > limit) factor = std::max(0.1, 0.9 * limit / moved);
@@ -620,7 +670,7 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   s.contacts.clear();
   bool any_closed = false;
   for (Contact& c : contacts) {
-    const Vec3 du = displacement_matrix(c.point - pose.centre).template leftCols<N>() * d;
+    const Vec3 du = point_displacement<N>(c.point - pose.centre, d);
     const double g = c.gap - c.gap_offset + c.normal.dot(du);
     if (c.mode == ContactMode::open) {
       if (c.anchored && g < keep_gap) {
@@ -644,6 +694,7 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   }
   apply_displacement<N>(model, s, d, dt);
   ++s.counters.contact_steps;
+  s.last_step_contact = true;
   if (any_closed && !s.episode.active) start_episode(model, ground, s, v_start);
   else if (!any_closed && s.episode.active) end_episode(model, s);
   s.clear_until = -1.0;
@@ -731,11 +782,9 @@ Summary run(const Model& model, const Ground& ground, const Release& release, co
 }
 
 double kinetic_energy(const Model& model, const State& s) {
-  const Vec3 v = s.velocity.head<3>();
-  const Vec3 w = s.velocity.segment<3>(3);
-  const Mat3 r = s.orientation.toRotationMatrix();
-  double e = 0.5 * model.mass * v.squaredNorm() + 0.5 * w.dot(r * model.inertia * r.transpose() * w);
+  double e = rigid_kinetic_energy(model, s);
   if (model.dof == DofPath::full12) {
+    const Mat3 r = s.orientation.toRotationMatrix();
     const Mat3 map = r * s.stretch;
     const Mat12 m = mass_matrix(model.settings.density, model.volume, map * model.second_moments * map.transpose());
     e = 0.5 * s.velocity.dot(m * s.velocity);

@@ -157,6 +157,7 @@ struct State {
   /// than a micro-gap and keep their memory.
   std::vector<Contact> contacts;
   double clear_until = -1.0;          ///< no terrain contact is possible before this time (s)
+  bool last_step_contact = false;     ///< the last accepted step searched for contacts
   Episode episode;
   double friction = 0.0;              ///< friction coefficient in force (drawn per impact)
   bool friction_drawn = false;

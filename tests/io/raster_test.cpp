@@ -156,7 +156,15 @@ terrain::DemGrid sample_dem() {
   return dem;
 }
 
-void expect_same_z(const terrain::DemGrid& a, const terrain::DemGrid& b) {
+// Same lattice (origin within `origin_tolerance` m, spacing and sizes exact) and the same
+// elevations bit for bit, NaN included.
+void expect_same_grid(const terrain::DemGrid& a, const terrain::DemGrid& b, double origin_tolerance) {
+  EXPECT_EQ(a.spec.nx, b.spec.nx);
+  EXPECT_EQ(a.spec.ny, b.spec.ny);
+  EXPECT_EQ(a.spec.dx, b.spec.dx);
+  EXPECT_EQ(a.spec.dy, b.spec.dy);
+  EXPECT_NEAR(a.spec.x0, b.spec.x0, origin_tolerance);
+  EXPECT_NEAR(a.spec.y0, b.spec.y0, origin_tolerance);
   ASSERT_EQ(a.z.size(), b.z.size());
   for (std::size_t k = 0; k < a.z.size(); ++k) {
     if (std::isnan(a.z[k])) EXPECT_TRUE(std::isnan(b.z[k])) << k;
@@ -168,15 +176,8 @@ TEST(EsriAscii, WriteReadRoundTripIsExact) {
   const terrain::DemGrid dem = sample_dem();
   const std::string path = temp_file("roundtrip.asc");
   write_esri_ascii(path, dem);
-  const terrain::DemGrid back = read_esri_ascii(path);
-  EXPECT_EQ(back.spec.nx, dem.spec.nx);
-  EXPECT_EQ(back.spec.ny, dem.spec.ny);
   // Centre keys and shortest round-trip digits: every number comes back bit for bit.
-  EXPECT_EQ(back.spec.x0, dem.spec.x0);
-  EXPECT_EQ(back.spec.y0, dem.spec.y0);
-  EXPECT_EQ(back.spec.dx, dem.spec.dx);
-  EXPECT_EQ(back.spec.dy, dem.spec.dy);
-  expect_same_z(dem, back);
+  expect_same_grid(dem, read_esri_ascii(path), 0.0);
   fs::remove(path);
 }
 
@@ -190,16 +191,9 @@ TEST(GeoTiff, WriteReadRoundTrip) {
   const terrain::DemGrid dem = sample_dem();
   const std::string path = temp_file("roundtrip.tif");
   write_geotiff(path, dem);
-  const terrain::DemGrid back = read_geotiff(path);
-  EXPECT_EQ(back.spec.nx, dem.spec.nx);
-  EXPECT_EQ(back.spec.ny, dem.spec.ny);
-  EXPECT_EQ(back.spec.dx, dem.spec.dx);
-  EXPECT_EQ(back.spec.dy, dem.spec.dy);
   // The geotransform stores pixel edges: centre = edge + half a pixel may round by an ulp
-  // of the coordinate (1.5e-11 m at 1.2e5 m).
-  EXPECT_NEAR(back.spec.x0, dem.spec.x0, 1e-9);
-  EXPECT_NEAR(back.spec.y0, dem.spec.y0, 1e-9);
-  expect_same_z(dem, back);  // Float64 pixels: elevations are exact
+  // of the coordinate (1.5e-11 m at 1.2e5 m). Float64 pixels: elevations are exact.
+  expect_same_grid(dem, read_geotiff(path), 1e-9);
   EXPECT_EQ(read_dem(path).z.size(), dem.z.size());
   fs::remove(path);
 }
@@ -221,12 +215,7 @@ TEST(GeoTiff, AsciiGridThroughGdalMatchesOwnReader) {
   // GDAL reads .asc too; its georeferencing of a corner file must agree with ours.
   const std::string path = write_file("gdal.asc", "ncols 3\nnrows 2\nxllcorner 10\nyllcorner 20\ncellsize 2\n"
                                                   "NODATA_value -1\n1 2 3\n4 -1 6\n");
-  const terrain::DemGrid ours = read_esri_ascii(path);
-  const terrain::DemGrid gdal = read_geotiff(path);
-  EXPECT_EQ(gdal.spec.x0, ours.spec.x0);
-  EXPECT_EQ(gdal.spec.y0, ours.spec.y0);
-  EXPECT_EQ(gdal.spec.dx, ours.spec.dx);
-  expect_same_z(ours, gdal);
+  expect_same_grid(read_esri_ascii(path), read_geotiff(path), 0.0);
   fs::remove(path);
 }
 

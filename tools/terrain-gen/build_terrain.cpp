@@ -28,12 +28,6 @@ using terrain::Terrain;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-std::string lower_extension(const std::string& path) {
-  std::string ext = fs::path(path).extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
-}
-
 std::optional<SourceKind> kind_of_extension(const std::string& path) {
   const std::string ext = lower_extension(path);
   if (io::is_dem_path(path)) return SourceKind::dem;
@@ -199,6 +193,12 @@ std::vector<terrain::MaterialZone> shifted_zones(const std::vector<terrain::Mate
 }
 
 }  // namespace
+
+std::string lower_extension(const std::string& path) {
+  std::string ext = fs::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
 
 SourceKind resolve_source(const Settings& s, const std::vector<std::string>& inputs) {
   if (s.source == "synthetic" || (s.source == "auto" && inputs.empty())) {

@@ -2,7 +2,6 @@
 // surveyed meshes, a point cloud or a synthetic slope. See docs/terrain.md.
 #include <charconv>
 #include <cstdio>
-#include <filesystem>
 #include <string>
 
 #include "build_terrain.hpp"
@@ -19,12 +18,6 @@
 namespace {
 
 using namespace talus;
-
-std::string lower_extension(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
-}
 
 std::optional<std::uint32_t> parse_realization(const std::string& text) {
   if (text.empty()) return std::nullopt;
@@ -64,13 +57,13 @@ int main(int argc, char** argv) {
       throw core::UsageError("--realization needs --export-mesh");
     parse_realization(realization_text);
     if (!export_path.empty()) {
-      const std::string ext = lower_extension(export_path);
+      const std::string ext = terrain_gen::lower_extension(export_path);
       if (ext != ".obj" && ext != ".ply")
         throw core::UsageError("--export-mesh writes .obj or .ply, got '" + export_path + "'");
       io::AtomicOutput probe(export_path);  // fails now if its directory is missing
     }
     if (!inv.output.empty()) {
-      if (lower_extension(inv.output) == ".xmf")
+      if (terrain_gen::lower_extension(inv.output) == ".xmf")
         throw core::UsageError("the output is the HDF5 terrain file; its .xmf sidecar is written next to it");
       io::AtomicOutput probe(inv.output);
     }

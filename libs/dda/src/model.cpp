@@ -32,6 +32,8 @@ void Settings::visit(core::SettingsVisitor& v) {
            "impact-rebound law applied when a contact episode ends");
   v.field("impact_min_normal_speed", impact_min_normal_speed, "m/s",
           "normal approach speed below which a contact episode is rolling/sliding, not an impact");
+  v.field("impact_strains", impact_strains,
+          "full12: strains respond during impact episodes (else held during impacts)");
   v.field("rest_kinetic_energy", rest_kinetic_energy, "J/kg",
           "kinetic energy per unit mass below which the block may be at rest");
   v.field("rest_dwell", rest_dwell, "s", "time below the rest threshold that ends the realization");

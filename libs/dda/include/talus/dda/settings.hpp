@@ -42,6 +42,9 @@ struct Settings {
   /// An episode whose normal approach speed is below this is rolling/sliding, not an
   /// impact: no restitution limit, no draws (m/s).
   double impact_min_normal_speed = 0.5;
+  /// full12 only: let the strains respond during impact episodes (the reference model's
+  /// behaviour; the strain mode then keeps most of the impact energy, docs/dda.md).
+  bool impact_strains = false;
 
   double rest_kinetic_energy = 1e-3;        ///< rest threshold on kinetic energy per unit mass (J/kg)
   double rest_dwell = 0.5;                  ///< time below the threshold that means rest (s)

@@ -139,6 +139,9 @@ TEST(Hdf5, AppendableDatasetsGrowAcrossReopening) {
     f.root().append("rows", b.data(), 1);
     const std::vector<std::int64_t> ids = {8, 9};
     f.root().append("ids", ids.data(), 2);
+    f.root().append("ids", ids.data(), 1);
+    f.root().truncate_rows("ids", 3);  // drops the last, torn append
+    f.root().truncate_rows("ids", 10);  // longer than the dataset: no-op
   }
   const h5::File f = h5::File::open(path);
   EXPECT_EQ(f.root().shape("rows"), (h5::Shape{3, 3}));

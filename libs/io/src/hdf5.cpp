@@ -367,6 +367,16 @@ TALUS_H5_APPEND(std::int32_t)
 TALUS_H5_APPEND(std::uint8_t)
 #undef TALUS_H5_APPEND
 
+void Group::truncate_rows(const std::string& name, std::uint64_t rows) const {
+  Id set = open_dataset(handle_->id.get(), file_name_, where(name), name);
+  const Shape shape = dataset_shape(set.get());
+  if (shape.empty() || shape[0] <= rows) return;
+  std::vector<hsize_t> dims(shape.begin(), shape.end());
+  dims[0] = rows;
+  if (H5Dset_extent(set.get(), dims.data()) < 0)
+    throw core::RuntimeError(file_name_ + ": cannot truncate dataset " + where(name));
+}
+
 Shape Group::shape(const std::string& name) const {
   Id set = open_dataset(handle_->id.get(), file_name_, where(name), name);
   return dataset_shape(set.get());

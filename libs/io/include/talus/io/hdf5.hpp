@@ -49,6 +49,8 @@ class Group {
   void append(const std::string& name, const std::int64_t* data, std::uint64_t rows) const;
   void append(const std::string& name, const std::int32_t* data, std::uint64_t rows) const;
   void append(const std::string& name, const std::uint8_t* data, std::uint64_t rows) const;
+  /// Cuts an appendable dataset back to its first `rows` rows (no-op if it has fewer).
+  void truncate_rows(const std::string& name, std::uint64_t rows) const;
 
   /// Shape of a dataset; throws if it is missing.
   Shape shape(const std::string& name) const;

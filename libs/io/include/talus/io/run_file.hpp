@@ -1,0 +1,83 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "talus/io/file_header.hpp"
+#include "talus/mc/realization.hpp"
+
+namespace talus::io {
+
+/// What a run file holds besides its records (layout: docs/formats.md, "Run file").
+struct RunInfo {
+  Provenance provenance;
+  std::uint64_t realizations = 0;   ///< realizations of the whole scene (all shards)
+  std::string shard = "0/1";        ///< "K/N": which realizations i ≡ K (mod N) the file holds
+  std::vector<std::string> blocks;        ///< block names, indexed by Record::block
+  std::vector<std::string> stop_classes;  ///< indexed by Record::stop_class
+  std::vector<std::string> barriers;      ///< barrier names, indexed by Crossing::barrier
+  std::vector<std::vector<std::array<double, 2>>> barrier_lines;  ///< plan polylines (m)
+  mc::HazardGridSpec hazard;              ///< size 0 = no hazard map
+  double hazard_relative_accuracy = 0.01; ///< of the per-cell sketches (-)
+};
+
+/// The run metadata of a scene run as shard `shard`.
+RunInfo make_run_info(const mc::Scene& scene, const Provenance& provenance, const mc::Shard& shard);
+
+/// The crash-safe journal of a run in progress, next to the output: finished
+/// realizations are appended in chunks to extendible datasets and flushed, so a killed
+/// run loses at most the chunk in flight. The output file is written from it at the end.
+class RunJournal {
+ public:
+  /// Creates (truncates) a journal at `path`.
+  static RunJournal create(const std::string& path, const RunInfo& info);
+  /// Reopens the journal of an interrupted run for appending. Throws core::InputError
+  /// naming the journal if it is not one, or if its settings, inputs or shard differ from
+  /// `info` (a resume must continue the same run).
+  static RunJournal resume(const std::string& path, const RunInfo& info);
+
+  /// Appends finished realizations (any order) and flushes the file.
+  void append(const std::vector<mc::RealizationResult>& chunk);
+  /// Realizations already in the journal, ascending.
+  std::vector<std::uint32_t> finished() const;
+  /// Everything appended, in canonical order.
+  mc::RunData read() const;
+  const std::string& path() const { return path_; }
+
+ private:
+  RunJournal(h5::File file, std::string path, RunInfo info)
+      : file_(std::move(file)), path_(std::move(path)), info_(std::move(info)) {}
+  h5::File file_;
+  std::string path_;
+  RunInfo info_;
+  /// Cumulative rows of complete chunks: hazard cells, energy and height buckets,
+  /// records, crossings, trajectory points.
+  std::array<std::int64_t, 6> totals_{};
+};
+
+/// The journal path of an output ("run.h5" → "run.h5.journal").
+std::string run_journal_path(const std::string& output);
+
+/// Writes a run file atomically: header, provenance, run info, records sorted by
+/// realization, barrier crossings, hazard accumulators, sampled trajectories (if any)
+/// and, when there are trajectories, an XDMF sidecar (polylines) next to it.
+void write_run_file(const std::string& path, const RunInfo& info, const mc::RunData& data);
+
+struct RunFile {
+  RunInfo info;
+  mc::RunData data;
+};
+/// Reads a run file, checking the kind, schema version and array shapes; throws a
+/// one-line core::InputError naming the file otherwise.
+RunFile read_run_file(const std::string& path);
+
+/// Joins shards of one run (same settings and inputs, disjoint shards) into one: the
+/// records of realizations in ascending order, crossings and trajectories in the same
+/// order, hazard accumulators merged exactly. Throws core::InputError naming the file
+/// that does not belong or repeats realizations. The result's shard is "0/1" when every
+/// realization of the run is present.
+RunFile merge_run_files(const std::vector<RunFile>& shards, const std::vector<std::string>& names);
+
+}  // namespace talus::io

@@ -1,0 +1,624 @@
+#include "talus/io/run_file.hpp"
+
+#include <algorithm>
+#include <filesystem>
+#include <limits>
+#include <map>
+#include <sstream>
+
+#include "talus/core/error.hpp"
+#include "talus/io/atomic_output.hpp"
+#include "talus/io/xdmf.hpp"
+
+namespace talus::io {
+namespace {
+
+using core::InputError;
+using Element = h5::Group::Element;
+
+// One column of a table: its element type, width (0 = 1-D), unit and values.
+struct Column {
+  Element element = Element::f64;
+  std::uint64_t width = 0;
+  std::string unit;
+  std::vector<double> f64;
+  std::vector<std::int64_t> i64;
+  std::vector<std::int32_t> i32;
+  std::vector<std::uint8_t> u8;
+};
+// Columns by name: the one description of each table, used to create the journal's
+// appendable datasets, to append to them and to write the final file.
+using Table = std::map<std::string, Column>;
+
+Column& col(Table& t, const std::string& name, Element e, std::uint64_t width = 0, const std::string& unit = {}) {
+  Column& c = t[name];
+  c.element = e;
+  c.width = width;
+  c.unit = unit;
+  return c;
+}
+void put3(std::vector<double>& v, const geometry::Vec3& p) { v.insert(v.end(), {p.x(), p.y(), p.z()}); }
+
+Table record_table(const std::vector<mc::Record>& records) {
+  Table t;
+  auto& realization = col(t, "realization", Element::i64).i64;
+  auto& block = col(t, "block", Element::i32).i32;
+  auto& end = col(t, "end_reason", Element::u8).u8;
+  auto& stop = col(t, "stop_class", Element::i32).i32;
+  auto& impacts = col(t, "impacts", Element::i64).i64;
+  auto& steps = col(t, "steps", Element::i64).i64;
+  auto& time = col(t, "time", Element::f64, 0, "s").f64;
+  auto& release = col(t, "release_position", Element::f64, 3, "m").f64;
+  auto& final_position = col(t, "final_position", Element::f64, 3, "m").f64;
+  auto& runout = col(t, "runout", Element::f64, 0, "m").f64;
+  auto& lateral = col(t, "lateral", Element::f64, 0, "m").f64;
+  auto& speed = col(t, "max_speed", Element::f64, 0, "m/s").f64;
+  auto& jump = col(t, "max_jump_height", Element::f64, 0, "m").f64;
+  auto& energy = col(t, "max_kinetic_energy", Element::f64, 0, "J").f64;
+  for (const auto& r : records) {
+    realization.push_back(r.realization);
+    block.push_back(r.block);
+    end.push_back(static_cast<std::uint8_t>(r.end));
+    stop.push_back(r.stop_class);
+    impacts.push_back(static_cast<std::int64_t>(r.impacts));
+    steps.push_back(static_cast<std::int64_t>(r.steps));
+    time.push_back(r.time);
+    put3(release, r.release_position);
+    put3(final_position, r.final_position);
+    runout.push_back(r.runout);
+    lateral.push_back(r.lateral);
+    speed.push_back(r.max_speed);
+    jump.push_back(r.max_jump_height);
+    energy.push_back(r.max_kinetic_energy);
+  }
+  return t;
+}
+
+Table crossing_table(const std::vector<mc::Crossing>& crossings) {
+  Table t;
+  auto& realization = col(t, "realization", Element::i64).i64;
+  auto& barrier = col(t, "barrier", Element::i32).i32;
+  auto& position = col(t, "position", Element::f64, 0, "m").f64;
+  auto& time = col(t, "time", Element::f64, 0, "s").f64;
+  auto& height = col(t, "height", Element::f64, 0, "m").f64;
+  auto& velocity = col(t, "velocity", Element::f64, 3, "m/s").f64;
+  auto& energy = col(t, "kinetic_energy", Element::f64, 0, "J").f64;
+  auto& direction = col(t, "direction", Element::i32).i32;
+  for (const auto& c : crossings) {
+    realization.push_back(c.realization);
+    barrier.push_back(c.barrier);
+    position.push_back(c.position);
+    time.push_back(c.time);
+    height.push_back(c.height);
+    put3(velocity, c.velocity);
+    energy.push_back(c.kinetic_energy);
+    direction.push_back(c.direction);
+  }
+  return t;
+}
+
+Table trajectory_table(const std::vector<mc::TrajectoryPoint>& points) {
+  Table t;
+  auto& realization = col(t, "realization", Element::i64).i64;
+  auto& time = col(t, "time", Element::f64, 0, "s").f64;
+  auto& position = col(t, "position", Element::f64, 3, "m").f64;
+  auto& velocity = col(t, "velocity", Element::f64, 3, "m/s").f64;
+  auto& height = col(t, "height", Element::f64, 0, "m").f64;
+  auto& energy = col(t, "energy", Element::f64, 0, "J").f64;
+  for (const auto& p : points) {
+    realization.push_back(p.realization);
+    time.push_back(p.sample.time);
+    put3(position, p.sample.position);
+    put3(velocity, p.sample.velocity);
+    height.push_back(p.sample.height);
+    energy.push_back(p.sample.energy);
+  }
+  return t;
+}
+
+Table hazard_table(const mc::HazardAccumulator::Table& h) {
+  Table t;
+  col(t, "cell", Element::i64).i64 = h.cell;
+  col(t, "reach", Element::i64).i64 = h.reach;
+  col(t, "energy_zero", Element::i64).i64 = h.energy_zero;
+  col(t, "height_zero", Element::i64).i64 = h.height_zero;
+  col(t, "energy_bucket_cell", Element::i64).i64 = h.energy_cell;
+  col(t, "energy_bucket_index", Element::i32).i32 = h.energy_index;
+  col(t, "energy_bucket_count", Element::i64).i64 = h.energy_count;
+  col(t, "height_bucket_cell", Element::i64).i64 = h.height_cell;
+  col(t, "height_bucket_index", Element::i32).i32 = h.height_index;
+  col(t, "height_bucket_count", Element::i64).i64 = h.height_count;
+  return t;
+}
+
+std::uint64_t rows(const Column& c) {
+  const std::uint64_t w = std::max<std::uint64_t>(c.width, 1);
+  switch (c.element) {
+    case Element::f64: return c.f64.size() / w;
+    case Element::i64: return c.i64.size() / w;
+    case Element::i32: return c.i32.size() / w;
+    case Element::u8: return c.u8.size() / w;
+  }
+  return 0;
+}
+
+enum class Mode { create_appendable, append, write };
+
+void store(const h5::Group& g, const Table& table, Mode mode) {
+  for (const auto& [name, c] : table) {
+    const std::uint64_t n = rows(c);
+    if (mode == Mode::create_appendable) {
+      g.create_appendable(name, c.element, c.width, c.unit);
+    } else if (mode == Mode::append) {
+      switch (c.element) {
+        case Element::f64: g.append(name, c.f64.data(), n); break;
+        case Element::i64: g.append(name, c.i64.data(), n); break;
+        case Element::i32: g.append(name, c.i32.data(), n); break;
+        case Element::u8: g.append(name, c.u8.data(), n); break;
+      }
+    } else {
+      h5::Shape shape = {n};
+      if (c.width > 0) shape.push_back(c.width);
+      switch (c.element) {
+        case Element::f64: g.write(name, c.f64.data(), shape, c.unit, true); break;
+        case Element::i64: g.write(name, c.i64.data(), shape, c.unit, true); break;
+        case Element::i32: g.write(name, c.i32.data(), shape, c.unit, true); break;
+        case Element::u8: g.write(name, c.u8.data(), shape, c.unit, true); break;
+      }
+    }
+  }
+}
+
+void truncate(Column& c, std::uint64_t n) {
+  const std::uint64_t size = n * std::max<std::uint64_t>(c.width, 1);
+  if (c.f64.size() > size) c.f64.resize(size);
+  if (c.i64.size() > size) c.i64.resize(size);
+  if (c.i32.size() > size) c.i32.resize(size);
+  if (c.u8.size() > size) c.u8.resize(size);
+}
+
+// Reads the columns of `layout` from `g`, checking that every column has the same rows.
+// A journal killed in the middle of an append may have longer columns than others
+// (`torn`): they are cut to the shortest, and the chunk table decides what counts.
+Table load(const h5::Group& g, Table layout, bool torn = false) {
+  std::uint64_t n = std::numeric_limits<std::uint64_t>::max();
+  bool first = true;
+  for (auto& [name, c] : layout) {
+    const h5::Shape expected = c.width > 0 ? h5::Shape{0, c.width} : h5::Shape{0};
+    switch (c.element) {
+      case Element::f64: c.f64 = g.read_doubles(name, expected); break;
+      case Element::i64: c.i64 = g.read_int64(name, expected); break;
+      case Element::i32: c.i32 = g.read_int32(name, expected); break;
+      case Element::u8: c.u8 = g.read_uint8(name, expected); break;
+    }
+    if (torn) n = std::min(n, rows(c));
+    else if (first) n = rows(c);
+    else if (rows(c) != n)
+      throw InputError(g.file_name(), g.path() + "/" + name + " has " + std::to_string(rows(c)) +
+                                          " rows, expected " + std::to_string(n));
+    first = false;
+  }
+  if (torn)
+    for (auto& [name, c] : layout) truncate(c, n);
+  return layout;
+}
+
+geometry::Vec3 get3(const std::vector<double>& v, std::size_t k) { return {v[3 * k], v[3 * k + 1], v[3 * k + 2]}; }
+
+std::uint32_t realization_of(std::int64_t value, const h5::Group& g, std::uint64_t total) {
+  if (value < 0 || static_cast<std::uint64_t>(value) >= total)
+    throw InputError(g.file_name(), g.path() + ": realization " + std::to_string(value) + " is outside 0.." +
+                                        std::to_string(total == 0 ? 0 : total - 1));
+  return static_cast<std::uint32_t>(value);
+}
+
+std::vector<mc::Record> decode_records(const h5::Group& g, const RunInfo& info, bool torn = false) {
+  Table t = load(g, record_table({}), torn);
+  std::vector<mc::Record> out(rows(t["realization"]));
+  for (std::size_t k = 0; k < out.size(); ++k) {
+    mc::Record& r = out[k];
+    r.realization = realization_of(t["realization"].i64[k], g, info.realizations);
+    r.block = t["block"].i32[k];
+    const std::uint8_t end = t["end_reason"].u8[k];
+    if (end > static_cast<std::uint8_t>(dda::EndReason::penetration))
+      throw InputError(g.file_name(), "unknown end reason " + std::to_string(end) + " in " + g.path());
+    r.end = static_cast<dda::EndReason>(end);
+    r.stop_class = t["stop_class"].i32[k];
+    if (r.block < 0 || static_cast<std::size_t>(r.block) >= info.blocks.size() || r.stop_class < 0 ||
+        static_cast<std::size_t>(r.stop_class) >= info.stop_classes.size())
+      throw InputError(g.file_name(), "block or stop class index out of range in " + g.path());
+    r.impacts = static_cast<std::uint64_t>(t["impacts"].i64[k]);
+    r.steps = static_cast<std::uint64_t>(t["steps"].i64[k]);
+    r.time = t["time"].f64[k];
+    r.release_position = get3(t["release_position"].f64, k);
+    r.final_position = get3(t["final_position"].f64, k);
+    r.runout = t["runout"].f64[k];
+    r.lateral = t["lateral"].f64[k];
+    r.max_speed = t["max_speed"].f64[k];
+    r.max_jump_height = t["max_jump_height"].f64[k];
+    r.max_kinetic_energy = t["max_kinetic_energy"].f64[k];
+  }
+  return out;
+}
+
+std::vector<mc::Crossing> decode_crossings(const h5::Group& g, const RunInfo& info, bool torn = false) {
+  Table t = load(g, crossing_table({}), torn);
+  std::vector<mc::Crossing> out(rows(t["realization"]));
+  for (std::size_t k = 0; k < out.size(); ++k) {
+    mc::Crossing& c = out[k];
+    c.realization = realization_of(t["realization"].i64[k], g, info.realizations);
+    c.barrier = t["barrier"].i32[k];
+    if (c.barrier < 0 || static_cast<std::size_t>(c.barrier) >= info.barriers.size())
+      throw InputError(g.file_name(), "barrier index out of range in " + g.path());
+    c.position = t["position"].f64[k];
+    c.time = t["time"].f64[k];
+    c.height = t["height"].f64[k];
+    c.velocity = get3(t["velocity"].f64, k);
+    c.kinetic_energy = t["kinetic_energy"].f64[k];
+    c.direction = t["direction"].i32[k];
+  }
+  return out;
+}
+
+std::vector<mc::TrajectoryPoint> decode_trajectories(const h5::Group& g, const RunInfo& info, bool torn = false) {
+  Table t = load(g, trajectory_table({}), torn);
+  std::vector<mc::TrajectoryPoint> out(rows(t["realization"]));
+  for (std::size_t k = 0; k < out.size(); ++k) {
+    mc::TrajectoryPoint& p = out[k];
+    p.realization = realization_of(t["realization"].i64[k], g, info.realizations);
+    p.sample.time = t["time"].f64[k];
+    p.sample.position = get3(t["position"].f64, k);
+    p.sample.velocity = get3(t["velocity"].f64, k);
+    p.sample.height = t["height"].f64[k];
+    p.sample.energy = t["energy"].f64[k];
+  }
+  return out;
+}
+
+mc::HazardAccumulator::Table decode_hazard(const Table& t) {
+  mc::HazardAccumulator::Table h;
+  h.cell = t.at("cell").i64;
+  h.reach = t.at("reach").i64;
+  h.energy_zero = t.at("energy_zero").i64;
+  h.height_zero = t.at("height_zero").i64;
+  h.energy_cell = t.at("energy_bucket_cell").i64;
+  h.energy_index = t.at("energy_bucket_index").i32;
+  h.energy_count = t.at("energy_bucket_count").i64;
+  h.height_cell = t.at("height_bucket_cell").i64;
+  h.height_index = t.at("height_bucket_index").i32;
+  h.height_count = t.at("height_bucket_count").i64;
+  return h;
+}
+
+// The hazard table's columns have three different row counts; load them by group.
+Table load_hazard(const h5::Group& g, bool torn = false) {
+  Table layout = hazard_table({});
+  Table out;
+  for (const char* prefix : {"", "energy_bucket_", "height_bucket_"}) {
+    Table part;
+    for (auto& [name, c] : layout) {
+      const bool bucket = name.rfind("energy_bucket_", 0) == 0 || name.rfind("height_bucket_", 0) == 0;
+      if ((*prefix == '\0') ? !bucket : name.rfind(prefix, 0) == 0) part[name] = c;
+    }
+    for (auto& [name, c] : load(g, part, torn)) out[name] = std::move(c);
+  }
+  return out;
+}
+
+void write_info(const h5::Group& root, const RunInfo& info) {
+  const h5::Group run = root.create_group("run");
+  run.set_attr("realizations", static_cast<std::int64_t>(info.realizations));
+  run.set_attr("shard", info.shard);
+  run.write_strings("blocks", info.blocks);
+  run.write_strings("stop_classes", info.stop_classes);
+  run.write_strings("barriers", info.barriers);
+  std::vector<double> vertices;
+  std::vector<std::int64_t> offsets = {0};
+  for (const auto& line : info.barrier_lines) {
+    for (const auto& p : line) vertices.insert(vertices.end(), {p[0], p[1]});
+    offsets.push_back(static_cast<std::int64_t>(vertices.size() / 2));
+  }
+  run.write("barrier_vertices", vertices.data(), {vertices.size() / 2, 2}, "m");
+  run.write("barrier_offsets", offsets.data(), {offsets.size()});
+  run.set_attr("hazard_x0", info.hazard.x0);
+  run.set_attr("hazard_y0", info.hazard.y0);
+  run.set_attr("hazard_cell_size", info.hazard.size);
+  run.set_attr("hazard_nx", static_cast<std::int64_t>(info.hazard.nx));
+  run.set_attr("hazard_ny", static_cast<std::int64_t>(info.hazard.ny));
+  run.set_attr("hazard_relative_accuracy", info.hazard_relative_accuracy);
+}
+
+RunInfo read_info(const h5::Group& root) {
+  RunInfo info;
+  info.provenance = read_provenance(root);
+  const h5::Group run = root.open_group("run");
+  const std::int64_t total = run.attr_int("realizations");
+  if (total <= 0) throw InputError(root.file_name(), "/run: realizations must be positive");
+  info.realizations = static_cast<std::uint64_t>(total);
+  info.shard = run.attr_string("shard");
+  info.blocks = run.read_strings("blocks");
+  info.stop_classes = run.read_strings("stop_classes");
+  info.barriers = run.read_strings("barriers");
+  const auto vertices = run.read_doubles("barrier_vertices", {0, 2});
+  const auto offsets = run.read_int64("barrier_offsets", {info.barriers.size() + 1});
+  for (std::size_t k = 0; k < info.barriers.size(); ++k) {
+    if (offsets[k] < 0 || offsets[k] > offsets[k + 1] || static_cast<std::size_t>(offsets[k + 1]) * 2 > vertices.size())
+      throw InputError(root.file_name(), "/run/barrier_offsets are inconsistent");
+    std::vector<std::array<double, 2>> line;
+    for (auto j = offsets[k]; j < offsets[k + 1]; ++j)
+      line.push_back({vertices[2 * static_cast<std::size_t>(j)], vertices[2 * static_cast<std::size_t>(j) + 1]});
+    info.barrier_lines.push_back(std::move(line));
+  }
+  info.hazard.x0 = run.attr_double("hazard_x0");
+  info.hazard.y0 = run.attr_double("hazard_y0");
+  info.hazard.size = run.attr_double("hazard_cell_size");
+  info.hazard.nx = static_cast<std::int32_t>(run.attr_int("hazard_nx"));
+  info.hazard.ny = static_cast<std::int32_t>(run.attr_int("hazard_ny"));
+  info.hazard_relative_accuracy = run.attr_double("hazard_relative_accuracy");
+  if (info.hazard.size < 0.0 || info.hazard.nx < 0 || info.hazard.ny < 0 ||
+      !(info.hazard_relative_accuracy > 0.0 && info.hazard_relative_accuracy < 0.5))
+    throw InputError(root.file_name(), "/run: invalid hazard grid");
+  return info;
+}
+
+mc::HazardAccumulator empty_hazard(const RunInfo& info) {
+  return mc::HazardAccumulator(info.hazard, info.hazard_relative_accuracy);
+}
+
+// Inputs and settings that make two files parts of the same run.
+bool same_run(const RunInfo& a, const RunInfo& b) {
+  return a.provenance.settings_yaml == b.provenance.settings_yaml && a.provenance.inputs == b.provenance.inputs &&
+         a.realizations == b.realizations;
+}
+
+const char* kJournalKind = "run-journal";
+
+}  // namespace
+
+RunInfo make_run_info(const mc::Scene& scene, const Provenance& provenance, const mc::Shard& shard) {
+  RunInfo info;
+  info.provenance = provenance;
+  info.realizations = scene.realizations();
+  info.shard = shard.text();
+  for (const auto& b : scene.blocks()) info.blocks.push_back(b.name);
+  info.stop_classes = scene.stop_classes();
+  for (const auto& b : scene.barriers()) {
+    info.barriers.push_back(b.name);
+    std::vector<std::array<double, 2>> line;
+    for (const auto& p : b.line) line.push_back({p.x(), p.y()});
+    info.barrier_lines.push_back(std::move(line));
+  }
+  info.hazard = scene.hazard_grid();
+  info.hazard_relative_accuracy = scene.settings().outputs.hazard_relative_accuracy;
+  return info;
+}
+
+std::string run_journal_path(const std::string& output) { return output + ".journal"; }
+
+RunJournal RunJournal::create(const std::string& path, const RunInfo& info) {
+  h5::File file = h5::File::create(path);
+  const h5::Group root = file.root();
+  write_header(root, kJournalKind, kRunSchema, info.provenance);
+  write_info(root, info);
+  store(root.create_group("records"), record_table({}), Mode::create_appendable);
+  store(root.create_group("crossings"), crossing_table({}), Mode::create_appendable);
+  store(root.create_group("trajectories"), trajectory_table({}), Mode::create_appendable);
+  const h5::Group hazard = root.create_group("hazard");
+  store(hazard, hazard_table({}), Mode::create_appendable);
+  // Rows each chunk added to the three hazard sub-tables, to merge chunk by chunk.
+  hazard.create_appendable("chunk_rows", Element::i64, 6);
+  file.flush();
+  return RunJournal(std::move(file), path, info);
+}
+
+RunJournal RunJournal::resume(const std::string& path, const RunInfo& info) {
+  h5::File file = h5::File::open_rw(path);
+  check_header(file.root(), kJournalKind, kRunSchema);
+  const RunInfo stored = read_info(file.root());
+  if (!same_run(stored, info))
+    throw InputError(path, "the journal belongs to a run with other settings or inputs; refusing to resume "
+                           "(delete it to start afresh)");
+  if (stored.shard != info.shard)
+    throw InputError(path, "the journal is of shard " + stored.shard + ", not " + info.shard);
+  RunJournal journal(std::move(file), path, info);
+  const h5::Group root = journal.file_.root();
+  const auto chunks = root.open_group("hazard").read_int64("chunk_rows", {0, 6});
+  if (!chunks.empty())
+    for (std::size_t k = 0; k < 6; ++k) journal.totals_[k] = chunks[chunks.size() - 6 + k];
+  for (auto t : journal.totals_)
+    if (t < 0) throw InputError(path, "corrupt chunk table");
+  // Drop what a torn last append left, so new chunks line up with the committed rows.
+  auto cut = [&](const std::string& group, const Table& layout, auto rows_of) {
+    const h5::Group g = root.open_group(group);
+    for (const auto& [name, c] : layout) g.truncate_rows(name, static_cast<std::uint64_t>(rows_of(name)));
+  };
+  const auto& t = journal.totals_;
+  cut("hazard", hazard_table({}), [&](const std::string& name) {
+    return name.rfind("energy_bucket_", 0) == 0 ? t[1] : name.rfind("height_bucket_", 0) == 0 ? t[2] : t[0];
+  });
+  cut("records", record_table({}), [&](const std::string&) { return t[3]; });
+  cut("crossings", crossing_table({}), [&](const std::string&) { return t[4]; });
+  cut("trajectories", trajectory_table({}), [&](const std::string&) { return t[5]; });
+  root.open_group("hazard").truncate_rows("chunk_rows", chunks.size() / 6);
+  journal.file_.flush();
+  return journal;
+}
+
+void RunJournal::append(const std::vector<mc::RealizationResult>& chunk) {
+  mc::RunData data;
+  data.hazard = empty_hazard(info_);
+  for (const auto& r : chunk) data.add(mc::RealizationResult(r));
+  const h5::Group root = file_.root();
+  const h5::Group hazard = root.open_group("hazard");
+  const auto h = data.hazard.table();
+  store(hazard, hazard_table(h), Mode::append);
+  store(root.open_group("crossings"), crossing_table(data.crossings), Mode::append);
+  store(root.open_group("trajectories"), trajectory_table(data.trajectories), Mode::append);
+  store(root.open_group("records"), record_table(data.records), Mode::append);
+  // The cumulative row counts go last: a chunk counts only once they are on disk, so a
+  // run killed in the middle of an append loses that chunk and nothing else.
+  totals_[0] += static_cast<std::int64_t>(h.cell.size());
+  totals_[1] += static_cast<std::int64_t>(h.energy_cell.size());
+  totals_[2] += static_cast<std::int64_t>(h.height_cell.size());
+  totals_[3] += static_cast<std::int64_t>(data.records.size());
+  totals_[4] += static_cast<std::int64_t>(data.crossings.size());
+  totals_[5] += static_cast<std::int64_t>(data.trajectories.size());
+  hazard.append("chunk_rows", totals_.data(), 1);
+  file_.flush();
+}
+
+std::vector<std::uint32_t> RunJournal::finished() const {
+  std::vector<std::uint32_t> out;
+  const auto all = file_.root().open_group("records").read_int64("realization");
+  const auto n = std::min(all.size(), static_cast<std::size_t>(totals_[3]));
+  for (std::size_t k = 0; k < n; ++k) out.push_back(realization_of(all[k], file_.root(), info_.realizations));
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+mc::RunData RunJournal::read() const {
+  const h5::Group root = file_.root();
+  mc::RunData data;
+  data.records = decode_records(root.open_group("records"), info_, true);
+  data.records.resize(std::min(data.records.size(), static_cast<std::size_t>(totals_[3])));
+  std::vector<bool> done(info_.realizations, false);
+  for (const auto& r : data.records) done[r.realization] = true;
+  // Rows of a chunk whose record never reached the disk (killed mid-append) are dropped.
+  for (const auto& c : decode_crossings(root.open_group("crossings"), info_, true))
+    if (done[c.realization]) data.crossings.push_back(c);
+  for (const auto& p : decode_trajectories(root.open_group("trajectories"), info_, true))
+    if (done[p.realization]) data.trajectories.push_back(p);
+  data.hazard = empty_hazard(info_);
+  const h5::Group hz = root.open_group("hazard");
+  const auto all = decode_hazard(load_hazard(hz, true));
+  const auto chunks = hz.read_int64("chunk_rows", {0, 6});
+  std::size_t at[3] = {0, 0, 0};
+  for (std::size_t k = 0; k < chunks.size() / 6; ++k) {
+    mc::HazardAccumulator::Table part;
+    auto slice = [&](const auto& v, std::size_t from, std::int64_t n) {
+      using V = std::decay_t<decltype(v)>;
+      if (n < 0 || from + static_cast<std::size_t>(n) > v.size())
+        throw InputError(path_, "hazard chunk rows are inconsistent");
+      return V(v.begin() + static_cast<std::ptrdiff_t>(from), v.begin() + static_cast<std::ptrdiff_t>(from) + n);
+    };
+    const auto n0 = chunks[6 * k] - static_cast<std::int64_t>(at[0]);
+    const auto n1 = chunks[6 * k + 1] - static_cast<std::int64_t>(at[1]);
+    const auto n2 = chunks[6 * k + 2] - static_cast<std::int64_t>(at[2]);
+    part.cell = slice(all.cell, at[0], n0);
+    part.reach = slice(all.reach, at[0], n0);
+    part.energy_zero = slice(all.energy_zero, at[0], n0);
+    part.height_zero = slice(all.height_zero, at[0], n0);
+    part.energy_cell = slice(all.energy_cell, at[1], n1);
+    part.energy_index = slice(all.energy_index, at[1], n1);
+    part.energy_count = slice(all.energy_count, at[1], n1);
+    part.height_cell = slice(all.height_cell, at[2], n2);
+    part.height_index = slice(all.height_index, at[2], n2);
+    part.height_count = slice(all.height_count, at[2], n2);
+    at[0] += static_cast<std::size_t>(n0);
+    at[1] += static_cast<std::size_t>(n1);
+    at[2] += static_cast<std::size_t>(n2);
+    data.hazard.merge(part, path_);
+  }
+  data.sort(path_);
+  return data;
+}
+
+void write_run_file(const std::string& path, const RunInfo& info, const mc::RunData& data) {
+  AtomicOutput out(path);
+  {
+    const h5::File file = h5::File::create(out.temp_path());
+    const h5::Group root = file.root();
+    write_header(root, "run", kRunSchema, info.provenance);
+    write_info(root, info);
+    store(root.create_group("records"), record_table(data.records), Mode::write);
+    store(root.create_group("crossings"), crossing_table(data.crossings), Mode::write);
+    store(root.create_group("trajectories"), trajectory_table(data.trajectories), Mode::write);
+    const h5::Group hazard = root.create_group("hazard");
+    store(hazard, hazard_table(data.hazard.table()), Mode::write);
+    if (info.hazard.size > 0.0) {
+      // A dense reach-count raster (ny × nx) for direct viewing.
+      std::vector<std::int64_t> reach(static_cast<std::size_t>(info.hazard.nx) * static_cast<std::size_t>(info.hazard.ny), 0);
+      for (const auto& [id, c] : data.hazard.cells()) reach[static_cast<std::size_t>(id)] = static_cast<std::int64_t>(c.reach);
+      hazard.write("reach_raster", reach.data(),
+                   {static_cast<std::uint64_t>(info.hazard.ny), static_cast<std::uint64_t>(info.hazard.nx)}, {}, true);
+    }
+    if (!data.trajectories.empty()) {
+      // XDMF Mixed topology: for each realization, polyline type 2, node count, node ids.
+      std::vector<std::int64_t> topology;
+      std::size_t k = 0, polylines = 0;
+      while (k < data.trajectories.size()) {
+        std::size_t e = k;
+        while (e < data.trajectories.size() && data.trajectories[e].realization == data.trajectories[k].realization) ++e;
+        topology.push_back(2);
+        topology.push_back(static_cast<std::int64_t>(e - k));
+        for (std::size_t j = k; j < e; ++j) topology.push_back(static_cast<std::int64_t>(j));
+        ++polylines;
+        k = e;
+      }
+      const h5::Group traj = root.open_group("trajectories");
+      traj.write("xdmf_topology", topology.data(), {topology.size()});
+      traj.set_attr("polylines", static_cast<std::int64_t>(polylines));
+    }
+    file.flush();
+  }
+  if (!data.trajectories.empty()) {
+    std::size_t polylines = 1;
+    for (std::size_t k = 1; k < data.trajectories.size(); ++k)
+      if (data.trajectories[k].realization != data.trajectories[k - 1].realization) ++polylines;
+    const std::string h5_name = std::filesystem::path(path).filename().string();
+    const std::size_t n = data.trajectories.size();
+    const std::size_t topo = 2 * polylines + n;
+    std::ostringstream x;
+    x << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n  <Grid Name=\"trajectories\" GridType=\"Uniform\">\n"
+      << "   <Topology TopologyType=\"Mixed\" NumberOfElements=\"" << polylines << "\">\n"
+      << "    <DataItem Dimensions=\"" << topo << "\" NumberType=\"Int\" Precision=\"8\" Format=\"HDF\">" << h5_name
+      << ":/trajectories/xdmf_topology</DataItem>\n   </Topology>\n"
+      << "   <Geometry GeometryType=\"XYZ\">\n    <DataItem Dimensions=\"" << n
+      << " 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << h5_name << ":/trajectories/position</DataItem>\n"
+      << "   </Geometry>\n";
+    for (const char* name : {"time", "height", "energy"})
+      x << "   <Attribute Name=\"" << name << "\" AttributeType=\"Scalar\" Center=\"Node\">\n    <DataItem Dimensions=\"" << n
+        << "\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << h5_name << ":/trajectories/" << name
+        << "</DataItem>\n   </Attribute>\n";
+    x << "   <Attribute Name=\"velocity\" AttributeType=\"Vector\" Center=\"Node\">\n    <DataItem Dimensions=\"" << n
+      << " 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << h5_name
+      << ":/trajectories/velocity</DataItem>\n   </Attribute>\n  </Grid>\n </Domain>\n</Xdmf>\n";
+    write_text_file(xdmf_sidecar_path(path), x.str());
+  }
+  out.commit();
+}
+
+RunFile read_run_file(const std::string& path) {
+  const h5::File file = h5::File::open(path);
+  const h5::Group root = file.root();
+  check_header(root, "run", kRunSchema);
+  RunFile f;
+  f.info = read_info(root);
+  f.data.records = decode_records(root.open_group("records"), f.info);
+  f.data.crossings = decode_crossings(root.open_group("crossings"), f.info);
+  f.data.trajectories = decode_trajectories(root.open_group("trajectories"), f.info);
+  f.data.hazard = empty_hazard(f.info);
+  f.data.hazard.merge(decode_hazard(load_hazard(root.open_group("hazard"))), path);
+  f.data.sort(path);
+  return f;
+}
+
+RunFile merge_run_files(const std::vector<RunFile>& shards, const std::vector<std::string>& names) {
+  if (shards.empty()) throw core::UsageError("merge needs at least one run file");
+  RunFile merged;
+  merged.info = shards.front().info;
+  merged.data.hazard = empty_hazard(merged.info);
+  for (std::size_t k = 0; k < shards.size(); ++k) {
+    const RunInfo& info = shards[k].info;
+    if (!same_run(info, merged.info))
+      throw InputError(names[k], "is not a shard of the same run as " + names.front() +
+                                     " (settings, inputs or realization count differ)");
+    mc::RunData copy = shards[k].data;
+    merged.data.append(std::move(copy));
+  }
+  merged.data.sort("merge");
+  merged.info.shard = merged.data.records.size() == merged.info.realizations ? "0/1" : "partial";
+  return merged;
+}
+
+}  // namespace talus::io

@@ -1,0 +1,147 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+#include <cstdint>
+#include <map>
+#include <vector>
+
+#include "talus/dda/engine.hpp"
+#include "talus/mc/scene.hpp"
+#include "talus/stats/quantile_sketch.hpp"
+
+namespace talus::mc {
+
+using geometry::Vec3;
+
+/// One record per realization: the SPEC §4 summary values and where the block stopped.
+struct Record {
+  std::uint32_t realization = 0;
+  std::int32_t block = 0;               ///< index into the scene's blocks
+  dda::EndReason end = dda::EndReason::running;
+  std::int32_t stop_class = 0;          ///< index into Scene::stop_classes()
+  std::uint64_t impacts = 0;
+  std::uint64_t steps = 0;
+  double time = 0.0;                    ///< simulated duration (s)
+  Vec3 release_position = Vec3::Zero(); ///< centroid (m)
+  Vec3 final_position = Vec3::Zero();   ///< centroid (m)
+  double runout = 0.0;                  ///< m, along the main direction
+  double lateral = 0.0;                 ///< m, left of the main direction positive
+  double max_speed = 0.0;               ///< m/s, centroid
+  double max_jump_height = 0.0;         ///< m, centroid above the terrain
+  double max_kinetic_energy = 0.0;      ///< J, translational + rotational
+  bool operator==(const Record&) const = default;
+};
+
+/// A crossing of a barrier line by the centroid's plan path.
+struct Crossing {
+  std::uint32_t realization = 0;
+  std::int32_t barrier = 0;         ///< index into the scene's barriers
+  double position = 0.0;            ///< distance along the line from its first vertex (m)
+  double time = 0.0;                ///< s
+  double height = 0.0;              ///< passing height: centroid above the ground (m), NaN off terrain
+  Vec3 velocity = Vec3::Zero();     ///< centroid (m/s)
+  double kinetic_energy = 0.0;      ///< translational + rotational (J)
+  /// +1 when crossing from the line's right to its left (walking along it), −1 otherwise.
+  std::int32_t direction = 1;
+  bool operator==(const Crossing&) const = default;
+};
+
+/// A sampled trajectory point (dda::TrajectorySample) tagged with its realization.
+struct TrajectoryPoint {
+  std::uint32_t realization = 0;
+  dda::TrajectorySample sample;
+};
+
+/// What one realization contributed to a hazard cell: the largest kinetic energy (J) and
+/// passing height (m) its path had there.
+struct CellVisit {
+  std::int64_t cell = 0;
+  double energy = 0.0;
+  double height = 0.0;
+};
+
+/// Everything one realization produced.
+struct RealizationResult {
+  Record record;
+  std::vector<Crossing> crossings;        ///< in time order
+  std::vector<dda::TrajectorySample> trajectory;
+  std::vector<CellVisit> cells;           ///< each cell once, ascending id
+};
+
+/// Runs realization `index` of `scene`: a pure function of (scene, index) — the terrain
+/// realization `index`, the release draws of Stream::release, the block of
+/// Stream::block_shape (weighted selection) and the impact draws of Stream::impact, all
+/// keyed by the scene seed (the terrain's own seed for roughness). Throws
+/// core::InputError if the release point falls outside the realized terrain.
+RealizationResult run_realization(const Scene& scene, std::uint32_t index);
+
+/// The release of realization `index` and its block (exposed for tests).
+struct ReleaseDraw {
+  std::int32_t block = 0;
+  dda::Release release;
+};
+ReleaseDraw draw_release(const Scene& scene, const terrain::Surface& ground, std::uint32_t index);
+
+/// Per-cell hazard accumulators: how many realizations reached each cell, and sketches of
+/// their energies and passing heights there (P95/P99 without storing trajectories).
+/// Counts are integers and sketches merge exactly, so the result does not depend on the
+/// order realizations are added or shards merged.
+class HazardAccumulator {
+ public:
+  HazardAccumulator() = default;
+  HazardAccumulator(const HazardGridSpec& spec, double relative_accuracy);
+
+  /// The flat form stored in files: cells with reach > 0 ascending; for each sketch
+  /// the (cell, bucket index, count) triplets in ascending (cell, index) order.
+  struct Table {
+    std::vector<std::int64_t> cell, reach, energy_zero, height_zero;
+    std::vector<std::int64_t> energy_cell, energy_count;
+    std::vector<std::int32_t> energy_index;
+    std::vector<std::int64_t> height_cell, height_count;
+    std::vector<std::int32_t> height_index;
+  };
+
+  void add(const std::vector<CellVisit>& visits);
+  void merge(const HazardAccumulator& other);
+  /// Adds a stored table (throws core::InputError on cells outside the grid or
+  /// inconsistent arrays).
+  void merge(const Table& table, const std::string& source);
+  Table table() const;
+
+  const HazardGridSpec& spec() const { return spec_; }
+  double relative_accuracy() const { return alpha_; }
+  /// Values at or below these count as zero in the sketches (J, m).
+  static constexpr double kMinEnergy = 1e-6;
+  static constexpr double kMinHeight = 1e-6;
+
+  struct Cell {
+    std::uint64_t reach = 0;
+    stats::QuantileSketch energy;
+    stats::QuantileSketch height;
+  };
+  const std::map<std::int64_t, Cell>& cells() const { return cells_; }
+
+ private:
+  Cell& cell(std::int64_t id);
+  HazardGridSpec spec_;
+  double alpha_ = 0.01;
+  std::map<std::int64_t, Cell> cells_;
+};
+
+/// The results of a run or of a shard in canonical order (by realization), whatever
+/// order they finished in: the content of a run file.
+struct RunData {
+  std::vector<Record> records;             ///< ascending realization
+  std::vector<Crossing> crossings;         ///< by realization, then time
+  std::vector<TrajectoryPoint> trajectories;  ///< by realization, then time
+  HazardAccumulator hazard;
+
+  /// Adds one realization's results (any order; call sort() when done).
+  void add(RealizationResult&& result);
+  /// Puts records, crossings and trajectory points in canonical order (stable within a
+  /// realization) and throws core::InputError if a realization appears twice.
+  void sort(const std::string& source);
+  /// Appends another shard's data (then sort()).
+  void append(RunData&& other);
+};
+
+}  // namespace talus::mc

@@ -1,0 +1,184 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "talus/block/block.hpp"
+#include "talus/core/settings.hpp"
+#include "talus/dda/model.hpp"
+#include "talus/dda/settings.hpp"
+#include "talus/terrain/terrain.hpp"
+
+namespace talus::mc {
+
+/// The scene schema this build reads ("MAJOR.MINOR"; a scene of another major is refused).
+inline constexpr int kSceneSchemaMajor = 1;
+inline constexpr const char* kSceneSchemaVersion = "1.0";
+
+/// Overrides of one ground material of the terrain file, matched by name. Absent fields
+/// keep the terrain file's value.
+struct MaterialOverride {
+  std::string name;
+  std::optional<double> restitution_mean;         ///< R_v mean (-)
+  std::optional<double> restitution_sd;           ///< R_v sd (-)
+  std::optional<double> restitution_scale;        ///< K (m/s)
+  std::optional<double> friction_angle_mean_deg;  ///< deg
+  std::optional<double> friction_coefficient_sd;  ///< sd of tan φ (-)
+  std::optional<double> lateral_tilt_sd_deg;      ///< deg
+  void visit(core::SettingsVisitor& v);
+};
+
+/// Where and how blocks are released.
+struct ReleaseSettings {
+  std::string kind = "point";  ///< "point" (1 point), "line" (polyline, ≥ 2), "polygon" (≥ 3)
+  std::vector<std::array<double, 2>> points = {{1.0, 20.0}};  ///< plan coordinates (m)
+  double height = 2.5;          ///< centroid above the realized ground at the release point (m)
+  std::string orientation = "random";  ///< "random" (uniform over rotations) or "fixed"
+  /// Fixed orientation as z-y-x Euler angles (yaw about z, then pitch about y, roll about x) (deg).
+  std::array<double, 3> orientation_deg = {0.0, 0.0, 0.0};
+  std::array<double, 3> velocity = {0.0, 0.0, 0.0};          ///< centroid (m/s)
+  std::array<double, 3> angular_velocity = {0.0, 0.0, 0.0};  ///< world frame (rad/s)
+  /// Azimuth of the main slope direction, counter-clockwise from +x (deg): runout is
+  /// measured along it, lateral displacement across it.
+  double main_direction_deg = 0.0;
+  void visit(core::SettingsVisitor& v);
+};
+
+/// Each random ingredient of a realization can be switched off for sensitivity studies.
+struct StochasticSettings {
+  bool roughness = true;     ///< ground roughness realization i per run (off: the smooth base)
+  bool restitution = true;   ///< R_v drawn per impact (off: the material mean)
+  bool friction = true;      ///< friction drawn per impact (off: the mean angle)
+  bool lateral_tilt = true;  ///< lateral ground tilt drawn per impact (off: none)
+  void visit(core::SettingsVisitor& v);
+};
+
+/// A barrier line in plan: every crossing of the centroid path is recorded.
+struct BarrierSettings {
+  std::string name;
+  std::vector<std::array<double, 2>> line;  ///< polyline vertices (m), ≥ 2
+  void visit(core::SettingsVisitor& v);
+};
+
+/// A named zone where blocks stop: an x-interval or a plan polygon (first match wins).
+struct StopZoneSettings {
+  std::string name;
+  std::vector<double> x_range;                 ///< [x_min, x_max) (m), or empty
+  std::vector<std::array<double, 2>> polygon;  ///< plan polygon (m), ≥ 3 vertices, or empty
+  void visit(core::SettingsVisitor& v);
+};
+
+struct OutputSettings {
+  double hazard_cell_size = 0.0;            ///< hazard-map cell (m); 0 = no hazard map
+  double hazard_relative_accuracy = 0.01;   ///< relative error of the per-cell quantiles (-)
+  std::vector<BarrierSettings> barriers;
+  std::int64_t chunk = 64;                  ///< realizations flushed to disk together
+  void visit(core::SettingsVisitor& v);
+};
+
+/// A scene: everything dda-run reads besides the command line (docs/dda-run.md).
+struct SceneSettings {
+  std::string schema_version = kSceneSchemaVersion;
+  std::string terrain;                  ///< terrain file (path, relative to the working directory)
+  std::string block_file;               ///< block file (one block or a library)
+  std::vector<std::string> blocks;      ///< names of the blocks to use; empty = every block
+  /// "cycle": realization i uses block i mod B (equal shares); "weighted": drawn from the
+  /// block_shape stream with the library's sampling weights.
+  std::string block_selection = "cycle";
+  std::vector<MaterialOverride> materials;
+  ReleaseSettings release;
+  dda::Settings engine;
+  StochasticSettings stochastic;
+  std::int64_t realizations = 100;      ///< total count, realizations 0 … n−1
+  std::uint64_t seed = 1;               ///< master seed of the release, impact and block draws
+  OutputSettings outputs;
+  std::vector<StopZoneSettings> stop_zones;
+  void visit(core::SettingsVisitor& v);
+};
+
+/// A plan grid of hazard cells covering the terrain: cell (i, j) spans
+/// [x0 + i·size, x0 + (i+1)·size) × [y0 + j·size, …); id = j·nx + i.
+struct HazardGridSpec {
+  double x0 = 0.0, y0 = 0.0;  ///< m
+  double size = 0.0;          ///< m, 0 = no grid
+  std::int32_t nx = 0, ny = 0;
+  /// Cell id of (x, y), or −1 outside.
+  std::int64_t cell(double x, double y) const;
+};
+
+struct SceneBlock {
+  std::string name;
+  dda::Model model;
+  double weight = 1.0;  ///< relative sampling weight (-)
+};
+
+struct Barrier {
+  std::string name;
+  std::vector<Eigen::Vector2d> line;  ///< m
+  std::vector<double> offsets;        ///< distance along the line at each vertex (m)
+};
+
+struct StopZone {
+  std::string name;
+  double x_min = 0.0, x_max = 0.0;     ///< used when polygon is empty (m)
+  std::vector<Eigen::Vector2d> polygon;  ///< m
+};
+
+/// A validated scene, ready to run: terrain, materials after overrides and switches,
+/// block models, barriers, zones. Immutable; realizations read it from any thread.
+class Scene {
+ public:
+  /// Validates `settings` against the loaded terrain and blocks and builds the scene.
+  /// `source` names the scene in messages. Throws core::InputError with a one-line reason:
+  /// wrong schema major, non-positive counts, unknown block or material names, release
+  /// points outside the terrain, a release height that puts a block into the ground,
+  /// degenerate lines, zones or polygons, bad engine settings.
+  static Scene build(const SceneSettings& settings, terrain::Terrain terrain,
+                     const std::vector<block::Block>& library, const std::string& source);
+
+  const SceneSettings& settings() const { return settings_; }
+  const terrain::Terrain& terrain() const { return *terrain_; }
+  const std::vector<terrain::Material>& materials() const { return materials_; }
+  const std::vector<SceneBlock>& blocks() const { return blocks_; }
+  const std::vector<Barrier>& barriers() const { return barriers_; }
+  const std::vector<StopZone>& zones() const { return zones_; }
+  /// Zone names, then "other" (in no zone), then "out of domain" (left the terrain).
+  std::vector<std::string> stop_classes() const;
+  const HazardGridSpec& hazard_grid() const { return hazard_; }
+  Eigen::Vector2d main_direction() const { return main_direction_; }
+  std::uint32_t realizations() const { return static_cast<std::uint32_t>(settings_.realizations); }
+  /// The smooth surface (or the TIN template whose search structure realizations share).
+  const terrain::Surface& base_surface() const { return *base_; }
+
+  /// Stop class of a final plan position and end reason (index into stop_classes()).
+  std::int32_t classify(const Eigen::Vector2d& final_xy, bool left_terrain) const;
+
+ private:
+  SceneSettings settings_;
+  std::unique_ptr<terrain::Terrain> terrain_;
+  std::unique_ptr<terrain::Surface> base_;
+  std::vector<terrain::Material> materials_;
+  std::vector<SceneBlock> blocks_;
+  std::vector<Barrier> barriers_;
+  std::vector<StopZone> zones_;
+  HazardGridSpec hazard_;
+  Eigen::Vector2d main_direction_ = Eigen::Vector2d::UnitX();
+};
+
+/// Parses "K/N" (0 ≤ K < N) as a shard; throws core::UsageError otherwise.
+struct Shard {
+  std::uint32_t index = 0;  ///< K
+  std::uint32_t count = 1;  ///< N
+  static Shard parse(const std::string& text);
+  std::string text() const;
+  /// Realizations of this shard: i ≡ K (mod N), ascending (round-robin, so every shard gets
+  /// a fair mix of blocks and of easy and hard realizations).
+  std::vector<std::uint32_t> indices(std::uint32_t total) const;
+};
+
+}  // namespace talus::mc

@@ -1,0 +1,286 @@
+#include "talus/mc/realization.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <unordered_map>
+
+#include "talus/core/error.hpp"
+#include "talus/core/random.hpp"
+
+namespace talus::mc {
+namespace {
+
+using core::RandomStream;
+using core::Stream;
+
+double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return a.x() * b.y() - a.y() * b.x(); }
+
+bool inside(const std::vector<std::array<double, 2>>& poly, double x, double y) {
+  bool in = false;
+  for (std::size_t k = 0, j = poly.size() - 1; k < poly.size(); j = k++) {
+    const auto& a = poly[k];
+    const auto& b = poly[j];
+    if ((a[1] > y) != (b[1] > y) && x < (b[0] - a[0]) * (y - a[1]) / (b[1] - a[1]) + a[0]) in = !in;
+  }
+  return in;
+}
+
+// Plan point of the release zone for draws of `rs` (indices 0–2 and 16 onwards).
+Eigen::Vector2d release_point(const ReleaseSettings& r, const RandomStream& rs) {
+  if (r.kind == "point") return {r.points[0][0], r.points[0][1]};
+  if (r.kind == "line") {
+    double length = 0.0;
+    for (std::size_t k = 1; k < r.points.size(); ++k)
+      length += std::hypot(r.points[k][0] - r.points[k - 1][0], r.points[k][1] - r.points[k - 1][1]);
+    double at = rs.uniform(0) * length;
+    for (std::size_t k = 1; k < r.points.size(); ++k) {
+      const Eigen::Vector2d a(r.points[k - 1][0], r.points[k - 1][1]);
+      const Eigen::Vector2d b(r.points[k][0], r.points[k][1]);
+      const double len = (b - a).norm();
+      if (at <= len || k + 1 == r.points.size()) return a + (b - a) * std::min(at / len, 1.0);
+      at -= len;
+    }
+  }
+  // Polygon: rejection sampling in its bounding box (any simple polygon, concave too).
+  double x0 = r.points[0][0], x1 = x0, y0 = r.points[0][1], y1 = y0;
+  for (const auto& p : r.points) {
+    x0 = std::min(x0, p[0]);
+    x1 = std::max(x1, p[0]);
+    y0 = std::min(y0, p[1]);
+    y1 = std::max(y1, p[1]);
+  }
+  for (std::uint64_t k = 0; k < 100000; ++k) {
+    const double x = x0 + (x1 - x0) * rs.uniform(16 + 2 * k);
+    const double y = y0 + (y1 - y0) * rs.uniform(17 + 2 * k);
+    if (inside(r.points, x, y)) return {x, y};
+  }
+  throw core::RuntimeError("release polygon: no point drawn inside it after 100000 tries");
+}
+
+// The state just before a step, for interpolating along it.
+struct Before {
+  double time = 0.0;
+  Vec3 position = Vec3::Zero();
+  Vec3 velocity = Vec3::Zero();
+  double rotational_energy = 0.0;
+  std::uint64_t flight_steps = 0;
+};
+
+// Watches each step's path for barrier crossings and hazard cells.
+class Observer {
+ public:
+  Observer(const Scene& scene, const terrain::Surface& ground, const dda::Model& model, std::uint32_t index,
+           RealizationResult& out)
+      : scene_(scene), ground_(ground), model_(model), index_(index), out_(out) {}
+
+  bool active() const { return !scene_.barriers().empty() || scene_.hazard_grid().size > 0.0; }
+
+  void start(const Vec3& p, const Vec3& v, double rotational) {
+    visit(p, 0.5 * model_.mass * v.squaredNorm() + rotational);
+  }
+
+  void segment(const Before& b, const dda::State& s, double rotational_after) {
+    const double dt = s.time - b.time;
+    if (!(dt > 0.0)) return;
+    // In flight the engine advances on the exact parabola; horizontal motion is uniform,
+    // so plan fractions are time fractions in both cases.
+    const bool flight = s.counters.flight_steps > b.flight_steps;
+    const Vec3 p1 = s.position;
+    const Vec3 v1 = s.velocity.head<3>();
+    const double g = model_.settings.gravity;
+    auto at = [&](double f, Vec3& p, Vec3& v, double& rotational) {
+      if (flight) {
+        const double tau = f * dt;
+        p = b.position + b.velocity * tau - Vec3(0.0, 0.0, 0.5 * g * tau * tau);
+        v = b.velocity - Vec3(0.0, 0.0, g * tau);
+        rotational = b.rotational_energy;
+      } else {
+        p = b.position + f * (p1 - b.position);
+        v = b.velocity + f * (v1 - b.velocity);
+        rotational = b.rotational_energy + f * (rotational_after - b.rotational_energy);
+      }
+    };
+    const Eigen::Vector2d q0 = b.position.head<2>();
+    const Eigen::Vector2d q1 = p1.head<2>();
+    const Eigen::Vector2d d = q1 - q0;
+
+    for (std::size_t k = 0; k < scene_.barriers().size(); ++k) {
+      const Barrier& barrier = scene_.barriers()[k];
+      for (std::size_t j = 1; j < barrier.line.size(); ++j) {
+        const Eigen::Vector2d a = barrier.line[j - 1];
+        const Eigen::Vector2d e = barrier.line[j] - a;
+        const double denom = cross(d, e);
+        if (denom == 0.0) continue;  // parallel (or no plan motion)
+        const double f = cross(a - q0, e) / denom;
+        const double u = cross(a - q0, d) / denom;
+        const bool last = j + 1 == barrier.line.size();
+        // Half-open on both sides, so a crossing exactly at a step end or a vertex counts once.
+        if (!(f > 0.0 && f <= 1.0 && u >= 0.0 && (u < 1.0 || (last && u <= 1.0)))) continue;
+        Crossing c;
+        c.realization = index_;
+        c.barrier = static_cast<std::int32_t>(k);
+        c.position = barrier.offsets[j - 1] + u * e.norm();
+        c.time = b.time + f * dt;
+        Vec3 p, v;
+        double rotational = 0.0;
+        at(f, p, v, rotational);
+        c.height = height_above_ground(p);
+        c.velocity = v;
+        c.kinetic_energy = 0.5 * model_.mass * v.squaredNorm() + rotational;
+        c.direction = cross(e, d) > 0.0 ? 1 : -1;
+        out_.crossings.push_back(c);
+      }
+    }
+
+    const HazardGridSpec& grid = scene_.hazard_grid();
+    if (grid.size > 0.0) {
+      // Sample the path at least every quarter cell so no cell it crosses is skipped
+      // except by a corner clip shorter than that.
+      const int n = std::max(1, static_cast<int>(std::ceil(d.norm() / (0.25 * grid.size))));
+      for (int k = 1; k <= n; ++k) {
+        Vec3 p, v;
+        double rotational = 0.0;
+        at(static_cast<double>(k) / n, p, v, rotational);
+        visit(p, 0.5 * model_.mass * v.squaredNorm() + rotational);
+      }
+    }
+  }
+
+  // Per-cell maxima, sorted by cell.
+  std::vector<CellVisit> cells() const {
+    std::vector<CellVisit> out;
+    out.reserve(cells_.size());
+    for (const auto& [id, values] : cells_) out.push_back({id, values.first, values.second});
+    std::sort(out.begin(), out.end(), [](const CellVisit& a, const CellVisit& b) { return a.cell < b.cell; });
+    return out;
+  }
+
+ private:
+  double height_above_ground(const Vec3& p) const {
+    const auto hit = ground_.height_at(p.x(), p.y());
+    return hit ? p.z() - hit->z : std::numeric_limits<double>::quiet_NaN();
+  }
+
+  void visit(const Vec3& p, double energy) {
+    const std::int64_t id = scene_.hazard_grid().cell(p.x(), p.y());
+    if (id < 0) return;
+    const double h = height_above_ground(p);
+    auto [it, fresh] = cells_.try_emplace(id, energy, std::isfinite(h) ? h : 0.0);
+    if (!fresh) {
+      it->second.first = std::max(it->second.first, energy);
+      if (std::isfinite(h)) it->second.second = std::max(it->second.second, h);
+    }
+  }
+
+  const Scene& scene_;
+  const terrain::Surface& ground_;
+  const dda::Model& model_;
+  std::uint32_t index_;
+  RealizationResult& out_;
+  std::unordered_map<std::int64_t, std::pair<double, double>> cells_;
+};
+
+}  // namespace
+
+ReleaseDraw draw_release(const Scene& scene, const terrain::Surface& ground, std::uint32_t index) {
+  const SceneSettings& s = scene.settings();
+  const ReleaseSettings& r = s.release;
+  ReleaseDraw draw;
+  const auto blocks = static_cast<std::uint32_t>(scene.blocks().size());
+  if (s.block_selection == "weighted" && blocks > 1) {
+    double total = 0.0;
+    for (const auto& b : scene.blocks()) total += b.weight;
+    const double u = RandomStream(s.seed, Stream::block_shape, index).uniform(0) * total;
+    double sum = 0.0;
+    draw.block = static_cast<std::int32_t>(blocks - 1);
+    for (std::uint32_t k = 0; k < blocks; ++k) {
+      sum += scene.blocks()[k].weight;
+      if (u < sum) {
+        draw.block = static_cast<std::int32_t>(k);
+        break;
+      }
+    }
+  } else {
+    draw.block = static_cast<std::int32_t>(index % blocks);
+  }
+
+  const RandomStream rs(s.seed, Stream::release, index);
+  const Eigen::Vector2d xy = release_point(r, rs);
+  const auto hit = ground.height_at(xy.x(), xy.y());
+  if (!hit)
+    throw core::InputError("release", "point (" + core::format_number(xy.x()) + ", " +
+                                          core::format_number(xy.y()) + ") of realization " +
+                                          std::to_string(index) + " is outside the terrain");
+  dda::Release& rel = draw.release;
+  rel.position = Vec3(xy.x(), xy.y(), hit->z + r.height);
+  if (r.orientation == "random") {
+    // Uniform random rotation (Shoemake 1992) from three uniforms, with the
+    // platform-independent sine and cosine of the random streams.
+    const double u1 = rs.uniform(3), u2 = rs.uniform(4), u3 = rs.uniform(5);
+    double s2 = 0.0, c2 = 0.0, s3 = 0.0, c3 = 0.0;
+    core::detmath::sincos_2pi(u2, s2, c2);
+    core::detmath::sincos_2pi(u3, s3, c3);
+    const double a = std::sqrt(1.0 - u1), b = std::sqrt(u1);
+    rel.orientation = Eigen::Quaterniond(b * c3, a * s2, a * c2, b * s3).normalized();
+  } else {
+    const double k = M_PI / 180.0;
+    rel.orientation = Eigen::AngleAxisd(r.orientation_deg[0] * k, Vec3::UnitZ()) *
+                      Eigen::AngleAxisd(r.orientation_deg[1] * k, Vec3::UnitY()) *
+                      Eigen::AngleAxisd(r.orientation_deg[2] * k, Vec3::UnitX());
+  }
+  rel.velocity = Vec3(r.velocity[0], r.velocity[1], r.velocity[2]);
+  rel.angular_velocity = Vec3(r.angular_velocity[0], r.angular_velocity[1], r.angular_velocity[2]);
+  rel.main_direction = scene.main_direction();
+  return draw;
+}
+
+RealizationResult run_realization(const Scene& scene, std::uint32_t index) {
+  const SceneSettings& s = scene.settings();
+  const terrain::Surface surface =
+      scene.base_surface().realization(s.stochastic.roughness ? std::optional<std::uint32_t>(index) : std::nullopt);
+  const ReleaseDraw draw = draw_release(scene, surface, index);
+  const dda::Model& model = scene.blocks()[static_cast<std::size_t>(draw.block)].model;
+  const dda::Ground ground{&surface, scene.materials()};
+
+  RealizationResult result;
+  dda::State state = dda::start(model, draw.release, RandomStream(s.seed, Stream::impact, index));
+  Observer observer(scene, surface, model, index, result);
+  const bool observe = observer.active();
+  auto rotational = [&model](const dda::State& st, double kinetic) {
+    return kinetic - 0.5 * model.mass * st.velocity.head<3>().squaredNorm();
+  };
+  double kinetic = dda::kinetic_energy(model, state);
+  double max_kinetic = kinetic;
+  if (observe) observer.start(state.position, state.velocity.head<3>(), rotational(state, kinetic));
+  while (state.end == dda::EndReason::running) {
+    const Before before{state.time, state.position, state.velocity.head<3>(), rotational(state, kinetic),
+                        state.counters.flight_steps};
+    dda::step(model, ground, state);
+    kinetic = dda::kinetic_energy(model, state);
+    if (std::isfinite(kinetic)) max_kinetic = std::max(max_kinetic, kinetic);
+    if (observe && state.position.allFinite()) observer.segment(before, state, rotational(state, kinetic));
+  }
+  dda::Summary summary = dda::summarize(state);
+
+  Record& rec = result.record;
+  rec.realization = index;
+  rec.block = draw.block;
+  rec.end = summary.end;
+  rec.stop_class = scene.classify(summary.final_position.head<2>(), summary.end == dda::EndReason::left_terrain);
+  rec.impacts = summary.impacts;
+  rec.steps = summary.steps;
+  rec.time = summary.time;
+  rec.release_position = draw.release.position;
+  rec.final_position = summary.final_position;
+  rec.runout = summary.runout;
+  rec.lateral = summary.lateral;
+  rec.max_speed = summary.max_speed;
+  rec.max_jump_height = summary.max_jump_height;
+  rec.max_kinetic_energy = max_kinetic;
+  result.trajectory = std::move(summary.trajectory);
+  if (observe) result.cells = observer.cells();
+  return result;
+}
+
+}  // namespace talus::mc

@@ -1,0 +1,76 @@
+#include "talus/mc/runner.hpp"
+
+#include <atomic>
+#include <condition_variable>
+#include <deque>
+#include <exception>
+#include <mutex>
+#include <thread>
+
+namespace talus::mc {
+
+void run_realizations(const Scene& scene, const std::vector<std::uint32_t>& indices, unsigned threads,
+                      const std::function<void(RealizationResult&&)>& on_done) {
+  if (indices.empty()) return;
+  if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
+  threads = static_cast<unsigned>(std::min<std::size_t>(threads, indices.size()));
+
+  std::atomic<std::size_t> next{0};
+  std::atomic<bool> stop{false};
+  std::mutex mutex;
+  std::condition_variable ready;
+  std::deque<RealizationResult> finished;
+  std::exception_ptr failure;
+  unsigned running = threads;
+
+  auto worker = [&] {
+    while (!stop.load()) {
+      const std::size_t k = next.fetch_add(1);
+      if (k >= indices.size()) break;
+      try {
+        RealizationResult r = run_realization(scene, indices[k]);
+        std::lock_guard lock(mutex);
+        finished.push_back(std::move(r));
+      } catch (...) {
+        std::lock_guard lock(mutex);
+        if (!failure) failure = std::current_exception();
+        stop = true;
+      }
+      ready.notify_one();
+    }
+    std::lock_guard lock(mutex);
+    --running;
+    ready.notify_one();
+  };
+
+  std::vector<std::thread> pool;
+  pool.reserve(threads);
+  for (unsigned t = 0; t < threads; ++t) pool.emplace_back(worker);
+
+  // Results are handed over on this thread, so on_done needs no locking of its own.
+  std::unique_lock lock(mutex);
+  while (true) {
+    ready.wait(lock, [&] { return !finished.empty() || running == 0; });
+    if (finished.empty() && running == 0) break;
+    while (!finished.empty()) {
+      RealizationResult r = std::move(finished.front());
+      finished.pop_front();
+      if (stop.load() && failure) continue;
+      lock.unlock();
+      try {
+        on_done(std::move(r));
+      } catch (...) {
+        lock.lock();
+        if (!failure) failure = std::current_exception();
+        stop = true;
+        continue;
+      }
+      lock.lock();
+    }
+  }
+  lock.unlock();
+  for (auto& t : pool) t.join();
+  if (failure) std::rethrow_exception(failure);
+}
+
+}  // namespace talus::mc

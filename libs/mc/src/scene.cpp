@@ -1,0 +1,362 @@
+#include "talus/mc/scene.hpp"
+
+#include <charconv>
+#include <cmath>
+#include <limits>
+
+#include "talus/core/error.hpp"
+
+namespace talus::mc {
+
+using core::format_number;
+using core::InputError;
+
+void MaterialOverride::visit(core::SettingsVisitor& v) {
+  v.field("name", name, "name of the terrain file's material to override");
+  v.field("restitution_mean", restitution_mean, "-", "mean of the scaled restitution R_v");
+  v.field("restitution_sd", restitution_sd, "-", "standard deviation of R_v");
+  v.field("restitution_scale", restitution_scale, "m/s", "K in SF = 1/(1 + (V_in/K)^2)");
+  v.field("friction_angle_mean_deg", friction_angle_mean_deg, "deg", "mean friction angle");
+  v.field("friction_coefficient_sd", friction_coefficient_sd, "-",
+          "standard deviation of the friction coefficient tan(phi)");
+  v.field("lateral_tilt_sd_deg", lateral_tilt_sd_deg, "deg",
+          "standard deviation of the lateral ground tilt drawn at each impact");
+}
+
+void ReleaseSettings::visit(core::SettingsVisitor& v) {
+  v.choice("kind", kind, {"point", "line", "polygon"},
+           "release zone: one point, a polyline (uniform along it) or a polygon (uniform inside)");
+  v.field("points", points, "m", "plan [x, y] of the point, the line's vertices or the polygon's");
+  v.field("height", height, "m", "centroid height above the realized ground at the release point");
+  v.choice("orientation", orientation, {"random", "fixed"},
+           "block orientation: uniform random rotation per realization, or orientation_deg");
+  v.field("orientation_deg", orientation_deg, "deg",
+          "fixed orientation: z-y-x Euler angles (yaw about z, pitch about y, roll about x)");
+  v.field("velocity", velocity, "m/s", "initial centroid velocity");
+  v.field("angular_velocity", angular_velocity, "rad/s", "initial spin (world frame)");
+  v.field("main_direction_deg", main_direction_deg, "deg",
+          "azimuth of the main slope direction from +x, counter-clockwise (runout along it)");
+}
+
+void StochasticSettings::visit(core::SettingsVisitor& v) {
+  v.field("roughness", roughness, "redraw the ground roughness for each realization (off: smooth base)");
+  v.field("restitution", restitution, "draw R_v per impact (off: the material mean)");
+  v.field("friction", friction, "draw the friction coefficient per impact (off: the mean angle)");
+  v.field("lateral_tilt", lateral_tilt, "draw a lateral ground tilt per impact (off: none)");
+}
+
+void BarrierSettings::visit(core::SettingsVisitor& v) {
+  v.field("name", name, "barrier name");
+  v.field("line", line, "m", "plan polyline [x, y] of the barrier (at least 2 vertices)");
+}
+
+void StopZoneSettings::visit(core::SettingsVisitor& v) {
+  v.field("name", name, "zone name (e.g. 'bench 1')");
+  v.field("x_range", x_range, "m", "[x_min, x_max): the zone is this x-interval (or give polygon)");
+  v.field("polygon", polygon, "m", "plan polygon [x, y] of the zone (or give x_range)");
+}
+
+void OutputSettings::visit(core::SettingsVisitor& v) {
+  v.field("hazard_cell_size", hazard_cell_size, "m",
+          "cell of the hazard-map accumulators (reach, energy and height quantiles); 0 = none");
+  v.field("hazard_relative_accuracy", hazard_relative_accuracy, "-",
+          "relative error of the per-cell energy and height quantiles");
+  v.list_of("barriers", "barrier lines: every crossing is recorded", barriers);
+  v.field("chunk", chunk, "-", "realizations written to disk together (a crash loses at most one chunk)");
+}
+
+void SceneSettings::visit(core::SettingsVisitor& v) {
+  v.field("schema_version", schema_version, "scene schema version (this build reads 1.x)");
+  v.field("terrain", terrain, "terrain file (terrain-gen output)");
+  v.field("block_file", block_file, "block file (block-gen output; one block or a library)");
+  v.field("blocks", blocks, "names of the library's blocks to use; empty = all");
+  v.choice("block_selection", block_selection, {"cycle", "weighted"},
+           "cycle: realization i uses block i mod B; weighted: drawn with the library weights");
+  v.list_of("materials", "overrides of the terrain file's materials, by name", materials);
+  v.section("release", "release conditions", [this](core::SettingsVisitor& s) { release.visit(s); });
+  v.section("engine", "DDA numerical and physical settings", [this](core::SettingsVisitor& s) { engine.visit(s); });
+  v.section("stochastic", "random ingredients (each can be switched off)",
+            [this](core::SettingsVisitor& s) { stochastic.visit(s); });
+  v.field("realizations", realizations, "-", "number of realizations (0 … n-1)");
+  v.field("seed", seed, "-", "master seed of the release, block and impact draws");
+  v.section("outputs", "what is recorded besides the per-realization summary",
+            [this](core::SettingsVisitor& s) { outputs.visit(s); });
+  v.list_of("stop_zones", "named zones classifying where blocks stop (first match wins)", stop_zones);
+}
+
+std::int64_t HazardGridSpec::cell(double x, double y) const {
+  if (size <= 0.0) return -1;
+  const double fx = std::floor((x - x0) / size);
+  const double fy = std::floor((y - y0) / size);
+  if (!(fx >= 0.0 && fy >= 0.0 && fx < nx && fy < ny)) return -1;
+  return static_cast<std::int64_t>(fy) * nx + static_cast<std::int64_t>(fx);
+}
+
+namespace {
+
+bool finite_points(const std::vector<std::array<double, 2>>& points) {
+  for (const auto& p : points)
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1])) return false;
+  return true;
+}
+
+std::string point_text(const std::array<double, 2>& p) {
+  return "(" + format_number(p[0]) + ", " + format_number(p[1]) + ")";
+}
+
+std::vector<Eigen::Vector2d> to_vectors(const std::vector<std::array<double, 2>>& points) {
+  std::vector<Eigen::Vector2d> out;
+  for (const auto& p : points) out.emplace_back(p[0], p[1]);
+  return out;
+}
+
+double polygon_area(const std::vector<Eigen::Vector2d>& poly) {
+  double a = 0.0;
+  for (std::size_t k = 0; k < poly.size(); ++k) {
+    const auto& p = poly[k];
+    const auto& q = poly[(k + 1) % poly.size()];
+    a += p.x() * q.y() - q.x() * p.y();
+  }
+  return 0.5 * a;
+}
+
+bool inside_polygon(const std::vector<Eigen::Vector2d>& poly, const Eigen::Vector2d& p) {
+  bool in = false;
+  for (std::size_t k = 0, j = poly.size() - 1; k < poly.size(); j = k++) {
+    const auto& a = poly[k];
+    const auto& b = poly[j];
+    if ((a.y() > p.y()) != (b.y() > p.y()) &&
+        p.x() < (b.x() - a.x()) * (p.y() - a.y()) / (b.y() - a.y()) + a.x())
+      in = !in;
+  }
+  return in;
+}
+
+void check_release(const SceneSettings& s, const terrain::Surface& base, const std::string& source) {
+  const ReleaseSettings& r = s.release;
+  const std::size_t n = r.points.size();
+  if (r.kind == "point" && n != 1)
+    throw InputError(source, "release.kind 'point' needs exactly 1 point in release.points, got " + std::to_string(n));
+  if (r.kind == "line" && n < 2)
+    throw InputError(source, "release.kind 'line' needs at least 2 points in release.points, got " + std::to_string(n));
+  if (r.kind == "polygon" && n < 3)
+    throw InputError(source, "release.kind 'polygon' needs at least 3 points in release.points, got " + std::to_string(n));
+  if (!finite_points(r.points)) throw InputError(source, "release.points must be finite");
+  if (r.kind == "polygon" && std::abs(polygon_area(to_vectors(r.points))) <= 0.0)
+    throw InputError(source, "release polygon has zero area");
+  if (r.kind == "line") {
+    double length = 0.0;
+    for (std::size_t k = 1; k < n; ++k)
+      length += std::hypot(r.points[k][0] - r.points[k - 1][0], r.points[k][1] - r.points[k - 1][1]);
+    if (!(length > 0.0)) throw InputError(source, "release line has zero length");
+  }
+  const geometry::Aabb& b = base.bounds();
+  for (const auto& p : r.points)
+    if (!base.height_at(p[0], p[1]))
+      throw InputError(source, "release point " + point_text(p) + " is outside the terrain (x in [" +
+                                   format_number(b.lo.x()) + ", " + format_number(b.hi.x()) + "], y in [" +
+                                   format_number(b.lo.y()) + ", " + format_number(b.hi.y()) + "])");
+  if (!std::isfinite(r.height)) throw InputError(source, "release.height must be finite");
+  for (double c : r.velocity)
+    if (!std::isfinite(c)) throw InputError(source, "release.velocity must be finite");
+  for (double c : r.angular_velocity)
+    if (!std::isfinite(c)) throw InputError(source, "release.angular_velocity must be finite");
+  for (double c : r.orientation_deg)
+    if (!std::isfinite(c)) throw InputError(source, "release.orientation_deg must be finite");
+  if (!std::isfinite(r.main_direction_deg)) throw InputError(source, "release.main_direction_deg must be finite");
+}
+
+void apply_override(terrain::Material& m, const MaterialOverride& o) {
+  if (o.restitution_mean) m.restitution_mean = *o.restitution_mean;
+  if (o.restitution_sd) m.restitution_sd = *o.restitution_sd;
+  if (o.restitution_scale) m.restitution_scale = *o.restitution_scale;
+  if (o.friction_angle_mean_deg) m.friction_angle_mean_deg = *o.friction_angle_mean_deg;
+  if (o.friction_coefficient_sd) m.friction_coefficient_sd = *o.friction_coefficient_sd;
+  if (o.lateral_tilt_sd_deg) m.lateral_tilt_sd_deg = *o.lateral_tilt_sd_deg;
+}
+
+void check_material(const terrain::Material& m, const std::string& source) {
+  const std::string where = "material '" + m.name + "': ";
+  auto ok = [](double x) { return std::isfinite(x) && x >= 0.0; };
+  if (!ok(m.restitution_mean) || !ok(m.restitution_sd) || !ok(m.friction_coefficient_sd) ||
+      !ok(m.lateral_tilt_sd_deg) || !std::isfinite(m.friction_angle_mean_deg))
+    throw InputError(source, where + "values must be finite and the means and sds non-negative");
+  if (!(m.restitution_scale > 0.0) || !std::isfinite(m.restitution_scale))
+    throw InputError(source, where + "restitution_scale must be positive");
+  if (m.friction_angle_mean_deg < 0.0 || m.friction_angle_mean_deg >= 90.0)
+    throw InputError(source, where + "friction_angle_mean_deg must be in [0, 90)");
+}
+
+}  // namespace
+
+Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
+                   const std::vector<block::Block>& library, const std::string& source) {
+  Scene scene;
+  scene.settings_ = settings;
+  const SceneSettings& s = scene.settings_;
+
+  {
+    const std::string& v = s.schema_version;
+    int major = -1;
+    const auto dot = v.find('.');
+    const auto [end, err] = std::from_chars(v.data(), v.data() + (dot == std::string::npos ? v.size() : dot), major);
+    if (err != std::errc() || v.empty())
+      throw InputError(source, "schema_version '" + v + "' is not MAJOR.MINOR");
+    if (major != kSceneSchemaMajor)
+      throw InputError(source, "scene schema version " + v + " is not supported (this build reads " +
+                                   std::to_string(kSceneSchemaMajor) + ".x)");
+  }
+  if (s.realizations <= 0)
+    throw InputError(source, "realizations must be positive, got " + std::to_string(s.realizations));
+  if (s.realizations > std::numeric_limits<std::uint32_t>::max())
+    throw InputError(source, "realizations must be below 2^32, got " + std::to_string(s.realizations));
+  if (s.outputs.chunk <= 0)
+    throw InputError(source, "outputs.chunk must be positive, got " + std::to_string(s.outputs.chunk));
+
+  // Blocks.
+  if (library.empty()) throw InputError(source, "the block file holds no block");
+  std::vector<const block::Block*> chosen;
+  if (s.blocks.empty()) {
+    for (const auto& b : library) chosen.push_back(&b);
+  } else {
+    for (const auto& name : s.blocks) {
+      const block::Block* found = nullptr;
+      for (const auto& b : library)
+        if (b.name == name) found = &b;
+      if (!found) {
+        std::string names;
+        for (const auto& b : library) names += (names.empty() ? "" : ", ") + b.name;
+        throw InputError(source, "block '" + name + "' is not in the block file (it has: " + names + ")");
+      }
+      chosen.push_back(found);
+    }
+  }
+  for (const block::Block* b : chosen) {
+    dda::Settings engine = s.engine;
+    engine.density = b->density;
+    SceneBlock sb{b->name, dda::Model::build(engine, b->polyhedron), b->weight};
+    if (s.block_selection == "weighted" && !(sb.weight > 0.0 && std::isfinite(sb.weight)))
+      throw InputError(source, "block '" + b->name + "' has a non-positive sampling weight");
+    if (!(s.release.height > sb.model.radius))
+      throw InputError(source, "release.height " + format_number(s.release.height) +
+                                   " m puts block '" + b->name + "' into the ground (its circumscribed radius is " +
+                                   format_number(sb.model.radius) + " m)");
+    scene.blocks_.push_back(std::move(sb));
+  }
+
+  // Materials: overrides by name, then the stochastic switches.
+  scene.materials_ = terrain.materials;
+  for (const auto& o : s.materials) {
+    bool found = false;
+    for (auto& m : scene.materials_)
+      if (m.name == o.name) {
+        apply_override(m, o);
+        found = true;
+      }
+    if (!found) throw InputError(source, "material '" + o.name + "' is not in the terrain file");
+  }
+  for (auto& m : scene.materials_) {
+    if (!s.stochastic.restitution) m.restitution_sd = 0.0;
+    if (!s.stochastic.friction) m.friction_coefficient_sd = 0.0;
+    if (!s.stochastic.lateral_tilt) m.lateral_tilt_sd_deg = 0.0;
+    check_material(m, source);
+  }
+
+  scene.terrain_ = std::make_unique<terrain::Terrain>(std::move(terrain));
+  scene.base_ = std::make_unique<terrain::Surface>(terrain::Surface::realize(*scene.terrain_, std::nullopt));
+  check_release(s, *scene.base_, source);
+  const double azimuth = s.release.main_direction_deg * M_PI / 180.0;
+  scene.main_direction_ = Eigen::Vector2d(std::cos(azimuth), std::sin(azimuth));
+
+  for (std::size_t k = 0; k < s.outputs.barriers.size(); ++k) {
+    const BarrierSettings& b = s.outputs.barriers[k];
+    const std::string name = b.name.empty() ? "barrier " + std::to_string(k + 1) : b.name;
+    if (b.line.size() < 2 || !finite_points(b.line))
+      throw InputError(source, "barrier '" + name + "' needs at least 2 finite vertices in its line");
+    Barrier barrier{name, to_vectors(b.line), {0.0}};
+    for (std::size_t j = 1; j < barrier.line.size(); ++j) {
+      const double len = (barrier.line[j] - barrier.line[j - 1]).norm();
+      if (!(len > 0.0)) throw InputError(source, "barrier '" + name + "' has a zero-length segment");
+      barrier.offsets.push_back(barrier.offsets.back() + len);
+    }
+    scene.barriers_.push_back(std::move(barrier));
+  }
+
+  for (const auto& z : s.stop_zones) {
+    StopZone zone{z.name, 0.0, 0.0, {}};
+    if (z.name.empty()) throw InputError(source, "a stop zone has no name");
+    if (!z.polygon.empty() == !z.x_range.empty())
+      throw InputError(source, "stop zone '" + z.name + "' needs either x_range or polygon");
+    if (!z.x_range.empty()) {
+      if (z.x_range.size() != 2 || !(z.x_range[0] < z.x_range[1]))
+        throw InputError(source, "stop zone '" + z.name + "': x_range must be [x_min, x_max] with x_min < x_max");
+      zone.x_min = z.x_range[0];
+      zone.x_max = z.x_range[1];
+    } else {
+      zone.polygon = to_vectors(z.polygon);
+      if (zone.polygon.size() < 3 || !finite_points(z.polygon) || polygon_area(zone.polygon) == 0.0)
+        throw InputError(source, "stop zone '" + z.name + "': polygon needs 3 or more vertices and an area");
+    }
+    scene.zones_.push_back(std::move(zone));
+  }
+
+  const double cell = s.outputs.hazard_cell_size;
+  if (!(cell >= 0.0) || !std::isfinite(cell))
+    throw InputError(source, "outputs.hazard_cell_size must be >= 0, got " + format_number(cell));
+  if (!(s.outputs.hazard_relative_accuracy > 0.0 && s.outputs.hazard_relative_accuracy < 0.5))
+    throw InputError(source, "outputs.hazard_relative_accuracy must be in (0, 0.5)");
+  if (cell > 0.0) {
+    const geometry::Aabb& b = scene.base_->bounds();
+    scene.hazard_.x0 = b.lo.x();
+    scene.hazard_.y0 = b.lo.y();
+    scene.hazard_.size = cell;
+    const double nx = std::ceil((b.hi.x() - b.lo.x()) / cell);
+    const double ny = std::ceil((b.hi.y() - b.lo.y()) / cell);
+    if (nx * ny > 1e8)
+      throw InputError(source, "outputs.hazard_cell_size " + format_number(cell) + " m gives more than 1e8 cells");
+    scene.hazard_.nx = std::max(1, static_cast<std::int32_t>(nx));
+    scene.hazard_.ny = std::max(1, static_cast<std::int32_t>(ny));
+  }
+  return scene;
+}
+
+std::vector<std::string> Scene::stop_classes() const {
+  std::vector<std::string> names;
+  for (const auto& z : zones_) names.push_back(z.name);
+  names.emplace_back("other");
+  names.emplace_back("out of domain");
+  return names;
+}
+
+std::int32_t Scene::classify(const Eigen::Vector2d& p, bool left_terrain) const {
+  const auto n = static_cast<std::int32_t>(zones_.size());
+  if (left_terrain) return n + 1;
+  for (std::int32_t k = 0; k < n; ++k) {
+    const StopZone& z = zones_[static_cast<std::size_t>(k)];
+    if (z.polygon.empty() ? (p.x() >= z.x_min && p.x() < z.x_max) : inside_polygon(z.polygon, p)) return k;
+  }
+  return n;
+}
+
+Shard Shard::parse(const std::string& text) {
+  const auto slash = text.find('/');
+  Shard shard;
+  auto number = [&](std::size_t from, std::size_t to, std::uint32_t& out) {
+    const auto [end, err] = std::from_chars(text.data() + from, text.data() + to, out);
+    return err == std::errc() && end == text.data() + to && to > from;
+  };
+  if (slash == std::string::npos || !number(0, slash, shard.index) ||
+      !number(slash + 1, text.size(), shard.count) || shard.count == 0 || shard.index >= shard.count)
+    throw core::UsageError("--shard expects K/N with 0 <= K < N, got '" + text + "'");
+  return shard;
+}
+
+std::string Shard::text() const { return std::to_string(index) + "/" + std::to_string(count); }
+
+std::vector<std::uint32_t> Shard::indices(std::uint32_t total) const {
+  std::vector<std::uint32_t> out;
+  for (std::uint64_t i = index; i < total; i += count) out.push_back(static_cast<std::uint32_t>(i));
+  return out;
+}
+
+}  // namespace talus::mc

@@ -1,0 +1,172 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "mc_fixtures.hpp"
+#include "talus/core/error.hpp"
+#include "talus/mc/realization.hpp"
+#include "talus/mc/runner.hpp"
+
+namespace talus::mc {
+namespace {
+
+using testing::bench_scene;
+using testing::bench_terrain;
+using testing::flat_terrain;
+using testing::library;
+
+RunData run_all(const Scene& scene, const std::vector<std::uint32_t>& indices, unsigned threads) {
+  RunData data;
+  data.hazard = HazardAccumulator(scene.hazard_grid(), scene.settings().outputs.hazard_relative_accuracy);
+  run_realizations(scene, indices, threads, [&](RealizationResult&& r) { data.add(std::move(r)); });
+  data.sort("test");
+  return data;
+}
+
+std::vector<std::uint32_t> all_indices(std::uint32_t n) {
+  std::vector<std::uint32_t> v(n);
+  for (std::uint32_t i = 0; i < n; ++i) v[i] = i;
+  return v;
+}
+
+// Bit-for-bit equality of two runs' records, crossings and hazard tables.
+void expect_same(const RunData& a, const RunData& b) {
+  ASSERT_EQ(a.records.size(), b.records.size());
+  for (std::size_t k = 0; k < a.records.size(); ++k) EXPECT_EQ(a.records[k], b.records[k]) << "record " << k;
+  ASSERT_EQ(a.crossings.size(), b.crossings.size());
+  for (std::size_t k = 0; k < a.crossings.size(); ++k)
+    EXPECT_EQ(std::memcmp(&a.crossings[k], &b.crossings[k], sizeof(Crossing)), 0) << "crossing " << k;
+  const auto ta = a.hazard.table(), tb = b.hazard.table();
+  EXPECT_EQ(ta.cell, tb.cell);
+  EXPECT_EQ(ta.reach, tb.reach);
+  EXPECT_EQ(ta.energy_index, tb.energy_index);
+  EXPECT_EQ(ta.energy_count, tb.energy_count);
+  EXPECT_EQ(ta.height_index, tb.height_index);
+  EXPECT_EQ(ta.height_count, tb.height_count);
+}
+
+class BenchRun : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    scene_ = new Scene(Scene::build(bench_scene(6), bench_terrain(),
+                                    library({block::SolidKind::cube, block::SolidKind::octahedron}), "test"));
+    single_ = new RunData(run_all(*scene_, all_indices(6), 1));
+  }
+  static void TearDownTestSuite() {
+    delete single_;
+    delete scene_;
+  }
+  static Scene* scene_;
+  static RunData* single_;
+};
+Scene* BenchRun::scene_ = nullptr;
+RunData* BenchRun::single_ = nullptr;
+
+TEST_F(BenchRun, RecordsAreSaneAndCoverEveryRealization) {
+  ASSERT_EQ(single_->records.size(), 6u);
+  for (std::uint32_t i = 0; i < 6; ++i) {
+    const Record& r = single_->records[i];
+    EXPECT_EQ(r.realization, i);
+    EXPECT_EQ(r.block, static_cast<std::int32_t>(i % 2));  // cycle selection
+    EXPECT_NE(r.end, dda::EndReason::running);
+    EXPECT_GT(r.max_speed, 0.0);
+    EXPECT_GT(r.max_kinetic_energy, 0.0);
+    EXPECT_GE(r.stop_class, 0);
+    EXPECT_LT(r.stop_class, 5);
+  }
+  // Every realization passes over some hazard cells; reach counts each realization once
+  // per cell, so no cell exceeds the number of realizations.
+  ASSERT_FALSE(single_->hazard.cells().empty());
+  for (const auto& [id, c] : single_->hazard.cells()) {
+    EXPECT_LE(c.reach, 6u);
+    EXPECT_EQ(c.energy.count(), c.reach);
+  }
+  // Crossings of the toe line lie on it, by a block going downslope: walking along the
+  // line (toward +y) the block comes from the left (−x) and leaves to the right.
+  for (const Crossing& c : single_->crossings) {
+    EXPECT_GE(c.position, 0.0);
+    EXPECT_LE(c.position, 20.0);
+    EXPECT_EQ(c.direction, -1);
+    EXPECT_GT(c.velocity.x(), 0.0);
+  }
+}
+
+TEST_F(BenchRun, IdenticalAtOneTwoAndFourThreads) {
+  expect_same(*single_, run_all(*scene_, all_indices(6), 2));
+  expect_same(*single_, run_all(*scene_, all_indices(6), 4));
+}
+
+TEST_F(BenchRun, ThreeShardsMergeToTheSingleRun) {
+  RunData merged;
+  merged.hazard = HazardAccumulator(scene_->hazard_grid(), 0.01);
+  for (std::uint32_t k = 0; k < 3; ++k) merged.append(run_all(*scene_, Shard{k, 3}.indices(6), 1));
+  merged.sort("test");
+  expect_same(*single_, merged);
+  // A realization present twice is refused.
+  RunData twice = run_all(*scene_, {1}, 1);
+  twice.append(run_all(*scene_, {1}, 1));
+  EXPECT_THROW(twice.sort("shards"), core::InputError);
+}
+
+TEST_F(BenchRun, HazardTablesRoundTripExactly) {
+  HazardAccumulator copy(scene_->hazard_grid(), 0.01);
+  copy.merge(single_->hazard.table(), "table");
+  RunData a;
+  a.hazard = copy;
+  RunData b;
+  b.hazard = single_->hazard;
+  expect_same(a, b);
+  auto bad = single_->hazard.table();
+  bad.cell.back() = 10000;
+  HazardAccumulator other(scene_->hazard_grid(), 0.01);
+  EXPECT_THROW(other.merge(bad, "table"), core::InputError);
+}
+
+TEST(Barrier, CrossingOfAFreeFlightMatchesTheParabola) {
+  // A cube thrown horizontally at 5 m/s from 10 m over a flat plane crosses x = 7 at
+  // t = 1 s, z = 10 − g/2, with velocity (5, 0, −g), before it lands.
+  SceneSettings s;
+  s.release.points = {{2.0, 10.0}};
+  s.release.height = 10.0;
+  s.release.orientation = "fixed";
+  s.release.velocity = {5.0, 0.0, 0.0};
+  s.realizations = 1;
+  s.outputs.barriers = {{"fence", {{7.0, 20.0}, {7.0, 0.0}}}};
+  s.outputs.hazard_cell_size = 2.0;
+  const Scene scene = Scene::build(s, flat_terrain(), library({block::SolidKind::cube}), "test");
+  const RealizationResult r = run_realization(scene, 0);
+  ASSERT_GE(r.crossings.size(), 1u);
+  const Crossing& c = r.crossings.front();
+  const double g = 9.81;
+  // The engine's flight steps are the exact parabola; the crossing is interpolated on it:
+  // errors are round-off of a few operations on O(10) values.
+  EXPECT_NEAR(c.time, 1.0, 1e-9);
+  EXPECT_NEAR(c.height, 10.0 - 0.5 * g, 1e-9);
+  EXPECT_NEAR(c.position, 10.0, 1e-9);  // from (7, 20) toward (7, 0)
+  EXPECT_NEAR(c.velocity.x(), 5.0, 1e-9);
+  EXPECT_NEAR(c.velocity.z(), -g, 1e-9);
+  const double mass = scene.blocks()[0].model.mass;
+  EXPECT_NEAR(c.kinetic_energy, 0.5 * mass * (25.0 + g * g), 1e-9 * mass);
+  // Walking along the line (toward −y) the block comes from the right (−x) to the left.
+  EXPECT_EQ(c.direction, 1);
+  // The flight path at y = 10 reaches the cells of row 5 from x = 2 to beyond 7.
+  std::vector<std::int64_t> row;
+  for (const auto& v : r.cells)
+    if (v.cell / scene.hazard_grid().nx == 5) row.push_back(v.cell % scene.hazard_grid().nx);
+  for (std::int64_t i = 1; i <= 3; ++i) EXPECT_NE(std::find(row.begin(), row.end(), i), row.end()) << i;
+  // In cell 3 (x in [6, 8), t in [0.8, 1.2)) the highest passage is at t = 0.8; the path
+  // is sampled every quarter cell (0.5 m, 0.1 s of flight), so the recorded maximum lies
+  // between z(0.9) and z(0.8).
+  bool seen = false;
+  for (const auto& v : r.cells)
+    if (v.cell == 5 * scene.hazard_grid().nx + 3) {
+      seen = true;
+      EXPECT_LE(v.height, 10.0 - 0.5 * g * 0.64 + 1e-9);
+      EXPECT_GE(v.height, 10.0 - 0.5 * g * 0.81);
+    }
+  EXPECT_TRUE(seen);
+}
+
+}  // namespace
+}  // namespace talus::mc

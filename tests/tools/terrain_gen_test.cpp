@@ -225,6 +225,14 @@ TEST_F(TerrainGen, SummaryAndMeshExportWithoutTerrainFile) {
   EXPECT_EQ(v, 651u);
   EXPECT_EQ(f, 1200u);
   EXPECT_GT(std::abs(s.vertex(100).z() - t.mesh.vertices[100].z()), 0.0);  // rough, not the base
+
+  // An existing terrain file is inspected the same way: same summary, same realization.
+  const Outcome again = run({"t.h5", "--summary", "--export-mesh", "again.obj", "--realization", "2"});
+  ASSERT_EQ(again.code, 0) << again.err;
+  EXPECT_EQ(again.out.substr(again.out.find('\n')), r.out.substr(r.out.find('\n')));
+  EXPECT_NE(again.out.find("(grid TRN, from terrain file)"), std::string::npos) << again.out;
+  EXPECT_EQ(read_text(dir_ / "again.obj"), read_text(dir_ / "r2.obj"));
+  expect_error(run({"t.h5", "-o", "copy.h5"}), 2, "a terrain file input is only inspected", "copy.h5");
 }
 
 TEST_F(TerrainGen, DemWithNodataBorderZonesAndAutomaticOriginShift) {

@@ -31,6 +31,7 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 std::optional<SourceKind> kind_of_extension(const std::string& path) {
   const std::string ext = lower_extension(path);
   if (io::is_dem_path(path)) return SourceKind::dem;
+  if (ext == ".h5") return SourceKind::file;
   // Before the mesh extensions: a PLY file without faces is a cloud.
   if (io::is_point_cloud_file(path)) return SourceKind::points;
   if (ext == ".stl" || ext == ".obj" || ext == ".ply" || ext == ".off" || ext == ".gltf" || ext == ".glb")
@@ -44,6 +45,7 @@ const char* kind_name(SourceKind kind) {
     case SourceKind::dem: return "dem";
     case SourceKind::tin: return "tin";
     case SourceKind::points: return "points";
+    case SourceKind::file: return "terrain file";
   }
   return "?";
 }
@@ -217,7 +219,7 @@ SourceKind resolve_source(const Settings& s, const std::vector<std::string>& inp
       if (!k)
         throw core::UsageError("cannot tell the kind of input '" + input +
                                "' from its extension (.asc/.tif/.tiff: DEM; .stl/.obj/.ply/.off/.gltf/.glb: "
-                               "mesh; .xyz/.txt/.pts/.csv: points); set source");
+                               "mesh; .xyz/.txt/.pts/.csv: points; .h5: terrain file); set source");
       if (kind && *kind != *k)
         throw core::UsageError("inputs mix kinds: '" + inputs.front() + "' is " + kind_name(*kind) + ", '" + input +
                                "' is " + kind_name(*k));
@@ -226,12 +228,33 @@ SourceKind resolve_source(const Settings& s, const std::vector<std::string>& inp
   }
   if (*kind == SourceKind::dem && inputs.size() != 1)
     throw core::UsageError("a DEM terrain takes one DEM file, got " + std::to_string(inputs.size()));
+  if (*kind == SourceKind::file && inputs.size() != 1)
+    throw core::UsageError("give one terrain file to inspect, got " + std::to_string(inputs.size()));
   return *kind;
+}
+
+// The diagonal mode a stored grid was built with, told from its diagonals.
+std::string triangulation_of(const Terrain& t) {
+  const auto& g = *t.grid;
+  bool fixed = true, alternating = true;
+  for (std::size_t c = 0; c < t.cell_diagonal.size(); ++c) {
+    const std::size_t i = c % static_cast<std::size_t>(g.nx - 1), j = c / static_cast<std::size_t>(g.nx - 1);
+    fixed = fixed && t.cell_diagonal[c] == 0;
+    alternating = alternating && t.cell_diagonal[c] == (i + j) % 2;
+  }
+  return fixed ? "fixed" : alternating ? "alternating" : "random";
 }
 
 Built build_terrain(const Settings& s, const std::vector<std::string>& inputs, const std::string& settings_source) {
   Built built;
   built.kind = resolve_source(s, inputs);
+  if (built.kind == SourceKind::file) {
+    io::TerrainFileInfo info;
+    built.terrain = io::read_terrain_file(inputs.front(), info);
+    built.roughness_index = info.roughness_index;
+    if (built.terrain.grid) built.triangulation = triangulation_of(built.terrain);
+    return built;
+  }
 
   // Roughness first: a contradiction in the settings should not wait for a large input.
   if (s.roughness.sigma && s.roughness.roughness_index)

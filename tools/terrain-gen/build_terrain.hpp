@@ -10,7 +10,8 @@
 
 namespace talus::terrain_gen {
 
-enum class SourceKind { synthetic, dem, tin, points };
+/// `file` is an existing terrain file, read back for --summary and --export-mesh only.
+enum class SourceKind { synthetic, dem, tin, points, file };
 
 /// The input kind: `settings.source`, or inferred from the input extensions when "auto".
 /// Throws core::UsageError for inputs that contradict it or cannot be told apart.

@@ -41,7 +41,8 @@ int main(int argc, char** argv) {
   spec.summary = "Build a terrain file (TRN/TIN, materials, roughness) from a DEM, meshes, points or a synthetic slope";
   spec.inputs_doc =
       "DEM (.asc, .tif), meshes (.stl .obj .ply .off .gltf; one file per material), or point clouds "
-      "(.xyz .txt .pts .csv, .ply without faces); none for a synthetic slope";
+      "(.xyz .txt .pts .csv, .ply without faces); none for a synthetic slope; or a terrain file (.h5) to "
+      "inspect with --summary / --export-mesh";
   spec.settings = [&settings](core::SettingsVisitor& v) { settings.visit(v); };
   spec.flags = {{"--summary", "print a summary of the built terrain (kind, sizes, extent, materials, roughness)",
                  &print_summary}};
@@ -67,7 +68,8 @@ int main(int argc, char** argv) {
         throw core::UsageError("the output is the HDF5 terrain file; its .xmf sidecar is written next to it");
       io::AtomicOutput probe(inv.output);
     }
-    terrain_gen::resolve_source(settings, inv.inputs);
+    if (terrain_gen::resolve_source(settings, inv.inputs) == terrain_gen::SourceKind::file && !inv.output.empty())
+      throw core::UsageError("a terrain file input is only inspected (--summary, --export-mesh); drop -o");
   };
 
   spec.run = [&](const cli::Invocation& inv) {

@@ -1,0 +1,253 @@
+// End-to-end tests of the dda-run executable: run the built binary on a small scene,
+// check exit codes, one-line messages and the run files (threads, shards and merge,
+// kill and resume, MPI ranks, bad scenes).
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "../mc/mc_fixtures.hpp"
+#include "talus/io/block_file.hpp"
+#include "talus/io/run_file.hpp"
+#include "talus/io/terrain_file.hpp"
+
+namespace talus {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string tool() {
+  const char* bin = std::getenv("TALUS_BIN");
+  return (fs::path(bin ? bin : TALUS_BINARY_DIR "/bin") / "dda-run").string();
+}
+
+std::string quote(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+std::string read_text(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+struct Outcome {
+  int code = -1;
+  std::string err;
+};
+
+// Eight realizations of two blocks on a 20 m wide rough bench slope, flushed in chunks of
+// two, with a barrier at the toe, a hazard grid and bench zones.
+const char* kScene = R"(schema_version: "1.0"
+terrain: terrain.h5
+block_file: blocks.h5
+release:
+  points: [[1.0, 10.0]]
+  height: 2.5
+realizations: 8
+seed: 5
+outputs:
+  hazard_cell_size: 4
+  chunk: 2
+  barriers:
+    - name: toe
+      line: [[36, 0], [36, 20]]
+stop_zones:
+  - name: bench 1
+    x_range: [5.5, 9]
+  - name: slope
+    x_range: [-1, 35.5]
+  - name: run-out
+    x_range: [35.5, 61]
+)";
+
+class DdaRun : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = fs::temp_directory_path() / ("talus_dda_run_" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    io::Provenance p;
+    p.tool = "test";
+    io::write_terrain_file((dir_ / "terrain.h5").string(), mc::testing::bench_terrain(0.1), p);
+    io::write_block_file((dir_ / "blocks.h5").string(),
+                         mc::testing::library({block::SolidKind::cube, block::SolidKind::octahedron}), p);
+    std::ofstream(dir_ / "scene.yaml") << kScene;
+    // The reference: one uninterrupted run on one thread.
+    const Outcome r = run({"-c", "scene.yaml", "--threads", "1", "-o", "single.h5"});
+    ASSERT_EQ(r.code, 0) << r.err;
+  }
+  static void TearDownTestSuite() { fs::remove_all(dir_); }
+
+  static Outcome run(const std::vector<std::string>& args, const std::string& env = {},
+                     const std::string& launcher = {}) {
+    std::string command = "cd " + quote(dir_.string()) + " && " + env + " " + launcher + " " + quote(tool());
+    for (const auto& a : args) command += " " + quote(a);
+    const fs::path err = dir_ / ".stderr";
+    command += " > /dev/null 2> " + quote(err.string());
+    const int status = std::system(command.c_str());
+    Outcome o;
+    o.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    o.err = read_text(err);
+    return o;
+  }
+
+  static io::RunFile load(const std::string& name) { return io::read_run_file((dir_ / name).string()); }
+
+  // Records, crossings, trajectories and hazard accumulators equal bit for bit.
+  static void expect_same_run(const io::RunFile& a, const io::RunFile& b) {
+    ASSERT_EQ(a.data.records.size(), b.data.records.size());
+    for (std::size_t k = 0; k < a.data.records.size(); ++k) EXPECT_EQ(a.data.records[k], b.data.records[k]) << k;
+    ASSERT_EQ(a.data.crossings.size(), b.data.crossings.size());
+    for (std::size_t k = 0; k < a.data.crossings.size(); ++k)
+      EXPECT_EQ(std::memcmp(&a.data.crossings[k], &b.data.crossings[k], sizeof(mc::Crossing)), 0) << k;
+    ASSERT_EQ(a.data.trajectories.size(), b.data.trajectories.size());
+    for (std::size_t k = 0; k < a.data.trajectories.size(); ++k)
+      EXPECT_EQ(std::memcmp(&a.data.trajectories[k], &b.data.trajectories[k], sizeof(mc::TrajectoryPoint)), 0) << k;
+    const auto ha = a.data.hazard.table(), hb = b.data.hazard.table();
+    EXPECT_EQ(ha.cell, hb.cell);
+    EXPECT_EQ(ha.reach, hb.reach);
+    EXPECT_EQ(ha.energy_count, hb.energy_count);
+    EXPECT_EQ(ha.energy_index, hb.energy_index);
+    EXPECT_EQ(ha.height_count, hb.height_count);
+    EXPECT_EQ(ha.height_index, hb.height_index);
+    EXPECT_EQ(a.info.blocks, b.info.blocks);
+    EXPECT_EQ(a.info.stop_classes, b.info.stop_classes);
+  }
+
+  static fs::path dir_;
+};
+fs::path DdaRun::dir_;
+
+TEST_F(DdaRun, WritesOneRecordPerRealization) {
+  const io::RunFile f = load("single.h5");
+  EXPECT_EQ(f.info.realizations, 8u);
+  EXPECT_EQ(f.info.shard, "0/1");
+  EXPECT_EQ(f.info.blocks, (std::vector<std::string>{"cube", "octahedron"}));
+  EXPECT_EQ(f.info.stop_classes, (std::vector<std::string>{"bench 1", "slope", "run-out", "other", "out of domain"}));
+  ASSERT_EQ(f.data.records.size(), 8u);
+  for (std::uint32_t i = 0; i < 8; ++i) EXPECT_EQ(f.data.records[i].realization, i);
+  EXPECT_FALSE(f.data.hazard.cells().empty());
+  EXPECT_NE(f.info.provenance.settings_yaml.find("realizations: 8"), std::string::npos);
+  EXPECT_FALSE(fs::exists(dir_ / "single.h5.journal"));  // removed once the output is complete
+}
+
+TEST_F(DdaRun, IdenticalRecordsAtAnyThreadCount) {
+  for (const char* threads : {"2", "4"}) {
+    const std::string out = std::string("threads") + threads + ".h5";
+    const Outcome r = run({"-c", "scene.yaml", "--threads", threads, "-o", out});
+    ASSERT_EQ(r.code, 0) << r.err;
+    expect_same_run(load("single.h5"), load(out));
+  }
+}
+
+TEST_F(DdaRun, ThreeShardsMergeToTheSingleRun) {
+  for (const char* shard : {"0/3", "1/3", "2/3"}) {
+    const Outcome r = run({"-c", "scene.yaml", "--shard", shard, "-o", std::string("shard") + shard[0] + ".h5"});
+    ASSERT_EQ(r.code, 0) << r.err;
+  }
+  EXPECT_EQ(load("shard1.h5").data.records.size(), 3u);  // realizations 1, 4, 7
+  const Outcome m = run({"merge", "shard2.h5", "shard0.h5", "shard1.h5", "-o", "merged.h5"});
+  ASSERT_EQ(m.code, 0) << m.err;
+  const io::RunFile merged = load("merged.h5");
+  EXPECT_EQ(merged.info.shard, "0/1");
+  expect_same_run(load("single.h5"), merged);
+  // A shard given twice repeats realizations: refused.
+  const Outcome twice = run({"merge", "shard0.h5", "shard0.h5", "-o", "twice.h5"});
+  EXPECT_EQ(twice.code, 3);
+  EXPECT_NE(twice.err.find("appears twice"), std::string::npos) << twice.err;
+  EXPECT_FALSE(fs::exists(dir_ / "twice.h5"));
+}
+
+TEST_F(DdaRun, KilledRunResumesToTheUninterruptedResult) {
+  // Dies (as if killed) right after the first chunk of two realizations reached the journal.
+  const Outcome killed = run({"-c", "scene.yaml", "--threads", "2", "-o", "resumed.h5"},
+                             "TALUS_DDA_RUN_ABORT_AFTER_CHUNKS=1");
+  EXPECT_EQ(killed.code, 137);
+  EXPECT_FALSE(fs::exists(dir_ / "resumed.h5"));
+  ASSERT_TRUE(fs::exists(dir_ / "resumed.h5.journal"));
+  // Not without --resume, and not with other settings.
+  const Outcome again = run({"-c", "scene.yaml", "-o", "resumed.h5"});
+  EXPECT_EQ(again.code, 3);
+  EXPECT_NE(again.err.find("add --resume"), std::string::npos) << again.err;
+  const Outcome other = run({"-c", "scene.yaml", "--set", "seed=6", "--resume", "-o", "resumed.h5"});
+  EXPECT_EQ(other.code, 3);
+  EXPECT_NE(other.err.find("other settings"), std::string::npos) << other.err;
+  const Outcome resumed = run({"-c", "scene.yaml", "--resume", "-v", "-o", "resumed.h5"});
+  ASSERT_EQ(resumed.code, 0) << resumed.err;
+  EXPECT_NE(resumed.err.find("6 realizations to run (2 already done)"), std::string::npos) << resumed.err;
+  EXPECT_FALSE(fs::exists(dir_ / "resumed.h5.journal"));
+  expect_same_run(load("single.h5"), load("resumed.h5"));
+}
+
+TEST_F(DdaRun, TrajectoriesWithXdmfSidecar) {
+  const Outcome r = run({"-c", "scene.yaml", "--set", "realizations=2", "--set", "engine.trajectory_interval=0.05",
+                         "-o", "traj.h5"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const io::RunFile f = load("traj.h5");
+  ASSERT_GT(f.data.trajectories.size(), 10u);
+  EXPECT_EQ(f.data.trajectories.front().realization, 0u);
+  EXPECT_EQ(f.data.trajectories.back().realization, 1u);
+  const std::string xmf = read_text(dir_ / "traj.xmf");
+  EXPECT_NE(xmf.find("TopologyType=\"Mixed\" NumberOfElements=\"2\""), std::string::npos);
+  EXPECT_NE(xmf.find("traj.h5:/trajectories/position"), std::string::npos);
+}
+
+TEST_F(DdaRun, BadScenesAreRefusedWithOneLine) {
+  struct Case {
+    std::vector<std::string> args;
+    std::string message;
+  };
+  const std::vector<Case> cases = {
+      {{"--set", "terrain=missing.h5"}, "missing.h5: cannot open file"},
+      {{"--set", "block_file=nowhere.h5"}, "nowhere.h5: cannot open file"},
+      {{"--set", "schema_version=\"2.0\""}, "scene schema version 2.0 is not supported"},
+      {{"--set", "realizations=0"}, "realizations must be positive, got 0"},
+      {{"--set", "realizations=-5"}, "realizations must be positive"},
+      {{"--set", "release.points=[[80, 10]]"}, "release point (80, 10) is outside the terrain"},
+      {{"--set", "blocks=[R7]"}, "block 'R7' is not in the block file"},
+      {{"--set", "terrain=scene.yaml"}, "scene.yaml: not an HDF5 file"},
+  };
+  for (const Case& c : cases) {
+    std::vector<std::string> args = {"-c", "scene.yaml"};
+    args.insert(args.end(), c.args.begin(), c.args.end());
+    args.insert(args.end(), {"-o", "bad.h5"});
+    const Outcome r = run(args);
+    EXPECT_EQ(r.code, 3) << c.message << ": " << r.err;
+    EXPECT_EQ(r.err.rfind("dda-run: error: ", 0), 0u) << r.err;
+    EXPECT_NE(r.err.find(c.message), std::string::npos) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(fs::exists(dir_ / "bad.h5"));
+    EXPECT_FALSE(fs::exists(dir_ / "bad.h5.journal"));
+  }
+  // An unknown key in the scene file, named with its line.
+  std::ofstream(dir_ / "typo.yaml") << std::string(kScene) + "realisations: 3\n";
+  const Outcome typo = run({"-c", "typo.yaml", "-o", "bad.h5"});
+  EXPECT_EQ(typo.code, 3);
+  EXPECT_NE(typo.err.find("typo.yaml:"), std::string::npos) << typo.err;
+  EXPECT_NE(typo.err.find("unknown key 'realisations'"), std::string::npos) << typo.err;
+  // Usage errors.
+  EXPECT_EQ(run({"-c", "scene.yaml", "--shard", "3/3", "-o", "bad.h5"}).code, 2);
+  EXPECT_EQ(run({"-c", "scene.yaml", "--threads", "x", "-o", "bad.h5"}).code, 2);
+}
+
+#ifdef TALUS_TEST_MPIEXEC
+TEST_F(DdaRun, TwoMpiRanksEqualTheSingleRun) {
+  const Outcome r = run({"-c", "scene.yaml", "-o", "mpi.h5"}, {},
+                        std::string(TALUS_TEST_MPIEXEC) + " --allow-run-as-root --oversubscribe -n 2");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_FALSE(fs::exists(dir_ / "mpi.h5.rank1"));
+  expect_same_run(load("single.h5"), load("mpi.h5"));
+}
+#endif
+
+}  // namespace
+}  // namespace talus

@@ -77,7 +77,8 @@ int main(int argc, char** argv) {
     core::Stopwatch clock;
     const terrain_gen::Built built = terrain_gen::build_terrain(settings, inv.inputs, settings_source);
     const terrain::Terrain& t = built.terrain;
-    core::log_info("built " + std::string(t.grid ? "grid TRN" : "TIN") + " '" + t.name + "': " +
+    const bool read_back = built.kind == terrain_gen::SourceKind::file;
+    core::log_info((read_back ? "read " : "built ") + std::string(t.grid ? "grid TRN" : "TIN") + " '" + t.name + "': " +
                    std::to_string(t.mesh.vertices.size()) + " points, " + std::to_string(t.mesh.triangles.size()) +
                    " triangles in " + core::format_number(clock.seconds()) + " s");
     clock.restart();
@@ -93,7 +94,8 @@ int main(int argc, char** argv) {
       io::write_terrain_xdmf(io::xdmf_sidecar_path(inv.output), inv.output, t.mesh.vertices.size(),
                              t.mesh.triangles.size());
     }
-    core::log_info("wrote the outputs in " + core::format_number(clock.seconds()) + " s");
+    if (!inv.output.empty() || !export_path.empty())
+      core::log_info("wrote the outputs in " + core::format_number(clock.seconds()) + " s");
     if (print_summary) std::fputs(terrain_gen::summary(built).c_str(), stdout);
   };
   return cli::run_tool(argc, argv, spec);

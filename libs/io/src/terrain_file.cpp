@@ -1,5 +1,6 @@
 #include "talus/io/terrain_file.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -199,17 +200,21 @@ terrain::Terrain read_terrain_file(const std::string& path, TerrainFileInfo& inf
   const auto shift = root.read_doubles("origin_shift", {3});
   t.origin_shift = geometry::Vec3(shift[0], shift[1], shift[2]);
 
+  // One flat array at a time, each released once copied: the peak stays near the size
+  // of the terrain itself.
   const h5::Group g_trn = root.open_group("trn");
-  const auto vertices = g_trn.read_doubles("vertices", {0, 3});
-  const auto triangles = g_trn.read_int32("triangles", {0, 3});
-  const std::size_t n_tri = triangles.size() / 3;
+  {
+    const auto vertices = g_trn.read_doubles("vertices", {0, 3});
+    t.mesh.vertices.resize(vertices.size() / 3);
+    if (!vertices.empty()) std::copy(vertices.begin(), vertices.end(), t.mesh.vertices.front().data());
+  }
+  {
+    const auto triangles = g_trn.read_int32("triangles", {0, 3});
+    t.mesh.triangles.resize(triangles.size() / 3);
+    if (!triangles.empty()) std::copy(triangles.begin(), triangles.end(), t.mesh.triangles.front().data());
+  }
+  const std::size_t n_tri = t.mesh.triangles.size();
   t.material_of_triangle = g_trn.read_int32("material", {u64(n_tri)});
-  t.mesh.vertices.resize(vertices.size() / 3);
-  for (std::size_t v = 0; v < t.mesh.vertices.size(); ++v)
-    t.mesh.vertices[v] = geometry::Vec3(vertices[3 * v], vertices[3 * v + 1], vertices[3 * v + 2]);
-  t.mesh.triangles.resize(n_tri);
-  for (std::size_t k = 0; k < n_tri; ++k)
-    t.mesh.triangles[k] = {triangles[3 * k], triangles[3 * k + 1], triangles[3 * k + 2]};
 
   if (kind == "grid") {
     const h5::Group g = root.open_group("grid");

@@ -7,6 +7,7 @@
 #include <charconv>
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
 #include <filesystem>
 #include <iterator>
 #include <string>
@@ -175,11 +176,14 @@ int main(int argc, char** argv) {
   [[maybe_unused]] int rank = 0;
   int ranks = 1;
 #ifdef TALUS_WITH_MPI
-  MPI_Init(&argc, &argv);
-  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
-  MPI_Comm_size(MPI_COMM_WORLD, &ranks);
-  // Only rank 0 speaks, so a failing scene prints one line, not one per rank.
-  if (rank != 0) core::set_log_level(core::LogLevel::error);
+  // MPI only under a launcher (mpirun sets these): a plain start stays a one-process run
+  // without the cost of a singleton MPI start.
+  const bool mpi = std::getenv("OMPI_COMM_WORLD_SIZE") || std::getenv("PMI_SIZE") || std::getenv("PMIX_RANK");
+  if (mpi) {
+    MPI_Init(&argc, &argv);
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+    MPI_Comm_size(MPI_COMM_WORLD, &ranks);
+  }
 #endif
 
   mc::SceneSettings settings;
@@ -210,17 +214,19 @@ int main(int argc, char** argv) {
     // all ranks share, as on clusters).
     const std::string part = inv.output + ".rank" + std::to_string(rank);
     int ok = 1;
-    std::string error;
+    std::exception_ptr failure;
     try {
       run_scene(settings, inv, opt, mc::Shard{static_cast<std::uint32_t>(rank), static_cast<std::uint32_t>(ranks)},
                 part);
     } catch (...) {
       ok = 0;
-      if (rank == 0) throw;
+      failure = std::current_exception();
     }
+    // Every rank reaches this point, so a failing rank never leaves the others waiting.
     int all_ok = 0;
     MPI_Allreduce(&ok, &all_ok, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
-    if (rank != 0) return;
+    if (rank != 0) return;  // rank 0 reports
+    if (failure) std::rethrow_exception(failure);
     if (!all_ok) throw core::RuntimeError("a rank failed; its shard file is missing");
     std::vector<io::RunFile> files;
     std::vector<std::string> names;
@@ -235,7 +241,7 @@ int main(int argc, char** argv) {
   };
   const int code = cli::run_tool(argc, argv, spec);
 #ifdef TALUS_WITH_MPI
-  MPI_Finalize();
+  if (mpi) MPI_Finalize();
 #endif
   return code;
 }

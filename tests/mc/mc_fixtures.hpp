@@ -11,10 +11,10 @@
 
 namespace talus::mc::testing {
 
-/// The SPEC §6 bench profile, 20 m wide (31 × 11 points), with roughness σ (m).
-inline terrain::Terrain bench_terrain(double sigma = 0.1) {
+/// The SPEC §6 bench profile, 20 m wide (31 × 11 points) unless told, with roughness σ (m).
+inline terrain::Terrain bench_terrain(double sigma = 0.1, double width = 20.0) {
   terrain::SyntheticSlope slope;
-  slope.width = 20.0;
+  slope.width = width;
   terrain::Terrain t =
       terrain::build_grid_terrain(terrain::make_synthetic(slope, "test"), terrain::Diagonal::alternating, 7, "test");
   t.roughness.sigma = sigma;

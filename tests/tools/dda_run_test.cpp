@@ -239,6 +239,29 @@ TEST_F(DdaRun, BadScenesAreRefusedWithOneLine) {
   EXPECT_EQ(run({"-c", "scene.yaml", "--threads", "x", "-o", "bad.h5"}).code, 2);
 }
 
+TEST_F(DdaRun, ExampleScenesRun) {
+  // The documented scenes of configs/scenes, on the full-width bench slope, with few
+  // realizations.
+  io::Provenance p;
+  p.tool = "test";
+  io::write_terrain_file((dir_ / "bench40.h5").string(), mc::testing::bench_terrain(0.1, 40.0), p);
+  auto blocks = mc::testing::library({block::SolidKind::tetrahedron, block::SolidKind::cube});
+  blocks[0].name = "R1";
+  blocks[1].name = "R2";
+  io::write_block_file((dir_ / "platonic.h5").string(), blocks, p);
+  const fs::path configs = fs::path(TALUS_SOURCE_DIR) / "configs" / "scenes";
+  int count = 0;
+  for (const auto& e : fs::directory_iterator(configs)) {
+    if (e.path().extension() != ".yaml") continue;
+    ++count;
+    const Outcome r = run({"-c", e.path().string(), "--set", "terrain=bench40.h5", "--set", "block_file=platonic.h5",
+                           "--set", "realizations=2", "-o", "example.h5"});
+    EXPECT_EQ(r.code, 0) << e.path() << ": " << r.err;
+    EXPECT_EQ(load("example.h5").data.records.size(), 2u) << e.path();
+  }
+  EXPECT_GE(count, 2);
+}
+
 #ifdef TALUS_TEST_MPIEXEC
 TEST_F(DdaRun, TwoMpiRanksEqualTheSingleRun) {
   const Outcome r = run({"-c", "scene.yaml", "-o", "mpi.h5"}, {},

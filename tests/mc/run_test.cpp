@@ -1,9 +1,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <cstring>
 
 #include "mc_fixtures.hpp"
+#include "run_compare.hpp"
 #include "talus/core/error.hpp"
 #include "talus/mc/realization.hpp"
 #include "talus/mc/runner.hpp"
@@ -28,22 +28,6 @@ std::vector<std::uint32_t> all_indices(std::uint32_t n) {
   std::vector<std::uint32_t> v(n);
   for (std::uint32_t i = 0; i < n; ++i) v[i] = i;
   return v;
-}
-
-// Bit-for-bit equality of two runs' records, crossings and hazard tables.
-void expect_same(const RunData& a, const RunData& b) {
-  ASSERT_EQ(a.records.size(), b.records.size());
-  for (std::size_t k = 0; k < a.records.size(); ++k) EXPECT_EQ(a.records[k], b.records[k]) << "record " << k;
-  ASSERT_EQ(a.crossings.size(), b.crossings.size());
-  for (std::size_t k = 0; k < a.crossings.size(); ++k)
-    EXPECT_EQ(std::memcmp(&a.crossings[k], &b.crossings[k], sizeof(Crossing)), 0) << "crossing " << k;
-  const auto ta = a.hazard.table(), tb = b.hazard.table();
-  EXPECT_EQ(ta.cell, tb.cell);
-  EXPECT_EQ(ta.reach, tb.reach);
-  EXPECT_EQ(ta.energy_index, tb.energy_index);
-  EXPECT_EQ(ta.energy_count, tb.energy_count);
-  EXPECT_EQ(ta.height_index, tb.height_index);
-  EXPECT_EQ(ta.height_count, tb.height_count);
 }
 
 class BenchRun : public ::testing::Test {
@@ -93,8 +77,8 @@ TEST_F(BenchRun, RecordsAreSaneAndCoverEveryRealization) {
 }
 
 TEST_F(BenchRun, IdenticalAtOneTwoAndFourThreads) {
-  expect_same(*single_, run_all(*scene_, all_indices(6), 2));
-  expect_same(*single_, run_all(*scene_, all_indices(6), 4));
+  testing::expect_same_run(*single_, run_all(*scene_, all_indices(6), 2));
+  testing::expect_same_run(*single_, run_all(*scene_, all_indices(6), 4));
 }
 
 TEST_F(BenchRun, ThreeShardsMergeToTheSingleRun) {
@@ -102,7 +86,7 @@ TEST_F(BenchRun, ThreeShardsMergeToTheSingleRun) {
   merged.hazard = HazardAccumulator(scene_->hazard_grid(), 0.01);
   for (std::uint32_t k = 0; k < 3; ++k) merged.append(run_all(*scene_, Shard{k, 3}.indices(6), 1));
   merged.sort("test");
-  expect_same(*single_, merged);
+  testing::expect_same_run(*single_, merged);
   // A realization present twice is refused.
   RunData twice = run_all(*scene_, {1}, 1);
   twice.append(run_all(*scene_, {1}, 1));
@@ -116,7 +100,7 @@ TEST_F(BenchRun, HazardTablesRoundTripExactly) {
   a.hazard = copy;
   RunData b;
   b.hazard = single_->hazard;
-  expect_same(a, b);
+  testing::expect_same_run(a, b);
   auto bad = single_->hazard.table();
   bad.cell.back() = 10000;
   HazardAccumulator other(scene_->hazard_grid(), 0.01);

@@ -7,13 +7,13 @@
 
 #include <algorithm>
 #include <cstdlib>
-#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <string>
 #include <vector>
 
 #include "../mc/mc_fixtures.hpp"
+#include "../mc/run_compare.hpp"
 #include "talus/io/block_file.hpp"
 #include "talus/io/run_file.hpp"
 #include "talus/io/terrain_file.hpp"
@@ -102,23 +102,8 @@ class DdaRun : public ::testing::Test {
 
   static io::RunFile load(const std::string& name) { return io::read_run_file((dir_ / name).string()); }
 
-  // Records, crossings, trajectories and hazard accumulators equal bit for bit.
   static void expect_same_run(const io::RunFile& a, const io::RunFile& b) {
-    ASSERT_EQ(a.data.records.size(), b.data.records.size());
-    for (std::size_t k = 0; k < a.data.records.size(); ++k) EXPECT_EQ(a.data.records[k], b.data.records[k]) << k;
-    ASSERT_EQ(a.data.crossings.size(), b.data.crossings.size());
-    for (std::size_t k = 0; k < a.data.crossings.size(); ++k)
-      EXPECT_EQ(std::memcmp(&a.data.crossings[k], &b.data.crossings[k], sizeof(mc::Crossing)), 0) << k;
-    ASSERT_EQ(a.data.trajectories.size(), b.data.trajectories.size());
-    for (std::size_t k = 0; k < a.data.trajectories.size(); ++k)
-      EXPECT_EQ(std::memcmp(&a.data.trajectories[k], &b.data.trajectories[k], sizeof(mc::TrajectoryPoint)), 0) << k;
-    const auto ha = a.data.hazard.table(), hb = b.data.hazard.table();
-    EXPECT_EQ(ha.cell, hb.cell);
-    EXPECT_EQ(ha.reach, hb.reach);
-    EXPECT_EQ(ha.energy_count, hb.energy_count);
-    EXPECT_EQ(ha.energy_index, hb.energy_index);
-    EXPECT_EQ(ha.height_count, hb.height_count);
-    EXPECT_EQ(ha.height_index, hb.height_index);
+    mc::testing::expect_same_run(a.data, b.data);
     EXPECT_EQ(a.info.blocks, b.info.blocks);
     EXPECT_EQ(a.info.stop_classes, b.info.stop_classes);
   }

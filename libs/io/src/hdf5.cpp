@@ -82,7 +82,11 @@ File File::create(const std::string& path) {
   return File(Group(handle, "/", path));
 }
 
-File File::open(const std::string& path) {
+namespace {
+
+// Opens an existing HDF5 file with `flags` (read-only or read-write), telling a missing
+// file from one that is not HDF5.
+Id open_existing(const std::string& path, unsigned flags) {
   silence_hdf5();
   if (H5Fis_hdf5(path.c_str()) <= 0) {
     FILE* f = std::fopen(path.c_str(), "rb");
@@ -90,23 +94,21 @@ File File::open(const std::string& path) {
     std::fclose(f);
     throw InputError(path, "not an HDF5 file (or truncated)");
   }
-  Id id(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT));
-  if (!id.valid()) throw InputError(path, "cannot open HDF5 file");
-  auto handle = std::make_shared<Group::Handle>(Group::Handle{std::move(id)});
+  Id id(H5Fopen(path.c_str(), flags, H5P_DEFAULT));
+  if (!id.valid())
+    throw InputError(path, flags == H5F_ACC_RDONLY ? "cannot open HDF5 file" : "cannot open HDF5 file for writing");
+  return id;
+}
+
+}  // namespace
+
+File File::open(const std::string& path) {
+  auto handle = std::make_shared<Group::Handle>(Group::Handle{open_existing(path, H5F_ACC_RDONLY)});
   return File(Group(handle, "/", path));
 }
 
 File File::open_rw(const std::string& path) {
-  silence_hdf5();
-  if (H5Fis_hdf5(path.c_str()) <= 0) {
-    FILE* f = std::fopen(path.c_str(), "rb");
-    if (!f) throw InputError(path, "cannot open file (missing or unreadable)");
-    std::fclose(f);
-    throw InputError(path, "not an HDF5 file (or truncated)");
-  }
-  Id id(H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT));
-  if (!id.valid()) throw InputError(path, "cannot open HDF5 file for writing");
-  auto handle = std::make_shared<Group::Handle>(Group::Handle{std::move(id)});
+  auto handle = std::make_shared<Group::Handle>(Group::Handle{open_existing(path, H5F_ACC_RDWR)});
   return File(Group(handle, "/", path));
 }
 

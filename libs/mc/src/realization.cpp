@@ -16,44 +16,31 @@ using core::Stream;
 
 double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return a.x() * b.y() - a.y() * b.x(); }
 
-bool inside(const std::vector<std::array<double, 2>>& poly, double x, double y) {
-  bool in = false;
-  for (std::size_t k = 0, j = poly.size() - 1; k < poly.size(); j = k++) {
-    const auto& a = poly[k];
-    const auto& b = poly[j];
-    if ((a[1] > y) != (b[1] > y) && x < (b[0] - a[0]) * (y - a[1]) / (b[1] - a[1]) + a[0]) in = !in;
-  }
-  return in;
-}
-
-// Plan point of the release zone for draws of `rs` (indices 0–2 and 16 onwards).
-Eigen::Vector2d release_point(const ReleaseSettings& r, const RandomStream& rs) {
-  if (r.kind == "point") return {r.points[0][0], r.points[0][1]};
-  if (r.kind == "line") {
+// Plan point of the release zone from `rs`: draw 0 for a line, draws 16 onwards (pairs)
+// for a polygon; draws 3–5 are the orientation.
+Eigen::Vector2d release_point(const std::string& kind, const std::vector<Eigen::Vector2d>& zone,
+                              const RandomStream& rs) {
+  if (kind == "point") return zone[0];
+  if (kind == "line") {
     double length = 0.0;
-    for (std::size_t k = 1; k < r.points.size(); ++k)
-      length += std::hypot(r.points[k][0] - r.points[k - 1][0], r.points[k][1] - r.points[k - 1][1]);
+    for (std::size_t k = 1; k < zone.size(); ++k) length += (zone[k] - zone[k - 1]).norm();
     double at = rs.uniform(0) * length;
-    for (std::size_t k = 1; k < r.points.size(); ++k) {
-      const Eigen::Vector2d a(r.points[k - 1][0], r.points[k - 1][1]);
-      const Eigen::Vector2d b(r.points[k][0], r.points[k][1]);
-      const double len = (b - a).norm();
-      if (at <= len || k + 1 == r.points.size()) return a + (b - a) * std::min(at / len, 1.0);
+    for (std::size_t k = 1; k < zone.size(); ++k) {
+      const double len = (zone[k] - zone[k - 1]).norm();
+      if (at <= len || k + 1 == zone.size()) return zone[k - 1] + (zone[k] - zone[k - 1]) * std::min(at / len, 1.0);
       at -= len;
     }
   }
   // Polygon: rejection sampling in its bounding box (any simple polygon, concave too).
-  double x0 = r.points[0][0], x1 = x0, y0 = r.points[0][1], y1 = y0;
-  for (const auto& p : r.points) {
-    x0 = std::min(x0, p[0]);
-    x1 = std::max(x1, p[0]);
-    y0 = std::min(y0, p[1]);
-    y1 = std::max(y1, p[1]);
+  Eigen::Vector2d lo = zone[0], hi = zone[0];
+  for (const auto& p : zone) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
   }
   for (std::uint64_t k = 0; k < 100000; ++k) {
-    const double x = x0 + (x1 - x0) * rs.uniform(16 + 2 * k);
-    const double y = y0 + (y1 - y0) * rs.uniform(17 + 2 * k);
-    if (inside(r.points, x, y)) return {x, y};
+    const Eigen::Vector2d p(lo.x() + (hi.x() - lo.x()) * rs.uniform(16 + 2 * k),
+                            lo.y() + (hi.y() - lo.y()) * rs.uniform(17 + 2 * k));
+    if (point_in_polygon(zone, p)) return p;
   }
   throw core::RuntimeError("release polygon: no point drawn inside it after 100000 tries");
 }
@@ -206,7 +193,7 @@ ReleaseDraw draw_release(const Scene& scene, const terrain::Surface& ground, std
   }
 
   const RandomStream rs(s.seed, Stream::release, index);
-  const Eigen::Vector2d xy = release_point(r, rs);
+  const Eigen::Vector2d xy = release_point(r.kind, scene.release_zone(), rs);
   const auto hit = ground.height_at(xy.x(), xy.y());
   if (!hit)
     throw core::InputError("release", "point (" + core::format_number(xy.x()) + ", " +

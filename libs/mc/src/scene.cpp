@@ -120,18 +120,6 @@ double polygon_area(const std::vector<Eigen::Vector2d>& poly) {
   return 0.5 * a;
 }
 
-bool inside_polygon(const std::vector<Eigen::Vector2d>& poly, const Eigen::Vector2d& p) {
-  bool in = false;
-  for (std::size_t k = 0, j = poly.size() - 1; k < poly.size(); j = k++) {
-    const auto& a = poly[k];
-    const auto& b = poly[j];
-    if ((a.y() > p.y()) != (b.y() > p.y()) &&
-        p.x() < (b.x() - a.x()) * (p.y() - a.y()) / (b.y() - a.y()) + a.x())
-      in = !in;
-  }
-  return in;
-}
-
 void check_release(const SceneSettings& s, const terrain::Surface& base, const std::string& source) {
   const ReleaseSettings& r = s.release;
   const std::size_t n = r.points.size();
@@ -265,6 +253,7 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
   scene.terrain_ = std::make_unique<terrain::Terrain>(std::move(terrain));
   scene.base_ = std::make_unique<terrain::Surface>(terrain::Surface::realize(*scene.terrain_, std::nullopt));
   check_release(s, *scene.base_, source);
+  scene.release_zone_ = to_vectors(s.release.points);
   const double azimuth = s.release.main_direction_deg * M_PI / 180.0;
   scene.main_direction_ = Eigen::Vector2d(std::cos(azimuth), std::sin(azimuth));
 
@@ -320,6 +309,18 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
   return scene;
 }
 
+bool point_in_polygon(const std::vector<Eigen::Vector2d>& poly, const Eigen::Vector2d& p) {
+  bool in = false;
+  for (std::size_t k = 0, j = poly.size() - 1; k < poly.size(); j = k++) {
+    const auto& a = poly[k];
+    const auto& b = poly[j];
+    if ((a.y() > p.y()) != (b.y() > p.y()) &&
+        p.x() < (b.x() - a.x()) * (p.y() - a.y()) / (b.y() - a.y()) + a.x())
+      in = !in;
+  }
+  return in;
+}
+
 std::vector<std::string> Scene::stop_classes() const {
   std::vector<std::string> names;
   for (const auto& z : zones_) names.push_back(z.name);
@@ -333,7 +334,7 @@ std::int32_t Scene::classify(const Eigen::Vector2d& p, bool left_terrain) const 
   if (left_terrain) return n + 1;
   for (std::int32_t k = 0; k < n; ++k) {
     const StopZone& z = zones_[static_cast<std::size_t>(k)];
-    if (z.polygon.empty() ? (p.x() >= z.x_min && p.x() < z.x_max) : inside_polygon(z.polygon, p)) return k;
+    if (z.polygon.empty() ? (p.x() >= z.x_min && p.x() < z.x_max) : point_in_polygon(z.polygon, p)) return k;
   }
   return n;
 }

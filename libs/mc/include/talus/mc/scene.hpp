@@ -150,6 +150,8 @@ class Scene {
   /// Zone names, then "other" (in no zone), then "out of domain" (left the terrain).
   std::vector<std::string> stop_classes() const;
   const HazardGridSpec& hazard_grid() const { return hazard_; }
+  /// The release point, line or polygon vertices in plan (m).
+  const std::vector<Eigen::Vector2d>& release_zone() const { return release_zone_; }
   Eigen::Vector2d main_direction() const { return main_direction_; }
   std::uint32_t realizations() const { return static_cast<std::uint32_t>(settings_.realizations); }
   /// The smooth surface (or the TIN template whose search structure realizations share).
@@ -167,8 +169,12 @@ class Scene {
   std::vector<Barrier> barriers_;
   std::vector<StopZone> zones_;
   HazardGridSpec hazard_;
+  std::vector<Eigen::Vector2d> release_zone_;
   Eigen::Vector2d main_direction_ = Eigen::Vector2d::UnitX();
 };
+
+/// True if `p` lies inside the simple polygon `polygon` (even–odd rule).
+bool point_in_polygon(const std::vector<Eigen::Vector2d>& polygon, const Eigen::Vector2d& p);
 
 /// Parses "K/N" (0 ≤ K < N) as a shard; throws core::UsageError otherwise.
 struct Shard {

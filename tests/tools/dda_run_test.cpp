@@ -252,7 +252,8 @@ TEST_F(DdaRun, TwoMpiRanksEqualTheSingleRun) {
   const Outcome r = run({"-c", "scene.yaml", "-o", "mpi.h5"}, {},
                         std::string(TALUS_TEST_MPIEXEC) + " --allow-run-as-root --oversubscribe -n 2");
   ASSERT_EQ(r.code, 0) << r.err;
-  EXPECT_FALSE(fs::exists(dir_ / "mpi.h5.rank1"));
+  EXPECT_FALSE(fs::exists(dir_ / "mpi.rank0.h5"));
+  EXPECT_FALSE(fs::exists(dir_ / "mpi.rank1.h5"));
   expect_same_run(load("single.h5"), load("mpi.h5"));
 }
 #endif

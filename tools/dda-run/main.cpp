@@ -20,6 +20,7 @@
 #include "talus/io/block_file.hpp"
 #include "talus/io/run_file.hpp"
 #include "talus/io/terrain_file.hpp"
+#include "talus/io/xdmf.hpp"
 #include "talus/mc/runner.hpp"
 #include "talus/mc/scene.hpp"
 
@@ -149,6 +150,13 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
                    " realizations ended in a numerical failure (see records/end_reason)");
 }
 
+// The shard file of MPI rank r: "run.h5" → "run.rank1.h5" (its own .xmf sidecar name).
+[[maybe_unused]] std::string rank_part(const std::string& output, int rank) {
+  std::filesystem::path p(output);
+  const std::string ext = p.extension().string();
+  return p.replace_extension().string() + ".rank" + std::to_string(rank) + ext;
+}
+
 int merge_main(int argc, char** argv) {
   cli::ToolSpec spec;
   spec.name = "dda-run merge";
@@ -212,7 +220,7 @@ int main(int argc, char** argv) {
 #ifdef TALUS_WITH_MPI
     // Rank r runs shard r/n into its own file; rank 0 merges them (needs a file system
     // all ranks share, as on clusters).
-    const std::string part = inv.output + ".rank" + std::to_string(rank);
+    const std::string part = rank_part(inv.output, rank);
     int ok = 1;
     std::exception_ptr failure;
     try {
@@ -231,12 +239,15 @@ int main(int argc, char** argv) {
     std::vector<io::RunFile> files;
     std::vector<std::string> names;
     for (int r = 0; r < ranks; ++r) {
-      names.push_back(inv.output + ".rank" + std::to_string(r));
+      names.push_back(rank_part(inv.output, r));
       files.push_back(io::read_run_file(names.back()));
     }
     const io::RunFile merged = io::merge_run_files(files, names);
     io::write_run_file(inv.output, merged.info, merged.data);
-    for (const auto& n : names) std::filesystem::remove(n);
+    for (const auto& n : names) {
+      std::filesystem::remove(n);
+      std::filesystem::remove(io::xdmf_sidecar_path(n));  // written when trajectories are on
+    }
 #endif
   };
   const int code = cli::run_tool(argc, argv, spec);

@@ -372,6 +372,8 @@ bool same_run(const RunInfo& a, const RunInfo& b) {
 }
 
 const char* kJournalKind = "run-journal";
+// Larger hazard grids keep only the sparse per-cell table (a dense raster would be ≥ 128 MiB).
+constexpr double kMaxRasterCells = 16.0 * 1024 * 1024;
 
 }  // namespace
 
@@ -535,7 +537,8 @@ void write_run_file(const std::string& path, const RunInfo& info, const mc::RunD
     store(root.create_group("trajectories"), trajectory_table(data.trajectories), Mode::write);
     const h5::Group hazard = root.create_group("hazard");
     store(hazard, hazard_table(data.hazard.table()), Mode::write);
-    if (info.hazard.size > 0.0) {
+    const double cells = static_cast<double>(info.hazard.nx) * static_cast<double>(info.hazard.ny);
+    if (info.hazard.size > 0.0 && cells <= kMaxRasterCells) {
       // A dense reach-count raster (ny × nx) for direct viewing.
       std::vector<std::int64_t> reach(static_cast<std::size_t>(info.hazard.nx) * static_cast<std::size_t>(info.hazard.ny), 0);
       for (const auto& [id, c] : data.hazard.cells()) reach[static_cast<std::size_t>(id)] = static_cast<std::int64_t>(c.reach);

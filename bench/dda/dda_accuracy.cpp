@@ -75,6 +75,14 @@ std::vector<Case> cases() {
          const testing::ReboundResult r = testing::rebound(off, 7.0, 0.95);
          return Row{r.v_out / r.v_in, r.omega, std::abs(r.v_out / r.v_in - 1.0)};
        }},
+      {"normal impact 7 m/s, law off, impact_strains on", "raw rebound ratio (reference: Ω)",
+       [](const Settings& s) {
+         Settings off = s;
+         off.restitution = "off";
+         off.impact_strains = true;
+         const testing::ReboundResult r = testing::rebound(off, 7.0, 0.95);
+         return Row{r.v_out / r.v_in, r.omega, std::abs(r.v_out / r.v_in - 1.0)};
+       }},
       {"spin 10 rad/s, 35 000 steps", "relative volume error",
        [](const Settings& s) {
          const testing::SpinResult r = testing::spin(s, 35000);

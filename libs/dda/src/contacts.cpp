@@ -5,6 +5,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <numeric>
 
 namespace talus::dda::detail {
@@ -109,13 +110,26 @@ void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& wo
   for (const Vec3& p : world) block_box.add(p);
   const geometry::Aabb reach = block_box.inflated(margin);
 
+  // Only block features at most `margin` above the highest terrain point under the
+  // block can touch it (a bounding-box argument, valid for any surface).
+  double top = -std::numeric_limits<double>::infinity();
+  for (const TerrainPatch::Triangle& tri : patch.triangles)
+    if (!prune || tri.box.overlaps(reach)) top = std::max(top, tri.box.hi.z());
+  const double ceiling = prune ? top + margin : std::numeric_limits<double>::infinity();
+  thread_local std::vector<std::int32_t> low;
+  low.clear();
+  for (std::size_t i = 0; i < world.size(); ++i)
+    if (world[i].z() <= ceiling) low.push_back(static_cast<std::int32_t>(i));
+
   // Block vertex – terrain triangle.
   const std::size_t first = out.size();
   for (const TerrainPatch::Triangle& tri : patch.triangles) {
+    if (low.empty()) break;
     if (prune && !tri.box.overlaps(reach)) continue;
     const geometry::Aabb tbox = tri.box.inflated(margin);
     const Vec3 e0 = tri.p[1] - tri.p[0], e1 = tri.p[2] - tri.p[1], e2 = tri.p[0] - tri.p[2];
-    for (std::size_t i = 0; i < world.size(); ++i) {
+    for (const std::int32_t vi : low) {
+      const std::size_t i = static_cast<std::size_t>(vi);
       const Vec3& p = world[i];
       if (prune && !tbox.contains(p)) continue;
       const double gap = (p - tri.p[0]).dot(tri.normal);
@@ -181,6 +195,7 @@ void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& wo
     if (!bedge.convex) continue;
     const Vec3& p0 = world[bedge.a];
     const Vec3& p1 = world[bedge.b];
+    if (std::min(p0.z(), p1.z()) > ceiling) continue;
     geometry::Aabb ebox;
     ebox.add(p0);
     ebox.add(p1);

@@ -118,6 +118,24 @@ Eigen::Matrix<double, 3, N> dof_matrix(const Vec3& r) {
   }
 }
 
+// TᵀT of a displacement matrix: in closed form for the rigid 3×6 map [I | −[r]×].
+template <int N>
+MatN<N> gram(const Eigen::Matrix<double, 3, N>& t) {
+  if constexpr (N == 6) {
+    MatN<6> g;
+    const Mat3 a = t.template rightCols<3>();
+    g.template topLeftCorner<3, 3>().setIdentity();
+    g.template topRightCorner<3, 3>() = a;
+    g.template bottomLeftCorner<3, 3>() = a.transpose();
+    // Aᵀ A = |r|² I − r rᵀ with r read back from A = −[r]×.
+    const Vec3 r(a(2, 1) * -1.0, a(0, 2) * -1.0, a(1, 0) * -1.0);
+    g.template bottomRightCorner<3, 3>() = r.squaredNorm() * Mat3::Identity() - r * r.transpose();
+    return g;
+  } else {
+    return t.transpose() * t;
+  }
+}
+
 // Displacement of the point r (relative to the centroid) for the step displacement d.
 template <int N>
 Vec3 point_displacement(const Vec3& r, const VecN<N>& d) {
@@ -198,7 +216,6 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
   }
   const double p = set.penalty_stiffness;
   const double ps = p / set.shear_stiffness_ratio;
-  const Mat3 eye = Mat3::Identity();
   // Contacts of a block lying across a low ridge can trade the load back and forth at
   // gaps of 1e-8 m so that the states never settle. In the second half of the
   // iterations an open contact therefore closes only beyond a penetration of half the
@@ -228,9 +245,9 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
             w.ta = w.t;
             w.s0.setZero();
           }
-          const Mat3 pt = eye - c.normal * c.normal.transpose();
-          const Eigen::Matrix<double, 3, N> ptt = pt * w.ta;
-          k.noalias() += ps * ptt.transpose() * ptt;
+          // ps·(P T)ᵀ(P T) with P = I − nnᵀ equals ps·(TᵀT − (Tᵀn)(Tᵀn)ᵀ).
+          const VecN<N> gt = w.ta.transpose() * c.normal;
+          k.noalias() += ps * (gram<N>(w.ta) - gt * gt.transpose());
           f -= ps * (w.ta.transpose() * w.s0);
         } else {
           // Sliding: Coulomb force μ·F_n against the slip, with F_n implicit in d so the

@@ -54,3 +54,25 @@ TEST(Convergence, CountsAreGeometricAndEndAtN) {
 
 }  // namespace
 }  // namespace talus::stats
+
+namespace talus::stats {
+namespace {
+
+// Values computed independently with NumPy (std(ddof=1), numpy.quantile) for a fixed sample
+// in realization order: RE(mean) = s/(√n·x̄); RE(P50) = √(0.25/n)·(Q.55 − Q.45)/0.1 / Q.50.
+TEST(Convergence, AgreesWithNumpyOnAFixedSample) {
+  const std::vector<double> v = {2.3, 0.7, 5.1, 3.3, 1.9, 4.4, 2.8, 0.2, 3.9, 6.0};
+  const Statistic mean{Statistic::Kind::mean};
+  const auto points = convergence(v, mean, {6, 10});
+  // A handful of roundings: 1e-13 relative.
+  EXPECT_NEAR(points[0].estimate, 2.95, 1e-13);
+  EXPECT_NEAR(points[0].relative_error, 0.2268486463272708, 1e-13);
+  EXPECT_NEAR(points[1].relative_error, 0.19211684257122963, 1e-13);
+  EXPECT_EQ(realizations_needed(v, mean, 0.01), 3691.0);
+  const auto p50 = convergence(v, {Statistic::Kind::quantile, 0.5}, {10});
+  EXPECT_NEAR(p50[0].estimate, 3.05, 1e-14);
+  EXPECT_NEAR(p50[0].relative_error, 0.23328277820914284, 1e-13);
+}
+
+}  // namespace
+}  // namespace talus::stats

@@ -85,3 +85,51 @@ TEST(Bootstrap, ReproducibleAndCalibrated) {
 
 }  // namespace
 }  // namespace talus::stats
+
+namespace talus::stats {
+namespace {
+
+// Independent values from NumPy 1.24 / SciPy 1.10 for a fixed pair of samples:
+// numpy.quantile (type 7), scipy.stats.ks_2samp(a, b).statistic, and
+// scipy.stats.kstwobign.sf(λ) with Stephens' λ = (√nₑ + 0.12 + 0.11/√nₑ)·D.
+TEST(Sample, AgreesWithNumpyAndScipyOnAFixedSample) {
+  const Sample a({2.3, 0.7, 5.1, 3.3, 1.9, 4.4, 2.8, 0.2, 3.9, 6.0});
+  const Sample b({1.1, 3.0, 4.8, 6.5, 7.2, 2.2, 5.9, 8.1});
+  // Interpolation adds one rounding: 1e-14 relative.
+  EXPECT_NEAR(a.quantile(0.05), 0.425, 1e-14);
+  EXPECT_NEAR(a.quantile(0.25), 2.0, 1e-14);
+  EXPECT_NEAR(a.quantile(0.50), 3.05, 1e-14);
+  EXPECT_NEAR(a.quantile(0.90), 5.19, 1e-14);
+  EXPECT_NEAR(a.quantile(0.99), 5.919, 1e-14);
+  EXPECT_NEAR(a.mean(), 3.06, 1e-14);
+  EXPECT_NEAR(a.sd(), 1.85903200617956, 1e-13);
+  EXPECT_DOUBLE_EQ(ks_distance(a, b), 0.425);
+  EXPECT_DOUBLE_EQ(ks_distance(b, a), 0.425);
+  // The series is summed to 1e-12 of its value.
+  EXPECT_NEAR(ks_p_value(0.425, 10, 8), 0.3045417500107567, 1e-10);
+  // DKW at 90 %: sqrt(ln 20 / 20).
+  EXPECT_NEAR(dkw_epsilon(10, 0.10), 0.38702275602049496, 1e-15);
+  // The ECDF band of the summary: F(3.0) = 5/10 (0.2 0.7 1.9 2.3 2.8 ≤ 3.0).
+  EXPECT_EQ(a.cdf(3.0), 0.5);
+}
+
+// Several probabilities from one set of resamples give exactly the single-probability intervals.
+TEST(Bootstrap, SeveralQuantilesAtOnceEqualOneByOne) {
+  std::vector<double> v;
+  for (int k = 0; k < 60; ++k) v.push_back(std::sin(k * 1.7) * 10.0 + k * 0.1);
+  const Sample s(v);
+  const std::vector<double> ps = {0.05, 0.5, 0.95};
+  const auto together = bootstrap_quantile_intervals(s, ps, 0.1, 300, 9);
+  ASSERT_EQ(together.size(), ps.size());
+  for (std::size_t k = 0; k < ps.size(); ++k) {
+    const Interval alone = bootstrap_quantile_interval(s, ps[k], 0.1, 300, 9);
+    EXPECT_EQ(together[k].lo, alone.lo);
+    EXPECT_EQ(together[k].hi, alone.hi);
+    EXPECT_LE(together[k].lo, s.quantile(ps[k]));
+    EXPECT_GE(together[k].hi, s.quantile(ps[k]));
+  }
+  EXPECT_THROW(bootstrap_quantile_intervals(Sample({}), ps, 0.1, 10, 1), core::InputError);
+}
+
+}  // namespace
+}  // namespace talus::stats

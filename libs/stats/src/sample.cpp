@@ -85,12 +85,16 @@ double ks_p_value(double d, std::size_t n_a, std::size_t n_b) {
   return std::clamp(2.0 * sum, 0.0, 1.0);
 }
 
-Interval bootstrap_quantile_interval(const Sample& sample, double p, double alpha, std::size_t resamples,
-                                     std::uint64_t seed, double* se) {
+namespace {
+
+// Quantile estimates of every resample: estimates[k][b] is the ps[k]-quantile of resample b,
+// drawn with replacement from stream (seed, bootstrap, b).
+std::vector<std::vector<double>> bootstrap_estimates(const Sample& sample, const std::vector<double>& ps,
+                                                     std::size_t resamples, std::uint64_t seed) {
   const auto& x = sample.sorted();
   if (x.empty()) throw core::InputError("sample", "bootstrap of an empty sample");
   const std::size_t n = x.size();
-  std::vector<double> estimates(resamples);
+  std::vector<std::vector<double>> estimates(ps.size(), std::vector<double>(resamples));
   std::vector<double> draw(n);
   for (std::size_t b = 0; b < resamples; ++b) {
     const core::RandomStream stream(seed, core::Stream::bootstrap, static_cast<std::uint32_t>(b));
@@ -98,11 +102,29 @@ Interval bootstrap_quantile_interval(const Sample& sample, double p, double alph
       const auto idx = static_cast<std::size_t>(stream.uniform(k) * static_cast<double>(n));
       draw[k] = x[std::min(idx, n - 1)];
     }
-    estimates[b] = Sample(draw).quantile(p);
+    const Sample resample(draw);
+    for (std::size_t k = 0; k < ps.size(); ++k) estimates[k][b] = resample.quantile(ps[k]);
   }
-  const Sample dist(estimates);
+  return estimates;
+}
+
+}  // namespace
+
+Interval bootstrap_quantile_interval(const Sample& sample, double p, double alpha, std::size_t resamples,
+                                     std::uint64_t seed, double* se) {
+  const Sample dist(std::move(bootstrap_estimates(sample, {p}, resamples, seed).front()));
   if (se) *se = dist.sd();
   return {dist.quantile(alpha / 2.0), dist.quantile(1.0 - alpha / 2.0)};
+}
+
+std::vector<Interval> bootstrap_quantile_intervals(const Sample& sample, const std::vector<double>& ps,
+                                                   double alpha, std::size_t resamples, std::uint64_t seed) {
+  std::vector<Interval> out;
+  for (auto& estimates : bootstrap_estimates(sample, ps, resamples, seed)) {
+    const Sample dist(std::move(estimates));
+    out.push_back({dist.quantile(alpha / 2.0), dist.quantile(1.0 - alpha / 2.0)});
+  }
+  return out;
 }
 
 }  // namespace talus::stats

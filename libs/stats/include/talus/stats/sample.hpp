@@ -56,4 +56,10 @@ Interval bootstrap_quantile_interval(const Sample& sample, double p, double alph
                                      std::size_t resamples, std::uint64_t seed,
                                      double* se = nullptr);
 
+/// The same for several probabilities at once, from one set of resamples (each resample
+/// sorted once): element k is the interval of ps[k], identical to what
+/// bootstrap_quantile_interval gives for ps[k] alone with the same seed.
+std::vector<Interval> bootstrap_quantile_intervals(const Sample& sample, const std::vector<double>& ps,
+                                                   double alpha, std::size_t resamples, std::uint64_t seed);
+
 }  // namespace talus::stats

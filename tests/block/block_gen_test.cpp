@@ -200,18 +200,18 @@ TEST_F(BlockGen, CloudHullAndSimplificationAreReported) {
   write_text(path("box.xyz"), "0 0 0\n2 0 0\n0 1 0\n2 1 0\n0 0 0.5\n2 0 0.5\n0 1 0.5\n2 1 0.5\n1 0.5 0.25\n");
   write_text(path("lod.yaml"), "blocks:\n"
                                "  - {cloud: box.xyz, weight: 2}\n"
-                               "  - name: scan\n    solid: ellipsoid\n    resolution: 16\n    roughness: 0.1\n"
-                               "    volume: 1\n    input: {simplify: {mode: faces, target_faces: 200}}\n");
+                               "  - name: scan\n    solid: ellipsoid\n    resolution: 6\n    roughness: 0.1\n"
+                               "    volume: 1\n    input: {simplify: {mode: faces, target_faces: 100}}\n");
   const Outcome r = run({"-c", "lod.yaml", "-o", "lod.h5", "-v"});
   ASSERT_EQ(r.code, 0) << r.err;
-  EXPECT_TRUE(contains(r.err, "scan: simplified 5120 -> ")) << r.err;
+  EXPECT_TRUE(contains(r.err, "scan: simplified 720 -> ")) << r.err;
   const auto blocks = io::read_block_file(path("lod.h5"));
   ASSERT_EQ(blocks.size(), 2u);
   EXPECT_EQ(blocks[0].name, "box");
   EXPECT_EQ(blocks[0].polyhedron.faces.size(), 6u);
   EXPECT_EQ(blocks[0].volume_rational, "1");
   EXPECT_EQ(blocks[0].weight, 2.0);
-  EXPECT_LE(blocks[1].polyhedron.faces.size(), 200u);
+  EXPECT_LE(blocks[1].polyhedron.faces.size(), 100u);
   ASSERT_FALSE(blocks[1].notes.empty());
   EXPECT_TRUE(contains(blocks[1].notes.back(), "volume")) << blocks[1].notes.back();
 }

@@ -204,13 +204,7 @@ TEST(Hull, CubeCloudGivesSixQuadsWithInteriorPointsIgnored) {
 TEST(Hull, AdvancingFrontFollowsAConcaveCloud) {
   // Points of a rough (concave) ellipsoid: the hull fills the dents, the reconstruction
   // keeps them.
-  SolidSpec spec;
-  spec.kind = SolidKind::ellipsoid;
-  spec.volume = 0.0;
-  spec.resolution = 10;
-  spec.roughness = 0.1;
-  spec.dimensions = Vec3(2, 1.5, 1);
-  const geometry::Polyhedron rough = make_solid(spec, "test");
+  const geometry::Polyhedron rough = test::rough_ellipsoid(Vec3(2, 1.5, 1), 10, 0.1);
   const double truth = exact_volume(rough).value;
   const double hull = exact_volume(convex_hull(rough.vertices, "c")).value;
   const CheckedMesh c = check_mesh(reconstruct_surface(rough.vertices, ReconstructionOptions{}, "c"),
@@ -223,22 +217,19 @@ TEST(Hull, AdvancingFrontFollowsAConcaveCloud) {
 }
 
 TEST(Simplify, ScanToFewFacesReportsSmallChanges) {
-  SolidSpec spec;
-  spec.kind = SolidKind::ellipsoid;
-  spec.volume = 1.0;
-  spec.resolution = 20;  // 8000 faces
-  spec.roughness = 0.1;
-  spec.dimensions = Vec3(1.8, 1.2, 0.9);
-  const Block fine = make_block("fine", make_solid(spec, "t"), 2800.0, "t");
-  const Block coarse = make_block("coarse", simplify_to_faces(fine.polyhedron, 500, "t"), 2800.0, "t");
-  EXPECT_LE(coarse.polyhedron.faces.size(), 500u);
+  // 20·7² = 980 faces (edge collapse is slow under the sanitizers; the benchmark
+  // measures 100 820 → 500).
+  const Block fine = make_block("fine", test::rough_ellipsoid(Vec3(1.8, 1.2, 0.9), 7, 0.1, 1.0), 2800.0, "t");
+  const Block coarse = make_block("coarse", simplify_to_faces(fine.polyhedron, 150, "t"), 2800.0, "t");
+  EXPECT_LE(coarse.polyhedron.faces.size(), 150u);
   const SimplifyReport r = compare(fine, coarse);
   // Lindström–Turk placement keeps the volume of each collapse (measured: 0 to
-  // round-off); the inertia moves by about 1e-4 and the sphericity by a few 1e-3.
+  // round-off); a 6.5x reduction moves the inertia by 1.2e-3 and the sphericity by 0.011
+  // (measured); the bounds leave a factor of about 2.
   EXPECT_LT(std::abs(r.volume_change), 1e-9);
-  EXPECT_LT(r.inertia_change, 1e-3);
-  EXPECT_LT(std::abs(r.sphericity_change), 0.01);
-  EXPECT_TRUE(contains(r.describe(), "simplified 8000 -> ")) << r.describe();
+  EXPECT_LT(r.inertia_change, 3e-3);
+  EXPECT_LT(std::abs(r.sphericity_change), 0.02);
+  EXPECT_TRUE(contains(r.describe(), "simplified 980 -> ")) << r.describe();
 
   const Block hull = make_block("hull", simplify_to_hull(fine.polyhedron, "t"), 2800.0, "t");
   EXPECT_GT(hull.volume_exact, fine.volume_exact);

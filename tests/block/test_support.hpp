@@ -10,6 +10,7 @@
 #include <fstream>
 #include <string>
 
+#include "talus/block/solids.hpp"
 #include "talus/geometry/half_edge.hpp"
 #include "talus/geometry/polyhedron.hpp"
 #include "talus/geometry/triangle_mesh.hpp"
@@ -85,6 +86,20 @@ inline std::string mesh_text(const geometry::TriangleMesh& mesh, const std::stri
   for (const auto& p : mesh.vertices) point(p, "");
   for (const auto& t : mesh.triangles) s += "3 " + std::to_string(t[0]) + " " + std::to_string(t[1]) + " " + std::to_string(t[2]) + "\n";
   return s;
+}
+
+/// block-gen's `ellipsoid` solid: diameters (m), geodesic frequency, roughness (−), target
+/// volume (m³; ≤ 0 keeps the diameters) and seed.
+inline geometry::Polyhedron rough_ellipsoid(const geometry::Vec3& diameters, int resolution, double roughness,
+                                            double volume = 0.0, std::uint64_t seed = 1) {
+  SolidSpec spec;
+  spec.kind = SolidKind::ellipsoid;
+  spec.dimensions = diameters;
+  spec.resolution = resolution;
+  spec.roughness = roughness;
+  spec.volume = volume;
+  spec.seed = seed;
+  return make_solid(spec, "test");
 }
 
 /// A fixed "arbitrary" rotation (no symmetry axis of any test solid).

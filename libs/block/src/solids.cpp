@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <map>
 #include <vector>
 
 #include "talus/block/block.hpp"
@@ -79,26 +80,58 @@ void scale(Polyhedron& poly, double s) {
 double volume_of(const Polyhedron& poly) { return geometry::mass_properties(poly).volume; }
 
 // Geodesic sphere of frequency n: each icosahedron face split into n² triangles, the
-// points pushed onto the unit sphere.
+// points pushed onto the unit sphere. Points on corners and edges are created once and
+// shared by the faces that meet there.
 geometry::TriangleMesh geodesic_sphere(int n) {
   const Polyhedron ico = small_convex_hull(platonic_vertices(SolidKind::icosahedron), 1e-9);
   geometry::TriangleMesh mesh;
-  const double f = n;
+  mesh.vertices = ico.vertices;
+  for (Vec3& p : mesh.vertices) p.normalize();
+  const auto& corner = ico.vertices;
+  // Interior points of edge (u, v), u < v: step s = 1 … n−1 from u, created on first use.
+  std::map<std::pair<std::int32_t, std::int32_t>, std::int32_t> edge_base;
+  auto edge_point = [&](std::int32_t u, std::int32_t v, int s) {
+    if (u > v) {
+      std::swap(u, v);
+      s = n - s;
+    }
+    auto [it, added] = edge_base.try_emplace({u, v}, static_cast<std::int32_t>(mesh.vertices.size()));
+    if (added)
+      for (int t = 1; t < n; ++t)
+        mesh.vertices.push_back((static_cast<double>(n - t) * corner[u] + static_cast<double>(t) * corner[v]).normalized());
+    return it->second + s - 1;
+  };
+  std::vector<std::int32_t> lattice;
   for (const auto& face : ico.faces) {
-    const Vec3 a = ico.vertices[face[0]], b = ico.vertices[face[1]], c = ico.vertices[face[2]];
-    const auto base = static_cast<std::int32_t>(mesh.vertices.size());
-    auto index = [&](int i, int j) { return base + j * (n + 1) - j * (j - 1) / 2 + i; };
+    const std::int32_t a = face[0], b = face[1], c = face[2];
+    // Lattice point (i, j): weights n−i−j, i, j on corners a, b, c.
+    auto slot = [n](int i, int j) { return static_cast<std::size_t>(j * (n + 1) - j * (j - 1) / 2 + i); };
+    lattice.assign(slot(0, n) + 1, -1);
     for (int j = 0; j <= n; ++j)
-      for (int i = 0; i + j <= n; ++i)
-        mesh.vertices.push_back(((f - i - j) * a + i * b + j * c).normalized());
+      for (int i = 0; i + j <= n; ++i) {
+        const int k = n - i - j;
+        std::int32_t index;
+        if (i == 0 && j == 0) index = a;
+        else if (k == 0 && j == 0) index = b;
+        else if (k == 0 && i == 0) index = c;
+        else if (j == 0) index = edge_point(a, b, i);
+        else if (i == 0) index = edge_point(a, c, j);
+        else if (k == 0) index = edge_point(b, c, j);
+        else {
+          index = static_cast<std::int32_t>(mesh.vertices.size());
+          mesh.vertices.push_back((static_cast<double>(k) * corner[a] + static_cast<double>(i) * corner[b] +
+                                   static_cast<double>(j) * corner[c])
+                                      .normalized());
+        }
+        lattice[slot(i, j)] = index;
+      }
     for (int j = 0; j < n; ++j)
       for (int i = 0; i + j < n; ++i) {
-        mesh.triangles.push_back({index(i, j), index(i + 1, j), index(i, j + 1)});
-        if (i + j + 1 < n) mesh.triangles.push_back({index(i + 1, j), index(i + 1, j + 1), index(i, j + 1)});
+        mesh.triangles.push_back({lattice[slot(i, j)], lattice[slot(i + 1, j)], lattice[slot(i, j + 1)]});
+        if (i + j + 1 < n)
+          mesh.triangles.push_back({lattice[slot(i + 1, j)], lattice[slot(i + 1, j + 1)], lattice[slot(i, j + 1)]});
       }
   }
-  // Points on shared icosahedron edges are computed once per face: merge them.
-  geometry::weld_vertices(mesh, 1e-9);
   return mesh;
 }
 
@@ -132,7 +165,9 @@ Polyhedron make_ellipsoid(const SolidSpec& spec, const std::string& source) {
     for (Vec3& p : mesh.vertices) {
       double r = 1.0;
       for (const auto& [centre, height] : bumps) {
-        const double q = (p - centre).squaredNorm() / (kWidth * kWidth);
+        // Plain arithmetic: this loop runs 40 times per vertex.
+        const double dx = p.x() - centre.x(), dy = p.y() - centre.y(), dz = p.z() - centre.z();
+        const double q = (dx * dx + dy * dy + dz * dz) / (kWidth * kWidth);
         if (q < 1.0) r += height * (1.0 - q) * (1.0 - q);
       }
       p *= std::max(r, 0.1);

@@ -276,6 +276,20 @@ TEST_F(TerrainGen, DemWithNodataBorderZonesAndAutomaticOriginShift) {
   EXPECT_EQ(io::read_terrain_file((dir_ / "crop.h5").string()).grid->nx, 3);
 }
 
+TEST_F(TerrainGen, GeoTiffInputMatchesTheSameGridAsAscii) {
+  terrain::DemGrid dem;
+  dem.spec = {0.5, 0.5, 1.0, 1.0, 6, 4};
+  for (std::size_t k = 0; k < 24; ++k) dem.z.push_back(10.0 - 0.25 * static_cast<double>(k % 6));
+  io::write_geotiff((dir_ / "dem.tif").string(), dem);
+  io::write_esri_ascii((dir_ / "dem.asc").string(), dem);
+  ASSERT_EQ(run({"dem.tif", "-o", "tif.h5"}).code, 0);
+  ASSERT_EQ(run({"dem.asc", "-o", "asc.h5"}).code, 0);
+  const terrain::Terrain a = io::read_terrain_file((dir_ / "tif.h5").string());
+  const terrain::Terrain b = io::read_terrain_file((dir_ / "asc.h5").string());
+  EXPECT_EQ(a.mesh.vertices, b.mesh.vertices);  // pixel-edge arithmetic is exact for these values
+  EXPECT_EQ(a.mesh.triangles, b.mesh.triangles);
+}
+
 TEST_F(TerrainGen, MaterialRasterAssignsIdsByNearestCell) {
   terrain::DemGrid dem;
   dem.spec = {0.0, 0.0, 1.0, 1.0, 5, 3};

@@ -1,6 +1,7 @@
 #include "build_terrain.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -233,6 +234,8 @@ SourceKind resolve_source(const Settings& s, const std::vector<std::string>& inp
   return *kind;
 }
 
+namespace {
+
 // The diagonal mode a stored grid was built with, told from its diagonals.
 std::string triangulation_of(const Terrain& t) {
   const auto& g = *t.grid;
@@ -245,6 +248,157 @@ std::string triangulation_of(const Terrain& t) {
   return fixed ? "fixed" : alternating ? "alternating" : "random";
 }
 
+// σ from the settings (given directly or as R), after the checks that need no input.
+double checked_sigma(const Settings& s, const std::string& settings_source) {
+  if (s.roughness.sigma && s.roughness.roughness_index)
+    throw InputError(settings_source, "roughness: give sigma or roughness_index, not both");
+  if (s.roughness.sigma) {
+    if (!(*s.roughness.sigma >= 0.0))
+      throw InputError(settings_source, "roughness.sigma must be >= 0, got " + format_number(*s.roughness.sigma));
+    return *s.roughness.sigma;
+  }
+  if (!s.roughness.roughness_index) return 0.0;
+  try {
+    return terrain::sigma_from_roughness_index(*s.roughness.roughness_index);
+  } catch (const InputError& e) {
+    throw InputError(settings_source, "roughness.roughness_index " + e.detail());
+  }
+}
+
+// Settings the library does not check itself, checked before any input is read.
+void check_settings(const Settings& s, const std::string& settings_source) {
+  if (s.materials.empty()) throw InputError(settings_source, "materials: at least one material is needed");
+  std::set<std::string> names;
+  for (std::size_t m = 0; m < s.materials.size(); ++m)
+    if (!names.insert(s.materials[m].name).second)
+      throw InputError(settings_source, "materials[" + std::to_string(m) + "]: duplicate material name '" +
+                                            s.materials[m].name + "'");
+  if (s.tin.mode == "resample" && !(s.tin.cell_size > 0.0))
+    throw InputError(settings_source, "tin.cell_size must be > 0, got " + format_number(s.tin.cell_size));
+  if (!(s.tin.scale > 0.0))
+    throw InputError(settings_source, "tin.scale must be > 0, got " + format_number(s.tin.scale));
+}
+
+// A grid TRN from a DEM file or the synthetic slope.
+Terrain terrain_from_dem(const Settings& s, SourceKind kind, const std::vector<std::string>& inputs,
+                         const std::string& settings_source) {
+  DemGrid dem = input_dem(s, kind, inputs, settings_source);
+  const std::string& source = kind == SourceKind::synthetic ? settings_source : inputs.front();
+  if (dem.spec.nx < 2 || dem.spec.ny < 2)
+    throw InputError(source, "no grid of at least 2 x 2 points with data remains (after crop and NODATA trim)");
+  PlanBounds b;
+  b.add(dem.spec.x0, dem.spec.y0);
+  b.add(dem.spec.x0 + (dem.spec.nx - 1) * dem.spec.dx, dem.spec.y0 + (dem.spec.ny - 1) * dem.spec.dy);
+  const Vec3 shift = origin_shift(s.origin, b);
+  shift_dem(dem, shift);
+  Terrain t = terrain::build_grid_terrain(dem, diagonal_of(s.triangulation), s.seed, source);
+  t.materials = s.materials;
+  t.origin_shift = shift;
+  return t;
+}
+
+// A grid of tin.cell_size sampling the highest point of a TIN, with the TIN's materials.
+Terrain resample_tin(const Terrain& tin, const Settings& s, const std::string& source,
+                     const std::string& settings_source) {
+  const terrain::Surface surface = terrain::Surface::realize(tin, std::nullopt);
+  const geometry::Aabb box = surface.bounds();
+  terrain::GridSpec spec;
+  spec.x0 = box.lo.x();
+  spec.y0 = box.lo.y();
+  spec.dx = spec.dy = s.tin.cell_size;
+  const double nx = std::floor((box.hi.x() - box.lo.x()) / spec.dx + 1e-9) + 1.0;
+  const double ny = std::floor((box.hi.y() - box.lo.y()) / spec.dy + 1e-9) + 1.0;
+  if (nx * ny > 1e8)
+    throw InputError(settings_source, "tin.cell_size " + format_number(spec.dx) + " m gives " +
+                                          format_number(nx * ny) + " grid points (more than 1e8)");
+  spec.nx = static_cast<std::int32_t>(nx);
+  spec.ny = static_cast<std::int32_t>(ny);
+  const DemGrid dem = terrain::trim_nodata(terrain::resample_to_grid(surface, spec));
+  Terrain t = terrain::build_grid_terrain(dem, diagonal_of(s.triangulation), s.seed, source);
+  t.materials = tin.materials;
+  t.origin_shift = tin.origin_shift;
+  carry_tin_materials(t, surface);
+  return t;
+}
+
+// A TIN (kept or resampled) from mesh files, one material per file.
+Terrain terrain_from_meshes(const Settings& s, const std::vector<std::string>& inputs,
+                            const std::string& settings_source) {
+  io::MeshImportOptions options;
+  options.scale = s.tin.scale;
+  options.up = s.tin.up_axis == "y" ? io::UpAxis::y : io::UpAxis::z;
+  const Window w = s.crop.any() ? window_of(s.crop, settings_source) : Window{};
+  std::vector<geometry::TriangleMesh> parts;
+  std::vector<std::string> part_names;
+  PlanBounds b;
+  for (const auto& input : inputs) {
+    geometry::TriangleMesh mesh = io::import_mesh(input, options).mesh;
+    if (s.crop.any()) {
+      mesh = crop_mesh(mesh, w);
+      if (mesh.triangles.empty()) throw InputError(input, "no triangle of the mesh lies in the crop window");
+    }
+    for (const Vec3& p : mesh.vertices) b.add(p.x(), p.y());
+    parts.push_back(std::move(mesh));
+    const std::string stem = fs::path(input).stem().string();
+    if (std::find(part_names.begin(), part_names.end(), stem) != part_names.end())
+      throw InputError(input, "two mesh files are named '" + stem + "': each file is one material, named after it");
+    part_names.push_back(stem);
+  }
+  const Vec3 shift = origin_shift(s.origin, b);
+  for (auto& part : parts)
+    for (Vec3& p : part.vertices) p -= shift;
+  const std::string source = inputs.size() == 1 ? inputs.front() : "meshes";
+  Terrain tin = terrain::build_tin_terrain(parts, part_names, source);
+  merge_tin_materials(tin, s.materials);
+  tin.origin_shift = shift;
+  return s.tin.mode == "resample" ? resample_tin(tin, s, source, settings_source) : tin;
+}
+
+// A TIN by Delaunay triangulation of point clouds.
+Terrain terrain_from_points(const Settings& s, const std::vector<std::string>& inputs,
+                            const std::string& settings_source) {
+  io::PointCloudOptions options;
+  options.scale = s.tin.scale;
+  options.up = s.tin.up_axis == "y" ? io::UpAxis::y : io::UpAxis::z;
+  const Window w = s.crop.any() ? window_of(s.crop, settings_source) : Window{};
+  std::vector<Vec3> points;
+  PlanBounds b;
+  for (const auto& input : inputs)
+    for (const Vec3& p : io::read_point_cloud(input, options)) {
+      if (!w.contains(p.x(), p.y())) continue;
+      b.add(p.x(), p.y());
+      points.push_back(p);
+    }
+  const std::string source = inputs.size() == 1 ? inputs.front() : "points";
+  if (points.empty()) throw InputError(source, "no point lies in the crop window");
+  // Delaunay runs on shifted coordinates: that is where the precision matters.
+  const Vec3 shift = origin_shift(s.origin, b);
+  for (Vec3& p : points) p -= shift;
+  Terrain t = terrain::build_delaunay_terrain(points, source);
+  t.materials = s.materials;
+  t.origin_shift = shift;
+  return t;
+}
+
+// Material raster, then zones (both in input coordinates), over what the source gave.
+void assign_materials(Terrain& t, const Settings& s, const std::string& settings_source) {
+  if (!s.material_raster.empty()) {
+    DemGrid ids = io::read_dem(s.material_raster);
+    shift_dem(ids, Vec3(t.origin_shift.x(), t.origin_shift.y(), 0.0));
+    terrain::assign_material_raster(t, ids, s.material_raster);
+  }
+  if (!s.zones.empty()) terrain::assign_zones(t, shifted_zones(s.zones, t.origin_shift), settings_source);
+}
+
+std::string default_name(const Settings& s, SourceKind kind, const std::vector<std::string>& inputs) {
+  if (kind == SourceKind::synthetic) return "synthetic-" + s.synthetic.kind;
+  std::string name;
+  for (const auto& input : inputs) name += (name.empty() ? "" : "+") + fs::path(input).stem().string();
+  return name;
+}
+
+}  // namespace
+
 Built build_terrain(const Settings& s, const std::vector<std::string>& inputs, const std::string& settings_source) {
   Built built;
   built.kind = resolve_source(s, inputs);
@@ -255,139 +409,24 @@ Built build_terrain(const Settings& s, const std::vector<std::string>& inputs, c
     if (built.terrain.grid) built.triangulation = triangulation_of(built.terrain);
     return built;
   }
-
-  // Roughness first: a contradiction in the settings should not wait for a large input.
-  if (s.roughness.sigma && s.roughness.roughness_index)
-    throw InputError(settings_source, "roughness: give sigma or roughness_index, not both");
-  double sigma = 0.0;
-  if (s.roughness.sigma) {
-    sigma = *s.roughness.sigma;
-    if (!(sigma >= 0.0))
-      throw InputError(settings_source, "roughness.sigma must be >= 0, got " + format_number(sigma));
-  } else if (s.roughness.roughness_index) {
-    try {
-      sigma = terrain::sigma_from_roughness_index(*s.roughness.roughness_index);
-    } catch (const InputError& e) {
-      throw InputError(settings_source, "roughness.roughness_index " + e.detail());
-    }
-    built.roughness_index = s.roughness.roughness_index;
-  }
-  std::set<std::string> names;
-  for (std::size_t m = 0; m < s.materials.size(); ++m)
-    if (!names.insert(s.materials[m].name).second)
-      throw InputError(settings_source, "materials[" + std::to_string(m) + "]: duplicate material name '" +
-                                            s.materials[m].name + "'");
-  if (s.materials.empty()) throw InputError(settings_source, "materials: at least one material is needed");
-  if (s.tin.mode == "resample" && !(s.tin.cell_size > 0.0))
-    throw InputError(settings_source, "tin.cell_size must be > 0, got " + format_number(s.tin.cell_size));
-  if (!(s.tin.scale > 0.0))
-    throw InputError(settings_source, "tin.scale must be > 0, got " + format_number(s.tin.scale));
+  // Settings first: a contradiction should not wait for a large input to be read.
+  const double sigma = checked_sigma(s, settings_source);
+  if (s.roughness.roughness_index) built.roughness_index = s.roughness.roughness_index;
+  check_settings(s, settings_source);
 
   Terrain& t = built.terrain;
-  Vec3 shift = Vec3::Zero();
-  const bool grid_source = built.kind == SourceKind::synthetic || built.kind == SourceKind::dem;
-  const bool resample = built.kind == SourceKind::tin && s.tin.mode == "resample";
-  if (grid_source || resample) built.triangulation = s.triangulation;
-
-  if (grid_source) {
-    DemGrid dem = input_dem(s, built.kind, inputs, settings_source);
-    const std::string& source = built.kind == SourceKind::synthetic ? settings_source : inputs.front();
-    if (dem.spec.nx < 2 || dem.spec.ny < 2)
-      throw InputError(source, "no grid of at least 2 x 2 points with data remains (after crop and NODATA trim)");
-    PlanBounds b;
-    b.add(dem.spec.x0, dem.spec.y0);
-    b.add(dem.spec.x0 + (dem.spec.nx - 1) * dem.spec.dx, dem.spec.y0 + (dem.spec.ny - 1) * dem.spec.dy);
-    shift = origin_shift(s.origin, b);
-    shift_dem(dem, shift);
-    t = terrain::build_grid_terrain(dem, diagonal_of(s.triangulation), s.seed, source);
-    t.materials = s.materials;
-  } else if (built.kind == SourceKind::tin) {
-    io::MeshImportOptions options;
-    options.scale = s.tin.scale;
-    options.up = s.tin.up_axis == "y" ? io::UpAxis::y : io::UpAxis::z;
-    std::vector<geometry::TriangleMesh> parts;
-    std::vector<std::string> part_names;
-    const Window w = s.crop.any() ? window_of(s.crop, settings_source) : Window{};
-    PlanBounds b;
-    for (const auto& input : inputs) {
-      geometry::TriangleMesh mesh = io::import_mesh(input, options).mesh;
-      if (s.crop.any()) {
-        mesh = crop_mesh(mesh, w);
-        if (mesh.triangles.empty()) throw InputError(input, "no triangle of the mesh lies in the crop window");
-      }
-      for (const Vec3& p : mesh.vertices) b.add(p.x(), p.y());
-      parts.push_back(std::move(mesh));
-      const std::string stem = fs::path(input).stem().string();
-      if (std::find(part_names.begin(), part_names.end(), stem) != part_names.end())
-        throw InputError(input, "two mesh files are named '" + stem + "': each file is one material, named after it");
-      part_names.push_back(stem);
-    }
-    shift = origin_shift(s.origin, b);
-    for (auto& part : parts)
-      for (Vec3& p : part.vertices) p -= shift;
-    const std::string source = inputs.size() == 1 ? inputs.front() : "meshes";
-    Terrain tin = terrain::build_tin_terrain(parts, part_names, source);
-    merge_tin_materials(tin, s.materials);
-    if (!resample) {
-      t = std::move(tin);
-    } else {
-      const terrain::Surface surface = terrain::Surface::realize(tin, std::nullopt);
-      const geometry::Aabb box = surface.bounds();
-      terrain::GridSpec spec;
-      spec.x0 = box.lo.x();
-      spec.y0 = box.lo.y();
-      spec.dx = spec.dy = s.tin.cell_size;
-      const double nx = std::floor((box.hi.x() - box.lo.x()) / spec.dx + 1e-9) + 1.0;
-      const double ny = std::floor((box.hi.y() - box.lo.y()) / spec.dy + 1e-9) + 1.0;
-      if (nx * ny > 1e8)
-        throw InputError(settings_source, "tin.cell_size " + format_number(spec.dx) + " m gives " +
-                                              format_number(nx * ny) + " grid points (more than 1e8)");
-      spec.nx = static_cast<std::int32_t>(nx);
-      spec.ny = static_cast<std::int32_t>(ny);
-      DemGrid dem = terrain::trim_nodata(terrain::resample_to_grid(surface, spec));
-      t = terrain::build_grid_terrain(dem, diagonal_of(s.triangulation), s.seed, source);
-      t.materials = tin.materials;
-      carry_tin_materials(t, surface);
-    }
-  } else {
-    std::vector<Vec3> points;
-    const Window w = s.crop.any() ? window_of(s.crop, settings_source) : Window{};
-    PlanBounds b;
-    io::PointCloudOptions options;
-    options.scale = s.tin.scale;
-    options.up = s.tin.up_axis == "y" ? io::UpAxis::y : io::UpAxis::z;
-    for (const auto& input : inputs) {
-      for (const Vec3& p : io::read_point_cloud(input, options)) {
-        if (!w.contains(p.x(), p.y())) continue;
-        b.add(p.x(), p.y());
-        points.push_back(p);
-      }
-    }
-    const std::string source = inputs.size() == 1 ? inputs.front() : "points";
-    if (points.empty()) throw InputError(source, "no point lies in the crop window");
-    // Delaunay runs on shifted coordinates: that is where the precision matters.
-    shift = origin_shift(s.origin, b);
-    for (Vec3& p : points) p -= shift;
-    t = terrain::build_delaunay_terrain(points, source);
-    t.materials = s.materials;
+  switch (built.kind) {
+    case SourceKind::synthetic:
+    case SourceKind::dem: t = terrain_from_dem(s, built.kind, inputs, settings_source); break;
+    case SourceKind::tin: t = terrain_from_meshes(s, inputs, settings_source); break;
+    case SourceKind::points: t = terrain_from_points(s, inputs, settings_source); break;
+    case SourceKind::file: break;
   }
-  t.origin_shift = shift;
-
-  if (!s.material_raster.empty()) {
-    DemGrid ids = io::read_dem(s.material_raster);
-    shift_dem(ids, Vec3(shift.x(), shift.y(), 0.0));
-    terrain::assign_material_raster(t, ids, s.material_raster);
-  }
-  if (!s.zones.empty()) terrain::assign_zones(t, shifted_zones(s.zones, shift), settings_source);
-
+  if (t.grid) built.triangulation = s.triangulation;
+  assign_materials(t, s, settings_source);
   t.roughness.sigma = sigma;
   t.roughness.seed = s.seed;
-  if (!s.name.empty()) t.name = s.name;
-  else if (built.kind == SourceKind::synthetic) t.name = "synthetic-" + s.synthetic.kind;
-  else {
-    t.name.clear();
-    for (const auto& input : inputs) t.name += (t.name.empty() ? "" : "+") + fs::path(input).stem().string();
-  }
+  t.name = s.name.empty() ? default_name(s, built.kind, inputs) : s.name;
   if (const std::string problem = io::terrain_problem(t); !problem.empty())
     throw InputError(settings_source, problem);
   return built;

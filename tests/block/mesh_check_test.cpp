@@ -168,6 +168,16 @@ TEST(MeshCheck, EmptyDegenerateAndSeveralPiecesAreErrors) {
                        "two.obj: several pieces: the surface has 2 separate closed parts"));
 }
 
+TEST(MeshCheck, FlatDoubleSidedMeshIsAnError) {
+  // A triangle seen from both sides: closed and manifold, but it bounds nothing.
+  TriangleMesh sheet;
+  sheet.vertices = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}};
+  sheet.triangles = {{0, 1, 2}, {0, 2, 1}};
+  const std::string e = error_of([&] { check_mesh(sheet, RepairOptions{}, "sheet.obj"); });
+  // The two faces lie on each other: CGAL reports them as intersecting.
+  EXPECT_EQ(e, "sheet.obj: self-intersecting: 1 pair(s) of triangles intersect (e.g. triangles 0 and 1 near (0, 0, 0))");
+}
+
 class ImportErrors : public test::ScratchTest {};
 
 TEST_F(ImportErrors, EmptyFileIsAClearError) {

@@ -1,7 +1,6 @@
 // End-to-end tests of the terrain-gen executable: run the built binary, check the exit
 // code, the one-line message and the output files.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -15,6 +14,7 @@
 #include "talus/io/raster.hpp"
 #include "talus/io/terrain_file.hpp"
 #include "talus/terrain/terrain.hpp"
+#include "tool_run.hpp"
 
 namespace talus {
 namespace {
@@ -23,29 +23,10 @@ namespace fs = std::filesystem;
 
 const std::string kSample = std::string(TALUS_SOURCE_DIR) + "/samples/bench-slope/terrain.yaml";
 
-std::string tool() {
-  const char* bin = std::getenv("TALUS_BIN");
-  return (fs::path(bin ? bin : TALUS_BINARY_DIR "/bin") / "terrain-gen").string();
-}
-
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
+using testing::read_text;
+using Outcome = testing::ToolOutcome;
 
 void write_text(const fs::path& path, const std::string& text) { std::ofstream(path, std::ios::binary) << text; }
-
-std::string quote(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
-}
-
-struct Outcome {
-  int code = -1;
-  std::string out;
-  std::string err;
-};
 
 // A scratch directory per test (ctest runs tests in parallel), removed afterwards.
 class TerrainGen : public ::testing::Test {
@@ -60,19 +41,7 @@ class TerrainGen : public ::testing::Test {
 
   // Runs terrain-gen with `args` in directory `cwd` (default: the scratch directory).
   Outcome run(const std::vector<std::string>& args, const fs::path& cwd = {}) const {
-    const fs::path where = cwd.empty() ? dir_ : cwd;
-    std::string command = "cd " + quote(where.string()) + " && " + quote(tool());
-    for (const auto& a : args) command += " " + quote(a);
-    const fs::path out = dir_ / ".stdout", err = dir_ / ".stderr";
-    command += " > " + quote(out.string()) + " 2> " + quote(err.string());
-    const int status = std::system(command.c_str());
-    Outcome r;
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = read_text(out);
-    r.err = read_text(err);
-    fs::remove(out);
-    fs::remove(err);
-    return r;
+    return testing::run_tool(testing::tool_path("terrain-gen"), args, cwd.empty() ? dir_ : cwd);
   }
 
   // Files left in the scratch directory, the captured output excluded.

@@ -103,6 +103,16 @@ TEST_F(BlockFile, ReaderRefusesBrokenPolyhedra) {
   }
 }
 
+TEST_F(BlockFile, XdmfSidecarNamesEveryBlockSafely) {
+  std::vector<block::Block> blocks = library();
+  blocks[1].name = "a<b & \"c\"";
+  write_block_xdmf(path("lib.xmf"), path("lib.h5"), blocks);
+  const std::string x = block::test::read_text(path("lib.xmf"));
+  EXPECT_NE(x.find("<Grid Name=\"a&lt;b &amp; &quot;c&quot;\""), std::string::npos) << x;
+  EXPECT_NE(x.find("lib.h5:/blocks/block_0001/triangles"), std::string::npos) << x;
+  EXPECT_NE(x.find("TopologyType=\"Triangle\" NumberOfElements=\"36\""), std::string::npos) << x;  // 12 pentagons
+}
+
 class PointClouds : public block::test::ScratchTest {};
 
 TEST_F(PointClouds, XyzWithCommentsColumnsAndCommas) {

@@ -10,6 +10,7 @@
 #include "talus/block/solids.hpp"
 #include "talus/core/error.hpp"
 #include "talus/core/log.hpp"
+#include "talus/geometry/half_edge.hpp"
 #include "talus/io/mesh_io.hpp"
 #include "talus/io/point_cloud.hpp"
 
@@ -57,6 +58,8 @@ Polyhedron read_solid_file(const std::string& path, bool cloud, const InputSetti
       r.radius_ratio_bound = in.radius_ratio_bound;
       r.beta_deg = in.beta_deg;
       checked = block::check_mesh(block::reconstruct_surface(points, r, path), repair, path);
+      // The reconstruction's face order depends on CGAL's internal shuffles.
+      geometry::canonicalize(checked.polyhedron);
       notes.push_back("advancing-front reconstruction of " + std::to_string(points.size()) +
                       " points (radius_ratio_bound " + core::format_number(r.radius_ratio_bound) + ", beta " +
                       core::format_number(r.beta_deg) + " deg)");

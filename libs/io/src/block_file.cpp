@@ -46,6 +46,21 @@ Mat3 read_mat(const h5::Group& g, const std::string& name) {
   return m;
 }
 
+// Block names are free text: escape what XML reserves.
+std::string xml_escape(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
 std::string join_lines(const std::vector<std::string>& lines) {
   std::string out;
   for (const auto& l : lines) out += l + "\n";
@@ -179,7 +194,7 @@ void write_block_xdmf(const std::string& xdmf_path, const std::string& h5_path,
     const block::Block& b = blocks[i];
     const std::string g = "/blocks/" + group_name(i);
     const geometry::TriangleMesh tri = geometry::triangulate(b.polyhedron);
-    x << "   <Grid Name=\"" << b.name << "\" GridType=\"Uniform\">\n"
+    x << "   <Grid Name=\"" << xml_escape(b.name) << "\" GridType=\"Uniform\">\n"
       << "    <Topology TopologyType=\"Triangle\" NumberOfElements=\"" << tri.triangles.size() << "\">\n"
       << "     <DataItem Dimensions=\"" << tri.triangles.size() << " 3\" NumberType=\"Int\" Precision=\"4\" Format=\"HDF\">"
       << h5 << ":" << g << "/triangles</DataItem>\n    </Topology>\n"

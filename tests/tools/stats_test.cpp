@@ -1,0 +1,365 @@
+// End-to-end tests of the stats executable on small run files written with the run-file
+// writer (values known in advance): tables against independently computed numbers, hazard
+// rasters in terrain coordinates, shards against the whole run, comparisons, plots, and
+// bad inputs (missing, corrupt, empty, incompatible run files; no plotting library).
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "../mc/mc_fixtures.hpp"
+#include "talus/io/raster.hpp"
+#include "talus/io/run_file.hpp"
+#include "talus/io/terrain_file.hpp"
+
+namespace talus {
+namespace {
+
+namespace fs = std::filesystem;
+using geometry::Vec3;
+
+std::string tool() {
+  const char* bin = std::getenv("TALUS_BIN");
+  return (fs::path(bin ? bin : TALUS_BINARY_DIR "/bin") / "stats").string();
+}
+
+std::string quote(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+std::string read_text(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+struct Outcome {
+  int code = -1;
+  std::string out, err;
+};
+
+constexpr std::uint32_t kRealizations = 12;
+const mc::HazardGridSpec kGrid{0.0, 0.0, 4.0, 15, 5};
+// The terrain lies at projected coordinates: rasters must carry this shift.
+const Vec3 kShift(500000.0, 4200000.0, 300.0);
+
+// Runouts of the realizations (12 distinct values); realization 11 fails numerically.
+double runout_of(std::uint32_t i) { return 20.0 + 3.7 * std::fmod(i * 7.0, 12.0) + 0.01 * i; }
+
+// A realization with known values: block i mod 2, stop class i mod 5, a toe crossing for
+// even i, hazard visits of cells 0 (every realization) and 16 (i < 4).
+mc::RealizationResult realization(std::uint32_t i, double runout_offset = 0.0) {
+  mc::RealizationResult r;
+  r.record.realization = i;
+  r.record.block = static_cast<std::int32_t>(i % 2);
+  r.record.end = i == 11 ? dda::EndReason::non_finite : dda::EndReason::rest;
+  r.record.stop_class = static_cast<std::int32_t>(i % 5);
+  r.record.runout = runout_of(i) + runout_offset;
+  r.record.lateral = 0.5 * std::sin(i);
+  r.record.max_speed = 10.0 + i;
+  r.record.max_jump_height = 0.1 * (i + 1);
+  r.record.max_kinetic_energy = 1000.0 * (i + 1);
+  r.record.release_position = Vec3(1.0, 10.0, 33.0);
+  r.record.final_position = Vec3(r.record.runout + 1.0, 10.0 + r.record.lateral, 0.0);
+  if (i % 2 == 0) {
+    mc::Crossing c;
+    c.realization = i;
+    c.position = 10.0;
+    c.time = 3.0;
+    c.height = 0.2 * (i + 1);
+    c.kinetic_energy = 500.0 * (i + 1);
+    r.crossings.push_back(c);
+    c.time = 4.0;  // a second crossing (rolling back): only the first counts
+    c.height = 99.0;
+    r.crossings.push_back(c);
+  }
+  r.cells.push_back({0, 100.0 * (i + 1), 0.5});
+  if (i < 4) r.cells.push_back({16, 50.0 * (i + 1), 1.0 + i});
+  for (int k = 0; k < 3; ++k) {
+    dda::TrajectorySample s;
+    s.time = k;
+    s.position = Vec3(1.0 + k * 5.0, 10.0, 30.0 - k * 5.0);
+    r.trajectory.push_back(s);
+  }
+  return r;
+}
+
+io::RunInfo run_info(const std::string& shard, const std::string& settings = "seed: 1\n") {
+  io::RunInfo info;
+  info.provenance.tool = "dda-run";
+  info.provenance.settings_yaml = settings;
+  info.provenance.inputs = "terrain.h5\nblocks.h5\n";
+  info.realizations = kRealizations;
+  info.shard = shard;
+  info.blocks = {"cube", "octahedron"};
+  info.stop_classes = {"bench 1", "slope", "run-out", "other", "out of domain"};
+  info.barriers = {"toe"};
+  info.barrier_lines = {{{36.0, 0.0}, {36.0, 20.0}}};
+  info.hazard = kGrid;
+  return info;
+}
+
+// Writes the realizations i ≡ k (mod n) (all for n = 1) as a run file.
+void write_run(const fs::path& path, std::uint32_t k, std::uint32_t n, const std::string& settings = "seed: 1\n",
+               double runout_offset = 0.0) {
+  const io::RunInfo info = run_info(n == 1 ? "0/1" : std::to_string(k) + "/" + std::to_string(n), settings);
+  mc::RunData data;
+  data.hazard = mc::HazardAccumulator(info.hazard, info.hazard_relative_accuracy);
+  for (std::uint32_t i = k; i < kRealizations; i += n) data.add(realization(i, runout_offset));
+  data.sort("test");
+  io::write_run_file(path.string(), info, data);
+}
+
+// The value of one row of a tidy table.
+double csv_value(const std::string& csv, const std::string& key) {
+  const auto at = csv.find("\n" + key + ",");
+  if (at == std::string::npos) {
+    ADD_FAILURE() << "no row " << key;
+    return std::nan("");
+  }
+  const auto start = at + key.size() + 2;
+  return std::stod(csv.substr(start, csv.find_first_of(",\n", start) - start));
+}
+
+// Type-7 quantile of sorted values, written out again here as the independent reference.
+double type7(std::vector<double> v, double p) {
+  std::sort(v.begin(), v.end());
+  const double h = (static_cast<double>(v.size()) - 1.0) * p;
+  const auto lo = static_cast<std::size_t>(h);
+  return lo + 1 < v.size() ? v[lo] + (h - static_cast<double>(lo)) * (v[lo + 1] - v[lo]) : v.back();
+}
+
+bool matplotlib_available() {
+  return std::system("/usr/bin/python3 -c 'import matplotlib, h5py, numpy' > /dev/null 2>&1") == 0;
+}
+
+class Stats : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = fs::temp_directory_path() / ("talus_stats_" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    terrain::Terrain t = mc::testing::bench_terrain(0.1);
+    t.origin_shift = kShift;
+    io::Provenance p;
+    p.tool = "test";
+    io::write_terrain_file((dir_ / "terrain.h5").string(), t, p);
+    write_run(dir_ / "whole.h5", 0, 1);
+    for (std::uint32_t k = 0; k < 3; ++k) write_run(dir_ / ("part-" + std::to_string(k) + ".h5"), k, 3);
+    write_run(dir_ / "foreign-1.h5", 1, 3, "seed: 2\n");
+    write_run(dir_ / "longer.h5", 0, 1, "seed: 3\n", 5.0);
+    io::RunInfo info = run_info("0/1");
+    mc::RunData empty;
+    empty.hazard = mc::HazardAccumulator(info.hazard, info.hazard_relative_accuracy);
+    io::write_run_file((dir_ / "empty.h5").string(), info, empty);
+    std::ofstream(dir_ / "corrupt.h5") << "not an HDF5 file\n";
+  }
+  static void TearDownTestSuite() { fs::remove_all(dir_); }
+
+  static Outcome run(const std::vector<std::string>& args, const std::string& env = {}) {
+    std::string command = "cd " + quote(dir_.string()) + " && " + env + " " + quote(tool());
+    for (const auto& a : args) command += " " + quote(a);
+    command += " > .stdout 2> .stderr";
+    const int status = std::system(command.c_str());
+    Outcome o;
+    o.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    o.out = read_text(dir_ / ".stdout");
+    o.err = read_text(dir_ / ".stderr");
+    return o;
+  }
+  // A fast run: no plots, few bootstrap resamples.
+  static Outcome run_fast(std::vector<std::string> args) {
+    for (const char* a : {"--set", "plots=false", "--set", "bootstrap_resamples=50"}) args.push_back(a);
+    return run(args);
+  }
+  static void expect_one_line_error(const Outcome& o, int code, const std::string& needle) {
+    EXPECT_EQ(o.code, code) << o.err;
+    EXPECT_EQ(std::count(o.err.begin(), o.err.end(), '\n'), 1) << o.err;
+    EXPECT_EQ(o.err.rfind("stats: error: ", 0), 0u) << o.err;
+    EXPECT_NE(o.err.find(needle), std::string::npos) << o.err;
+  }
+
+  static fs::path dir_;
+};
+fs::path Stats::dir_;
+
+TEST_F(Stats, TablesAgreeWithIndependentValues) {
+  const Outcome o = run_fast({"whole.h5", "-o", "out-whole", "--set", "reach_distances=[36]", "--print-table"});
+  ASSERT_EQ(o.code, 0) << o.err;
+  const std::string csv = read_text(dir_ / "out-whole" / "summary.csv");
+  ASSERT_EQ(csv.rfind("run,block,variable,statistic,value,unit\n", 0), 0u);
+  // Realization 11 failed: 11 runouts enter the distribution.
+  std::vector<double> runouts, cube;
+  for (std::uint32_t i = 0; i < 11; ++i) {
+    runouts.push_back(runout_of(i));
+    if (i % 2 == 0) cube.push_back(runout_of(i));
+  }
+  double mean = 0.0;
+  for (double r : runouts) mean += r / 11.0;
+  double ss = 0.0;
+  for (double r : runouts) ss += (r - mean) * (r - mean);
+  // Sums in another order: 1e-12 relative.
+  EXPECT_NEAR(csv_value(csv, "whole,all,runout,mean"), mean, 1e-12 * mean);
+  EXPECT_NEAR(csv_value(csv, "whole,all,runout,sd"), std::sqrt(ss / 10.0), 1e-12 * mean);
+  EXPECT_EQ(csv_value(csv, "whole,all,runout,n"), 11.0);
+  EXPECT_EQ(csv_value(csv, "whole,all,runout,min"), *std::min_element(runouts.begin(), runouts.end()));
+  EXPECT_NEAR(csv_value(csv, "whole,all,runout,P95"), type7(runouts, 0.95), 1e-12 * mean);
+  EXPECT_NEAR(csv_value(csv, "whole,cube,runout,P25"), type7(cube, 0.25), 1e-12 * mean);
+  EXPECT_LE(csv_value(csv, "whole,all,runout,P50_ci_low"), type7(runouts, 0.5));
+  EXPECT_GE(csv_value(csv, "whole,all,runout,P50_ci_high"), type7(runouts, 0.5));
+  // DKW at 95 % for n = 11: sqrt(ln 40 / 22).
+  EXPECT_NEAR(csv_value(csv, "whole,all,runout,dkw_epsilon"), std::sqrt(std::log(40.0) / 22.0), 1e-15);
+  // Mean relative error s/(√n·x̄) and realizations needed n·(RE/0.01)².
+  const double re = std::sqrt(ss / 10.0) / std::sqrt(11.0) / mean;
+  EXPECT_NEAR(csv_value(csv, "whole,all,runout,mean_relative_error"), re, 1e-12 * re);
+  EXPECT_EQ(csv_value(csv, "whole,all,runout,mean_realizations_needed"), std::ceil(11.0 * re * re * 1e4));
+  // Fractions over all 12 realizations: stop class i mod 5, toe crossed by even i, failure 11.
+  EXPECT_EQ(csv_value(csv, "whole,all,stop:bench 1,count"), 3.0);  // 0, 5, 10
+  EXPECT_EQ(csv_value(csv, "whole,all,stop:out of domain,fraction"), 2.0 / 12.0);  // 4, 9
+  EXPECT_EQ(csv_value(csv, "whole,all,cross:toe,fraction"), 0.5);
+  EXPECT_EQ(csv_value(csv, "whole,all,numerical_failure,count"), 1.0);
+  EXPECT_EQ(csv_value(csv, "whole,octahedron,numerical_failure,count"), 1.0);
+  double reach = 0.0;
+  for (double r : runouts) reach += r >= 36.0 ? 1.0 : 0.0;
+  EXPECT_EQ(csv_value(csv, "whole,all,runout>=36,count"), reach);
+  // Barrier: the first crossing of each even realization: heights 0.2(i+1), never 99.
+  EXPECT_EQ(csv_value(csv, "whole,all,toe.passing_height,n"), 6.0);
+  EXPECT_NEAR(csv_value(csv, "whole,all,toe.passing_height,max"), 2.2, 1e-15);
+  EXPECT_NEAR(csv_value(csv, "whole,all,toe.kinetic_energy,mean"), 500.0 * 6.0, 1e-9);
+  EXPECT_EQ(csv_value(csv, "whole,all,toe.passing_height,missing"), 5.0);
+  // Blocks of one run are compared with each other: KS distance of cube and octahedron.
+  const std::string cmp = read_text(dir_ / "out-whole" / "comparison.csv");
+  EXPECT_NE(cmp.find("\nmax_speed,whole,cube,whole,octahedron,6,5,"), std::string::npos) << cmp;
+  // Side-by-side table on standard output and as CSV.
+  EXPECT_NE(o.out.find("runout mean (m)"), std::string::npos) << o.out;
+  EXPECT_EQ(read_text(dir_ / "out-whole" / "table.csv").rfind("variable,statistic,unit,whole,whole/cube,whole/octahedron\n", 0),
+            0u);
+  const std::string conv = read_text(dir_ / "out-whole" / "convergence.csv");
+  EXPECT_NE(conv.find("\nwhole,all,runout,P95,11,"), std::string::npos) << conv;
+  EXPECT_TRUE(fs::file_size(dir_ / "out-whole" / "summary.h5") > 0);
+}
+
+TEST_F(Stats, HazardRastersInTerrainCoordinates) {
+  ASSERT_EQ(run_fast({"whole.h5", "-o", "out-hazard"}).code, 0);
+  const terrain::DemGrid reach = io::read_esri_ascii((dir_ / "out-hazard/hazard/whole-reach_probability.asc").string());
+  EXPECT_EQ(reach.spec.nx, kGrid.nx);
+  EXPECT_EQ(reach.spec.ny, kGrid.ny);
+  // Grid points are cell centres, shifted to projected coordinates.
+  EXPECT_EQ(reach.spec.x0, kShift.x() + 2.0);
+  EXPECT_EQ(reach.spec.y0, kShift.y() + 2.0);
+  EXPECT_EQ(reach.z[0], 1.0);         // every realization visits cell 0
+  EXPECT_EQ(reach.z[16], 4.0 / 12.0); // realizations 0–3 visit cell 16 = (1, 1)
+  EXPECT_EQ(reach.z[2], 0.0);
+  const terrain::DemGrid e99 = io::read_geotiff((dir_ / "out-hazard/hazard/whole-energy_p99.tif").string());
+  // Sketch quantiles are within α = 1 % of the order statistic: cell 0 energies 100(i+1),
+  // P99 rank ⌊0.99·11⌋ = 10 → 1100 J; cell 16 heights 1…4 m, P95 rank 2 → 3 m.
+  EXPECT_NEAR(e99.z[0], 1100.0, 11.0);
+  EXPECT_TRUE(std::isnan(e99.z[2]));
+  const terrain::DemGrid h95 = io::read_esri_ascii((dir_ / "out-hazard/hazard/whole-height_p95.asc").string());
+  EXPECT_NEAR(h95.z[16], 3.0, 0.03);
+}
+
+TEST_F(Stats, ShardsGiveTheStatisticsOfTheWholeRun) {
+  ASSERT_EQ(run_fast({"whole.h5", "-o", "out-ref", "--set", "names=[ref]"}).code, 0);
+  const Outcome o = run_fast({"part-2.h5", "part-0.h5", "part-1.h5", "-o", "out-parts", "--set", "names=[ref]"});
+  ASSERT_EQ(o.code, 0) << o.err;
+  for (const char* file : {"summary.csv", "convergence.csv", "comparison.csv", "table.csv",
+                           "hazard/ref-reach_probability.asc", "hazard/ref-energy_p95.asc", "hazard/ref-height_p99.asc"})
+    EXPECT_EQ(read_text(dir_ / "out-parts" / file), read_text(dir_ / "out-ref" / file)) << file;
+  // Without names the joined run is named after its shards.
+  ASSERT_EQ(run_fast({"part-0.h5", "part-1.h5", "part-2.h5", "-o", "out-parts2"}).code, 0);
+  EXPECT_NE(read_text(dir_ / "out-parts2" / "summary.csv").find("\npart,all,runout,mean,"), std::string::npos);
+}
+
+TEST_F(Stats, ComparesRunsSideBySide) {
+  const Outcome o = run_fast({"whole.h5", "longer.h5", "-o", "out-cmp"});
+  ASSERT_EQ(o.code, 0) << o.err;
+  const std::string cmp = read_text(dir_ / "out-cmp" / "comparison.csv");
+  // Runouts of 'longer' are those of 'whole' + 5 m. The KS distance of two 11-value
+  // samples is a multiple of 1/11; computed here by brute force over all thresholds.
+  std::vector<double> a, b;
+  for (std::uint32_t i = 0; i < 11; ++i) {
+    a.push_back(runout_of(i));
+    b.push_back(runout_of(i) + 5.0);
+  }
+  double d = 0.0;
+  for (double t : a)
+    for (double x : {t, t + 5.0}) {
+      const auto fa = static_cast<double>(std::count_if(a.begin(), a.end(), [&](double v) { return v <= x; }));
+      const auto fb = static_cast<double>(std::count_if(b.begin(), b.end(), [&](double v) { return v <= x; }));
+      d = std::max(d, std::abs(fa - fb) / 11.0);
+    }
+  const std::string key = "runout,whole,all,longer,all,11,11,";
+  const auto at = cmp.find("\n" + key);
+  ASSERT_NE(at, std::string::npos) << cmp;
+  EXPECT_NEAR(std::stod(cmp.substr(at + key.size() + 1)), d, 1e-15);
+  // Same block in two runs is compared; a run's block with the other run's whole is not.
+  EXPECT_NE(cmp.find("\nrunout,whole,cube,longer,cube,"), std::string::npos);
+  EXPECT_EQ(cmp.find("\nrunout,whole,cube,longer,all,"), std::string::npos);
+  // Identical distributions (lateral, speeds …) have D = 0 and p = 1.
+  EXPECT_NE(cmp.find("\nmax_speed,whole,all,longer,all,11,11,0,1\n"), std::string::npos) << cmp;
+}
+
+TEST_F(Stats, DrawsPlots) {
+  if (!matplotlib_available()) GTEST_SKIP() << "matplotlib is not installed for /usr/bin/python3";
+  const Outcome o = run({"whole.h5", "-o", "out-plots", "--set", "bootstrap_resamples=50"});
+  ASSERT_EQ(o.code, 0) << o.err;
+  for (const char* stem : {"cdf-runout", "cdf-max_kinetic_energy", "convergence-runout", "barrier-toe", "plan-whole",
+                           "hazard-whole"})
+    for (const char* ext : {".png", ".svg"}) {
+      const fs::path file = dir_ / "out-plots" / "plots" / (std::string(stem) + ext);
+      ASSERT_TRUE(fs::exists(file)) << file;
+      EXPECT_GT(fs::file_size(file), 1000u) << file;
+    }
+}
+
+TEST_F(Stats, WithoutMatplotlibPlotsFailWithOneLine) {
+  std::ofstream(dir_ / "fake-python") << "#!/bin/sh\necho \"ModuleNotFoundError: No module named 'matplotlib'\" >&2\nexit 1\n";
+  fs::permissions(dir_ / "fake-python", fs::perms::owner_all);
+  Outcome o = run({"whole.h5", "-o", "out-nompl"}, "TALUS_PYTHON=./fake-python");
+  expect_one_line_error(o, 1, "No module named 'matplotlib'");
+  EXPECT_NE(o.err.find("plots=false"), std::string::npos) << o.err;
+  EXPECT_FALSE(fs::exists(dir_ / "out-nompl"));
+  o = run({"whole.h5", "-o", "out-nopython"}, "TALUS_PYTHON=/nonexistent/python3");
+  expect_one_line_error(o, 1, "TALUS_PYTHON");
+  // Plots switched off: no Python needed.
+  o = run({"whole.h5", "-o", "out-noplots", "--set", "plots=false", "--set", "bootstrap_resamples=0"},
+          "TALUS_PYTHON=./fake-python");
+  EXPECT_EQ(o.code, 0) << o.err;
+  EXPECT_FALSE(fs::exists(dir_ / "out-noplots" / "plots"));
+}
+
+TEST_F(Stats, BadInputsGiveOneLineErrors) {
+  expect_one_line_error(run_fast({"missing.h5", "-o", "out-bad"}), 3, "missing.h5");
+  expect_one_line_error(run_fast({"corrupt.h5", "-o", "out-bad"}), 3, "corrupt.h5");
+  expect_one_line_error(run_fast({"empty.h5", "-o", "out-bad"}), 3, "empty.h5: run file holds no realizations");
+  expect_one_line_error(run_fast({"part-0.h5", "foreign-1.h5", "-o", "out-bad"}), 3,
+                        "part-0.h5: the shards given hold 4 of 12 realizations; foreign-1.h5 is a shard of another run");
+  expect_one_line_error(run_fast({"part-0.h5", "part-2.h5", "-o", "out-bad"}), 3, "(a shard is missing)");
+  expect_one_line_error(run_fast({"part-0.h5", "part-0.h5", "-o", "out-bad"}), 3, "appears twice");
+  expect_one_line_error(run_fast({"whole.h5", "whole.h5", "-o", "out-bad"}), 3, "two runs are named 'whole'");
+  expect_one_line_error(run_fast({"whole.h5", "-o", "out-bad", "--set", "quantiles=[0.5, 1.5]"}), 3, "quantiles");
+  expect_one_line_error(run_fast({"whole.h5", "-o", "out-bad", "--set", "names=[a, b]"}), 3, "2 names for 1 runs");
+  expect_one_line_error(run_fast({"whole.h5", "-o", "out-bad", "--set", "terrain=nowhere.h5"}), 3,
+                        "terrain file 'nowhere.h5'");
+  expect_one_line_error(run_fast({"whole.h5", "-o", "corrupt.h5"}), 2, "not a directory");
+  expect_one_line_error(run_fast({"whole.h5"}), 2, "-o");
+  EXPECT_FALSE(fs::exists(dir_ / "out-bad"));
+  const Outcome partial = run_fast({"part-0.h5", "part-2.h5", "-o", "out-partial", "--set", "allow_partial=true"});
+  EXPECT_EQ(partial.code, 0) << partial.err;
+  EXPECT_NE(partial.err.find("warning: run 'part': the shards given hold 8 of 12"), std::string::npos) << partial.err;
+  // Without the terrain the statistics still come out when the rasters are not asked for.
+  EXPECT_EQ(run_fast({"whole.h5", "-o", "out-noterrain", "--set", "terrain=nowhere.h5", "--set", "hazard_maps=false"}).code,
+            0);
+}
+
+}  // namespace
+}  // namespace talus

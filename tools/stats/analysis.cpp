@@ -1,0 +1,336 @@
+#include "analysis.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <map>
+#include <set>
+
+#include "talus/core/error.hpp"
+#include "talus/core/log.hpp"
+#include "talus/dda/state.hpp"
+#include "talus/io/terrain_file.hpp"
+
+namespace talus::stats_tool {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// A shard's name without its shard number ("run-2" → "run"), for a joined run.
+std::string run_name_of_shards(const std::string& path) {
+  std::string stem = std::filesystem::path(path).stem().string();
+  const auto end = stem.find_last_not_of("0123456789");
+  if (end != std::string::npos && end + 1 < stem.size() && end > 0 &&
+      (stem[end] == '-' || stem[end] == '_' || stem[end] == '.'))
+    stem.resize(end);
+  return stem;
+}
+
+// Files of the same run share these; shards of different runs do not.
+std::string run_key(const io::RunInfo& info) {
+  return info.provenance.settings_yaml + '\x1f' + info.provenance.inputs + '\x1f' +
+         std::to_string(info.realizations);
+}
+
+}  // namespace
+
+std::vector<Run> load_runs(const std::vector<std::string>& paths, const Settings& settings) {
+  std::vector<Run> runs;
+  std::map<std::string, std::size_t> shard_group;  // run key → index in `runs`
+  std::vector<std::vector<io::RunFile>> shards;    // parallel to `runs` (shards only)
+  for (const auto& path : paths) {
+    io::RunFile file = io::read_run_file(path);
+    if (file.data.records.empty()) throw core::InputError(path, "run file holds no realizations");
+    if (file.info.shard == "0/1") {
+      runs.push_back({std::filesystem::path(path).stem().string(), {path}, std::move(file)});
+      shards.emplace_back();
+      continue;
+    }
+    const auto [it, fresh] = shard_group.try_emplace(run_key(file.info), runs.size());
+    if (fresh) {
+      runs.push_back({run_name_of_shards(path), {}, {}});
+      shards.emplace_back();
+    }
+    runs[it->second].files.push_back(path);
+    shards[it->second].push_back(std::move(file));
+  }
+  std::vector<std::size_t> partial;
+  for (std::size_t r = 0; r < runs.size(); ++r) {
+    if (shards[r].empty()) continue;
+    // Checks that the shards belong together and no realization repeats.
+    runs[r].file = io::merge_run_files(shards[r], runs[r].files);
+    if (runs[r].file.info.shard != "0/1") partial.push_back(r);
+  }
+  for (std::size_t r : partial) {
+    const std::string held = "the shards given hold " + std::to_string(runs[r].file.data.records.size()) + " of " +
+                             std::to_string(runs[r].file.info.realizations) + " realizations";
+    if (settings.allow_partial) {
+      core::log_warn("run '" + runs[r].name + "': " + held);
+      continue;
+    }
+    // Two incomplete groups are most often shards of different runs given together.
+    const std::size_t other = partial.front() == r ? partial.back() : partial.front();
+    throw core::InputError(runs[r].files.front(),
+                           held + (other != r ? "; " + runs[other].files.front() +
+                                                    " is a shard of another run (settings, inputs or "
+                                                    "realization count differ)"
+                                              : " (a shard is missing)") +
+                               "; set allow_partial=true to use them anyway");
+  }
+  if (!settings.names.empty()) {
+    if (settings.names.size() != runs.size())
+      throw core::InputError("settings", "names: " + std::to_string(settings.names.size()) + " names for " +
+                                             std::to_string(runs.size()) + " runs");
+    for (std::size_t r = 0; r < runs.size(); ++r) runs[r].name = settings.names[r];
+  }
+  std::set<std::string> seen;
+  for (const auto& run : runs) {
+    if (run.name.empty() || run.name.find_first_of("/\\\n,\"") != std::string::npos)
+      throw core::InputError("settings", "run name '" + run.name + "' is empty or holds one of / \\ , \"");
+    if (!seen.insert(run.name).second)
+      throw core::InputError(run.files.front(), "two runs are named '" + run.name +
+                                                    "': give distinct names with --set names=[a,b,...]");
+  }
+  return runs;
+}
+
+VariableSummary summarize(std::string name, std::string unit, std::vector<double> values, const Settings& settings) {
+  VariableSummary v;
+  v.name = std::move(name);
+  v.unit = std::move(unit);
+  std::vector<double> present;
+  for (double x : values)
+    if (std::isnan(x))
+      ++v.missing;
+    else
+      present.push_back(x);
+  v.values = present;
+  if (present.empty()) return v;
+  v.sample.emplace(present, v.name.c_str());
+  const stats::Sample& s = *v.sample;
+  const double alpha = 1.0 - settings.confidence;
+  for (double p : settings.quantiles) v.quantiles.push_back(s.quantile(p));
+  if (settings.bootstrap_resamples > 0)
+    v.intervals = stats::bootstrap_quantile_intervals(s, settings.quantiles, alpha,
+                                                      static_cast<std::size_t>(settings.bootstrap_resamples),
+                                                      settings.seed);
+  v.dkw_epsilon = stats::dkw_epsilon(s.size(), alpha);
+  if (present.size() >= 2) {
+    std::vector<stats::Statistic> followed = {{stats::Statistic::Kind::mean}};
+    for (double p : settings.convergence_quantiles) followed.push_back({stats::Statistic::Kind::quantile, p});
+    const auto counts =
+        stats::convergence_counts(present.size(), static_cast<std::size_t>(settings.convergence_points));
+    for (const auto& statistic : followed)
+      v.convergence.push_back({statistic, stats::convergence(present, statistic, counts),
+                               stats::realizations_needed(present, statistic, settings.convergence_target)});
+  }
+  return v;
+}
+
+namespace {
+
+// The statistics of the records `rows` (indices into run.data.records) of one run.
+Series make_series(const Run& run, std::size_t run_index, const std::string& block,
+                   const std::vector<std::size_t>& rows, const std::array<double, 3>& shift,
+                   const Settings& settings) {
+  const auto& records = run.file.data.records;
+  const auto& info = run.file.info;
+  Series s;
+  s.run = run.name;
+  s.block = block;
+  s.run_index = run_index;
+  s.realizations = rows.size();
+  // Numerically failed realizations carry no trustworthy values: counted, not used.
+  std::vector<std::size_t> good;
+  for (std::size_t r : rows)
+    if (!dda::is_failure(records[r].end)) good.push_back(r);
+  const auto column = [&](auto member) {
+    std::vector<double> out;
+    for (std::size_t r : good) out.push_back(records[r].*member);
+    return out;
+  };
+  s.variables.push_back(summarize("runout", "m", column(&mc::Record::runout), settings));
+  s.variables.push_back(summarize("lateral", "m", column(&mc::Record::lateral), settings));
+  s.variables.push_back(summarize("max_speed", "m/s", column(&mc::Record::max_speed), settings));
+  s.variables.push_back(summarize("max_jump_height", "m", column(&mc::Record::max_jump_height), settings));
+  s.variables.push_back(summarize("max_kinetic_energy", "J", column(&mc::Record::max_kinetic_energy), settings));
+
+  // Barriers: the first crossing of each realization (where a barrier would catch it).
+  std::map<std::uint32_t, std::size_t> position_of;  // realization → index in `good`
+  for (std::size_t k = 0; k < good.size(); ++k) position_of[records[good[k]].realization] = k;
+  const std::size_t barriers = info.barriers.size();
+  std::vector<std::vector<double>> height(barriers, std::vector<double>(good.size(), kNaN));
+  std::vector<std::vector<double>> energy(barriers, std::vector<double>(good.size(), kNaN));
+  std::vector<std::vector<bool>> crossed(barriers, std::vector<bool>(good.size(), false));
+  for (const auto& c : run.file.data.crossings) {
+    const auto it = position_of.find(c.realization);
+    if (it == position_of.end() || c.barrier < 0 || static_cast<std::size_t>(c.barrier) >= barriers) continue;
+    const auto b = static_cast<std::size_t>(c.barrier);
+    if (crossed[b][it->second]) continue;  // rows are in time order within a realization
+    crossed[b][it->second] = true;
+    height[b][it->second] = c.height;
+    energy[b][it->second] = c.kinetic_energy;
+  }
+  for (std::size_t b = 0; b < barriers; ++b) {
+    s.variables.push_back(summarize(info.barriers[b] + ".passing_height", "m", height[b], settings));
+    s.variables.push_back(summarize(info.barriers[b] + ".kinetic_energy", "J", energy[b], settings));
+  }
+
+  const double n = static_cast<double>(rows.size());
+  const auto fraction = [&](std::string name, std::uint64_t count) {
+    s.fractions.push_back({std::move(name), count, static_cast<double>(count) / n});
+  };
+  for (std::size_t c = 0; c < info.stop_classes.size(); ++c)
+    fraction("stop:" + info.stop_classes[c],
+             static_cast<std::uint64_t>(std::count_if(rows.begin(), rows.end(), [&](std::size_t r) {
+               return records[r].stop_class == static_cast<std::int32_t>(c);
+             })));
+  for (std::size_t b = 0; b < barriers; ++b)
+    fraction("cross:" + info.barriers[b],
+             static_cast<std::uint64_t>(std::count(crossed[b].begin(), crossed[b].end(), true)));
+  for (double d : settings.reach_distances)
+    fraction("runout>=" + core::format_number(d),
+             static_cast<std::uint64_t>(std::count_if(good.begin(), good.end(),
+                                                      [&](std::size_t r) { return records[r].runout >= d; })));
+  fraction("numerical_failure", rows.size() - good.size());
+  for (std::size_t r : rows)
+    s.stop_points.push_back({records[r].final_position.x() + shift[0], records[r].final_position.y() + shift[1]});
+  return s;
+}
+
+// Pairs that differ in one factor: two blocks of one run, or one block (or "all") in two runs.
+bool comparable(const Series& a, const Series& b) {
+  if (a.run == b.run) return a.block != "all" && b.block != "all" && a.block != b.block;
+  return a.block == b.block;
+}
+
+terrain::DemGrid raster_like(const mc::HazardGridSpec& g, const std::array<double, 3>& shift, double fill) {
+  terrain::DemGrid dem;
+  dem.spec = {g.x0 + 0.5 * g.size + shift[0], g.y0 + 0.5 * g.size + shift[1], g.size, g.size, g.nx, g.ny};
+  dem.z.assign(dem.spec.point_count(), fill);
+  return dem;
+}
+
+std::string terrain_path_of(const Run& run, const Settings& settings) {
+  if (!settings.terrain.empty()) return settings.terrain;
+  const std::string& inputs = run.file.info.provenance.inputs;
+  return inputs.substr(0, inputs.find('\n'));
+}
+
+RunResult run_result(const Run& run, const Settings& settings) {
+  RunResult out;
+  const auto& info = run.file.info;
+  const bool grid = info.hazard.size > 0.0 && info.hazard.nx > 0 && info.hazard.ny > 0;
+  const bool need_terrain = (settings.hazard_maps && grid) || settings.plots;
+  const std::string path = terrain_path_of(run, settings);
+  std::optional<terrain::Terrain> ground;
+  if (need_terrain && !path.empty() && std::filesystem::exists(path)) {
+    ground = io::read_terrain_file(path);
+    out.terrain_file = path;
+    out.origin_shift = {ground->origin_shift.x(), ground->origin_shift.y(), ground->origin_shift.z()};
+  } else if (settings.hazard_maps && grid) {
+    // Rasters without the origin shift would land in the wrong place in a GIS.
+    throw core::InputError(run.files.front(),
+                           path.empty() ? "the run names no terrain file: give it with --set terrain=FILE "
+                                          "(or --set hazard_maps=false)"
+                                        : "terrain file '" + path + "' named by the run is missing: give it with "
+                                          "--set terrain=FILE (or --set hazard_maps=false)");
+  }
+  if (settings.hazard_maps && grid) out.hazard = hazard_maps(run.file, out.origin_shift);
+  const auto& shift = out.origin_shift;
+  PlanView& plan = out.plan;
+  // Terrains of millions of points are left out of the plan view (the plot would not show them).
+  if (ground && ground->mesh.vertices.size() <= 2000000) {
+    for (const auto& v : ground->mesh.vertices) {
+      plan.terrain_x.push_back(v.x() + shift[0]);
+      plan.terrain_y.push_back(v.y() + shift[1]);
+      plan.terrain_z.push_back(v.z() + shift[2]);
+    }
+    for (const auto& t : ground->mesh.triangles) plan.terrain_triangles.push_back({t[0], t[1], t[2]});
+  }
+  std::set<std::uint32_t> drawn;
+  for (const auto& p : run.file.data.trajectories) {
+    if (!drawn.count(p.realization)) {
+      if (drawn.size() >= static_cast<std::size_t>(settings.plot_trajectories)) continue;
+      drawn.insert(p.realization);
+    }
+    plan.trajectory_realization.push_back(p.realization);
+    plan.trajectory_position.push_back(
+        {p.sample.position.x() + shift[0], p.sample.position.y() + shift[1], p.sample.position.z() + shift[2]});
+  }
+  plan.barrier_names = info.barriers;
+  for (const auto& line : info.barrier_lines) {
+    auto& shifted = plan.barrier_lines.emplace_back();
+    for (const auto& v : line) shifted.push_back({v[0] + shift[0], v[1] + shift[1]});
+  }
+  return out;
+}
+
+}  // namespace
+
+HazardMaps hazard_maps(const io::RunFile& run, const std::array<double, 3>& origin_shift) {
+  const mc::HazardGridSpec& g = run.info.hazard;
+  HazardMaps maps{raster_like(g, origin_shift, 0.0), raster_like(g, origin_shift, kNaN),
+                  raster_like(g, origin_shift, kNaN), raster_like(g, origin_shift, kNaN),
+                  raster_like(g, origin_shift, kNaN)};
+  const double n = static_cast<double>(run.data.records.size());
+  for (const auto& [id, cell] : run.data.hazard.cells()) {
+    if (id < 0 || static_cast<std::size_t>(id) >= maps.reach_probability.z.size())
+      throw core::InputError("hazard", "cell " + std::to_string(id) + " outside the hazard grid");
+    const auto k = static_cast<std::size_t>(id);
+    maps.reach_probability.z[k] = static_cast<double>(cell.reach) / n;
+    if (!cell.energy.empty()) {
+      maps.energy_p95.z[k] = cell.energy.quantile(0.95);
+      maps.energy_p99.z[k] = cell.energy.quantile(0.99);
+    }
+    if (!cell.height.empty()) {
+      maps.height_p95.z[k] = cell.height.quantile(0.95);
+      maps.height_p99.z[k] = cell.height.quantile(0.99);
+    }
+  }
+  return maps;
+}
+
+Analysis analyze(const std::vector<Run>& runs, const Settings& settings) {
+  Analysis a;
+  for (std::size_t r = 0; r < runs.size(); ++r) {
+    const Run& run = runs[r];
+    a.runs.push_back(run_result(run, settings));
+    const auto& shift = a.runs.back().origin_shift;
+    const auto& records = run.file.data.records;
+    std::vector<std::size_t> all(records.size());
+    for (std::size_t k = 0; k < all.size(); ++k) all[k] = k;
+    a.series.push_back(make_series(run, r, "all", all, shift, settings));
+    std::set<std::int32_t> blocks;
+    for (const auto& rec : records) blocks.insert(rec.block);
+    if (!settings.by_block || blocks.size() < 2) continue;
+    for (std::int32_t b : blocks) {
+      if (b < 0 || static_cast<std::size_t>(b) >= run.file.info.blocks.size())
+        throw core::InputError(run.files.front(), "record of block " + std::to_string(b) + " not in /run/blocks");
+      std::vector<std::size_t> rows;
+      for (std::size_t k = 0; k < records.size(); ++k)
+        if (records[k].block == b) rows.push_back(k);
+      a.series.push_back(make_series(run, r, run.file.info.blocks[static_cast<std::size_t>(b)], rows, shift, settings));
+    }
+  }
+  for (std::size_t i = 0; i < a.series.size(); ++i)
+    for (std::size_t j = i + 1; j < a.series.size(); ++j) {
+      if (!comparable(a.series[i], a.series[j])) continue;
+      for (std::size_t v = 0; v < a.series[i].variables.size(); ++v) {
+        const VariableSummary& x = a.series[i].variables[v];
+        // Barrier variables are matched by name: runs may have different barriers.
+        const auto other = std::find_if(a.series[j].variables.begin(), a.series[j].variables.end(),
+                                        [&](const VariableSummary& y) { return y.name == x.name; });
+        if (other == a.series[j].variables.end() || !x.sample || !other->sample) continue;
+        Comparison c{x.name, i, j, x.sample->size(), other->sample->size(), 0.0, 1.0};
+        c.distance = stats::ks_distance(*x.sample, *other->sample);
+        c.p_value = stats::ks_p_value(c.distance, c.n_a, c.n_b);
+        a.comparisons.push_back(c);
+      }
+    }
+  return a;
+}
+
+}  // namespace talus::stats_tool

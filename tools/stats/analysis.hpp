@@ -1,0 +1,116 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "settings.hpp"
+#include "talus/io/run_file.hpp"
+#include "talus/stats/convergence.hpp"
+#include "talus/stats/sample.hpp"
+#include "talus/terrain/terrain.hpp"
+
+namespace talus::stats_tool {
+
+/// One run as analysed: a run file, or the shards of one run joined.
+struct Run {
+  std::string name;
+  std::vector<std::string> files;  ///< the run file, or its shards
+  io::RunFile file;
+};
+
+/// Reads the run files, joins the shards of each run (files whose shard is not "0/1",
+/// grouped by identical settings and inputs) and names the runs. Throws core::InputError
+/// naming the file when one is missing, corrupt, empty, or a shard that does not fit.
+std::vector<Run> load_runs(const std::vector<std::string>& paths, const Settings& settings);
+
+/// A statistic followed by the convergence study.
+struct Followed {
+  stats::Statistic statistic;
+  std::vector<stats::ConvergencePoint> curve;  ///< at convergence_counts(n, points)
+  double needed = 0.0;  ///< realizations to reach the target relative error (infinity if unknown)
+};
+
+/// Distribution statistics of one variable of one series.
+struct VariableSummary {
+  std::string name;  ///< "runout", "toe.passing_height" …
+  std::string unit;
+  std::vector<double> values;  ///< realization order
+  std::optional<stats::Sample> sample;  ///< absent when there is no value
+  std::size_t missing = 0;     ///< realizations without a value (no crossing, off the terrain)
+  std::vector<double> quantiles;          ///< at Settings::quantiles
+  std::vector<stats::Interval> intervals; ///< bootstrap intervals of the quantiles (may be empty)
+  double dkw_epsilon = 1.0;               ///< half-width of the CDF band at Settings::confidence
+  std::vector<Followed> convergence;      ///< mean, then Settings::convergence_quantiles
+};
+
+/// A fraction of the realizations of a series (stopping in a zone, crossing a barrier …).
+struct Fraction {
+  std::string name;  ///< "stop:bench 1", "cross:toe", "runout>=36", "numerical_failure"
+  std::uint64_t count = 0;
+  double value = 0.0;  ///< count / realizations
+};
+
+/// A run, or the realizations of one block of a run.
+struct Series {
+  std::string run;
+  std::string block;  ///< block name, or "all"
+  std::size_t run_index = 0;
+  std::uint64_t realizations = 0;  ///< records, numerical failures included
+  std::vector<VariableSummary> variables;
+  std::vector<Fraction> fractions;
+  std::vector<std::array<double, 2>> stop_points;  ///< final plan positions, terrain coordinates (m)
+};
+
+/// Two-sample Kolmogorov–Smirnov comparison of one variable between two series.
+struct Comparison {
+  std::string variable;
+  std::size_t a = 0, b = 0;  ///< series indices
+  std::size_t n_a = 0, n_b = 0;
+  double distance = 0.0;
+  double p_value = 1.0;
+};
+
+/// Hazard rasters of a run in terrain coordinates (grid points = cell centres).
+struct HazardMaps {
+  terrain::DemGrid reach_probability;  ///< realizations reaching the cell / realizations (-)
+  terrain::DemGrid energy_p95, energy_p99;  ///< J, NaN where no block passed
+  terrain::DemGrid height_p95, height_p99;  ///< m, NaN where no block passed
+};
+
+/// What is drawn in the plan view of a run, in terrain coordinates.
+struct PlanView {
+  std::vector<double> terrain_x, terrain_y, terrain_z;  ///< base terrain vertices (m), empty if unknown
+  std::vector<std::array<std::int32_t, 3>> terrain_triangles;
+  std::vector<std::int64_t> trajectory_realization;  ///< per point
+  std::vector<std::array<double, 3>> trajectory_position;  ///< m
+  std::vector<std::vector<std::array<double, 2>>> barrier_lines;  ///< m
+  std::vector<std::string> barrier_names;
+};
+
+struct RunResult {
+  std::optional<HazardMaps> hazard;
+  PlanView plan;
+  std::array<double, 3> origin_shift = {0.0, 0.0, 0.0};  ///< m, added to the run's local coordinates
+  std::string terrain_file;  ///< the terrain used for the shift ("" if none)
+};
+
+struct Analysis {
+  std::vector<Series> series;
+  std::vector<Comparison> comparisons;
+  std::vector<RunResult> runs;  ///< parallel to the runs
+};
+
+/// Every statistic of docs/stats.md for the runs.
+Analysis analyze(const std::vector<Run>& runs, const Settings& settings);
+
+/// The summary of one variable's values (NaN = missing), exposed for tests.
+VariableSummary summarize(std::string name, std::string unit, std::vector<double> values, const Settings& settings);
+
+/// The hazard rasters of a run: reach probability and P95/P99 of the per-cell sketches,
+/// cell centres shifted by `origin_shift` (x, y). Exposed for tests.
+HazardMaps hazard_maps(const io::RunFile& run, const std::array<double, 3>& origin_shift);
+
+}  // namespace talus::stats_tool

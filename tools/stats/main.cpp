@@ -1,0 +1,75 @@
+// stats: distributions, convergence, comparisons, barrier CDFs, hazard rasters and plots
+// from dda-run run files. See docs/stats.md.
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+#include "analysis.hpp"
+#include "outputs.hpp"
+#include "settings.hpp"
+#include "talus/cli/tool.hpp"
+#include "talus/core/error.hpp"
+#include "talus/core/log.hpp"
+#include "talus/io/atomic_output.hpp"
+
+namespace {
+
+using namespace talus;
+namespace fs = std::filesystem;
+
+// Creates the output directory (its parent must exist).
+void make_output_directory(const std::string& dir) {
+  const fs::path path(dir);
+  if (fs::exists(path) && !fs::is_directory(path))
+    throw core::UsageError("-o " + dir + ": exists and is not a directory");
+  const fs::path parent = path.has_parent_path() ? path.parent_path() : fs::path(".");
+  if (!fs::is_directory(parent)) throw core::RuntimeError(dir + ": parent directory " + parent.string() + " does not exist");
+  std::error_code ec;
+  fs::create_directory(path, ec);
+  if (ec) throw core::RuntimeError(dir + ": cannot create the output directory (" + ec.message() + ")");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  stats_tool::Settings settings;
+  bool print_table = false;
+  cli::ToolSpec spec;
+  spec.name = "stats";
+  spec.summary = "CDFs, quantiles, convergence, comparisons, barrier CDFs, hazard rasters and plots of run files";
+  spec.inputs_doc = "run files of dda-run: whole runs and/or shards of runs (shards of one run are joined)";
+  spec.min_inputs = 1;
+  spec.settings = [&settings](core::SettingsVisitor& v) { settings.visit(v); };
+  spec.flags = {{"--print-table", "print the side-by-side summary table on standard output", &print_table}};
+  spec.check = [&](const cli::Invocation& inv) {
+    if (inv.output.empty()) throw core::UsageError("-o OUTDIR is required");
+    settings.validate();
+    // Before any work: a missing matplotlib is reported at once, not after the analysis.
+    if (settings.plots) stats_tool::check_plotting();
+  };
+  spec.run = [&](const cli::Invocation& inv) {
+    const auto runs = stats_tool::load_runs(inv.inputs, settings);
+    const auto analysis = stats_tool::analyze(runs, settings);
+    make_output_directory(inv.output);
+    const fs::path dir(inv.output);
+    io::write_text_file((dir / "summary.csv").string(), stats_tool::summary_csv(analysis, settings));
+    io::write_text_file((dir / "convergence.csv").string(), stats_tool::convergence_csv(analysis));
+    io::write_text_file((dir / "comparison.csv").string(), stats_tool::comparison_csv(analysis));
+    io::write_text_file((dir / "table.csv").string(), stats_tool::side_by_side_csv(analysis));
+    const std::string summary = (dir / "summary.h5").string();
+    stats_tool::write_summary_file(summary, runs, analysis, settings, inv.provenance("stats", settings.seed));
+    if (settings.hazard_maps) {
+      const auto rasters = stats_tool::write_hazard_rasters((dir / "hazard").string(), runs, analysis, settings);
+      core::log_info("wrote " + std::to_string(rasters.size()) + " hazard rasters");
+    }
+    if (settings.plots) {
+      const fs::path plots = dir / "plots";
+      fs::create_directories(plots);
+      stats_tool::draw_plots(summary, plots.string(), settings);
+    }
+    if (print_table) std::fputs(stats_tool::side_by_side_text(analysis).c_str(), stdout);
+    core::log_info("wrote " + inv.output + ": " + std::to_string(analysis.series.size()) + " series of " +
+                   std::to_string(runs.size()) + " runs");
+  };
+  return cli::run_tool(argc, argv, spec);
+}

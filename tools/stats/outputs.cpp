@@ -1,0 +1,452 @@
+#include "outputs.hpp"
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+
+#include "talus/core/error.hpp"
+#include "talus/io/atomic_output.hpp"
+#include "talus/io/hdf5.hpp"
+#include "talus/io/raster.hpp"
+
+namespace talus::stats_tool {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// The shortest text that reads back to the same double ("inf", "nan" for those).
+std::string number(double x) {
+  char buffer[32];
+  const auto [end, ec] = std::to_chars(buffer, buffer + sizeof buffer, x);
+  return ec == std::errc() ? std::string(buffer, end) : std::string("nan");
+}
+
+// RFC 4180 quoting where needed.
+std::string field(const std::string& s) {
+  if (s.find_first_of(",\"\n") == std::string::npos) return s;
+  std::string out = "\"";
+  for (char c : s) out += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return out + "\"";
+}
+
+std::string row(std::initializer_list<std::string> cells) {
+  std::string out;
+  for (const auto& c : cells) out += (out.empty() ? "" : ",") + field(c);
+  return out + "\n";
+}
+
+std::string quantile_name(double p) { return stats::Statistic{stats::Statistic::Kind::quantile, p}.name(); }
+
+// The statistics of a variable as (statistic, value, unit) triples, in table order.
+struct Cell {
+  std::string statistic;
+  double value;
+  std::string unit;
+};
+std::vector<Cell> cells_of(const VariableSummary& v, const Settings& settings) {
+  std::vector<Cell> out = {{"n", static_cast<double>(v.values.size()), ""},
+                           {"missing", static_cast<double>(v.missing), ""}};
+  if (!v.sample) return out;
+  const stats::Sample& s = *v.sample;
+  out.insert(out.end(), {{"mean", s.mean(), v.unit}, {"sd", s.sd(), v.unit}, {"min", s.min(), v.unit},
+                         {"max", s.max(), v.unit}});
+  for (std::size_t k = 0; k < settings.quantiles.size(); ++k) {
+    const std::string q = quantile_name(settings.quantiles[k]);
+    out.push_back({q, v.quantiles[k], v.unit});
+    if (!v.intervals.empty()) {
+      out.push_back({q + "_ci_low", v.intervals[k].lo, v.unit});
+      out.push_back({q + "_ci_high", v.intervals[k].hi, v.unit});
+    }
+  }
+  out.push_back({"dkw_epsilon", v.dkw_epsilon, "-"});
+  for (const auto& f : v.convergence) {
+    const std::string name = f.statistic.name();
+    out.push_back({name + "_relative_error", f.curve.back().relative_error, "-"});
+    out.push_back({name + "_realizations_needed", f.needed, ""});
+  }
+  return out;
+}
+
+}  // namespace
+
+std::string summary_csv(const Analysis& a, const Settings& settings) {
+  std::string out = row({"run", "block", "variable", "statistic", "value", "unit"});
+  for (const auto& s : a.series) {
+    out += row({s.run, s.block, "realizations", "n", number(static_cast<double>(s.realizations)), ""});
+    for (const auto& v : s.variables)
+      for (const auto& c : cells_of(v, settings)) out += row({s.run, s.block, v.name, c.statistic, number(c.value), c.unit});
+    for (const auto& f : s.fractions) {
+      out += row({s.run, s.block, f.name, "count", number(static_cast<double>(f.count)), ""});
+      out += row({s.run, s.block, f.name, "fraction", number(f.value), "-"});
+    }
+  }
+  return out;
+}
+
+std::string convergence_csv(const Analysis& a) {
+  std::string out = row({"run", "block", "variable", "statistic", "n", "estimate", "relative_error"});
+  for (const auto& s : a.series)
+    for (const auto& v : s.variables)
+      for (const auto& f : v.convergence)
+        for (const auto& p : f.curve)
+          out += row({s.run, s.block, v.name, f.statistic.name(), std::to_string(p.n), number(p.estimate),
+                      number(p.relative_error)});
+  return out;
+}
+
+std::string comparison_csv(const Analysis& a) {
+  std::string out =
+      row({"variable", "run_a", "block_a", "run_b", "block_b", "n_a", "n_b", "ks_distance", "p_value"});
+  for (const auto& c : a.comparisons) {
+    const Series& x = a.series[c.a];
+    const Series& y = a.series[c.b];
+    out += row({c.variable, x.run, x.block, y.run, y.block, std::to_string(c.n_a), std::to_string(c.n_b),
+                number(c.distance), number(c.p_value)});
+  }
+  return out;
+}
+
+namespace {
+
+// Rows of the side-by-side table: (variable, statistic, unit, value per series).
+struct WideRow {
+  std::string variable, statistic, unit;
+  std::vector<std::string> values;
+};
+std::vector<WideRow> wide_rows(const Analysis& a) {
+  std::vector<WideRow> rows;
+  const auto find_row = [&](const std::string& variable, const std::string& statistic,
+                            const std::string& unit) -> WideRow& {
+    for (auto& r : rows)
+      if (r.variable == variable && r.statistic == statistic) return r;
+    rows.push_back({variable, statistic, unit, std::vector<std::string>(a.series.size())});
+    return rows.back();
+  };
+  const auto shown = [](double x) {
+    char buffer[32];
+    std::snprintf(buffer, sizeof buffer, "%.4g", x);
+    return std::string(buffer);
+  };
+  for (std::size_t k = 0; k < a.series.size(); ++k) {
+    const Series& s = a.series[k];
+    find_row("realizations", "n", "").values[k] = std::to_string(s.realizations);
+    for (const auto& v : s.variables) {
+      if (!v.sample) continue;
+      find_row(v.name, "mean", v.unit).values[k] = shown(v.sample->mean());
+      find_row(v.name, "sd", v.unit).values[k] = shown(v.sample->sd());
+      find_row(v.name, "P50", v.unit).values[k] = shown(v.sample->quantile(0.5));
+      find_row(v.name, "P95", v.unit).values[k] = shown(v.sample->quantile(0.95));
+      find_row(v.name, "max", v.unit).values[k] = shown(v.sample->max());
+    }
+    for (const auto& f : s.fractions) find_row(f.name, "fraction", "-").values[k] = shown(f.value);
+  }
+  return rows;
+}
+
+std::string series_label(const Series& s) { return s.block == "all" ? s.run : s.run + "/" + s.block; }
+
+}  // namespace
+
+std::string side_by_side_csv(const Analysis& a) {
+  std::string out = "variable,statistic,unit";
+  for (const auto& s : a.series) out += "," + field(series_label(s));
+  out += "\n";
+  for (const auto& r : wide_rows(a)) {
+    out += field(r.variable) + "," + field(r.statistic) + "," + field(r.unit);
+    for (const auto& v : r.values) out += "," + v;
+    out += "\n";
+  }
+  return out;
+}
+
+std::string side_by_side_text(const Analysis& a) {
+  const auto rows = wide_rows(a);
+  std::size_t first = 9;
+  for (const auto& r : rows) first = std::max(first, r.variable.size() + r.statistic.size() + r.unit.size() + 4);
+  std::vector<std::size_t> width;
+  for (const auto& s : a.series) width.push_back(std::max<std::size_t>(series_label(s).size(), 10));
+  const auto pad = [](const std::string& s, std::size_t w) { return std::string(w > s.size() ? w - s.size() : 0, ' ') + s; };
+  std::string out = std::string("variable") + std::string(first - 8, ' ');
+  for (std::size_t k = 0; k < a.series.size(); ++k) out += "  " + pad(series_label(a.series[k]), width[k]);
+  out += "\n";
+  for (const auto& r : rows) {
+    std::string label = r.variable + " " + r.statistic + (r.unit.empty() ? "" : " (" + r.unit + ")");
+    out += label + std::string(first > label.size() ? first - label.size() : 0, ' ');
+    for (std::size_t k = 0; k < r.values.size(); ++k) out += "  " + pad(r.values[k].empty() ? "-" : r.values[k], width[k]);
+    out += "\n";
+  }
+  return out;
+}
+
+namespace {
+
+using io::h5::Group;
+
+void write_vector(const Group& g, const std::string& name, const std::vector<double>& v, const std::string& unit) {
+  if (!v.empty()) g.write(name, v.data(), {v.size()}, unit, v.size() > 4096);
+}
+
+void write_pairs(const Group& g, const std::string& name, const std::vector<std::array<double, 2>>& v) {
+  if (!v.empty()) g.write(name, v.front().data(), {v.size(), 2}, "m", v.size() > 2048);
+}
+
+std::string group_name(std::string s) {
+  for (char& c : s)
+    if (c == '/' || c == '.') c = '_';
+  return s;
+}
+
+void write_variable(const Group& parent, const VariableSummary& v, const Settings& settings) {
+  const Group g = parent.create_group(group_name(v.name));
+  g.set_attr("name", v.name);
+  g.set_attr("unit", v.unit);
+  g.set_attr("n", static_cast<std::int64_t>(v.values.size()));
+  g.set_attr("missing", static_cast<std::int64_t>(v.missing));
+  if (!v.sample) return;
+  const stats::Sample& s = *v.sample;
+  g.set_attr("mean", s.mean());
+  g.set_attr("sd", s.sd());
+  g.set_attr("min", s.min());
+  g.set_attr("max", s.max());
+  g.set_attr("dkw_epsilon", v.dkw_epsilon);
+  write_vector(g, "values", v.values, v.unit);
+  write_vector(g, "sorted", s.sorted(), v.unit);
+  write_vector(g, "quantile_p", settings.quantiles, "-");
+  write_vector(g, "quantile", v.quantiles, v.unit);
+  if (!v.intervals.empty()) {
+    std::vector<double> lo, hi;
+    for (const auto& i : v.intervals) {
+      lo.push_back(i.lo);
+      hi.push_back(i.hi);
+    }
+    write_vector(g, "quantile_ci_low", lo, v.unit);
+    write_vector(g, "quantile_ci_high", hi, v.unit);
+  }
+  if (v.convergence.empty()) return;
+  const Group c = g.create_group("convergence");
+  for (const auto& f : v.convergence) {
+    const Group h = c.create_group(f.statistic.name());
+    std::vector<std::int64_t> n;
+    std::vector<double> estimate, error;
+    for (const auto& p : f.curve) {
+      n.push_back(static_cast<std::int64_t>(p.n));
+      estimate.push_back(p.estimate);
+      error.push_back(p.relative_error);
+    }
+    h.write("n", n.data(), {n.size()});
+    write_vector(h, "estimate", estimate, v.unit);
+    write_vector(h, "relative_error", error, "-");
+    h.set_attr("realizations_needed", f.needed);
+  }
+}
+
+void write_grid(const Group& g, const std::string& name, const terrain::DemGrid& dem, const std::string& unit) {
+  g.write(name, dem.z.data(), {static_cast<std::uint64_t>(dem.spec.ny), static_cast<std::uint64_t>(dem.spec.nx)},
+          unit, true);
+}
+
+void write_run(const Group& g, const Run& run, const RunResult& r) {
+  g.set_attr("name", run.name);
+  g.set_attr("terrain_file", r.terrain_file);
+  g.set_attr("realizations", static_cast<std::int64_t>(run.file.data.records.size()));
+  g.write_strings("files", run.files);
+  g.write("origin_shift", r.origin_shift.data(), {3}, "m");
+  if (r.hazard) {
+    const Group h = g.create_group("hazard");
+    const auto& spec = r.hazard->reach_probability.spec;
+    h.set_attr("x0", spec.x0);
+    h.set_attr("y0", spec.y0);
+    h.set_attr("cell_size", spec.dx);
+    write_grid(h, "reach_probability", r.hazard->reach_probability, "-");
+    write_grid(h, "energy_p95", r.hazard->energy_p95, "J");
+    write_grid(h, "energy_p99", r.hazard->energy_p99, "J");
+    write_grid(h, "height_p95", r.hazard->height_p95, "m");
+    write_grid(h, "height_p99", r.hazard->height_p99, "m");
+  }
+  const PlanView& p = r.plan;
+  if (!p.terrain_x.empty()) {
+    const Group t = g.create_group("terrain");
+    write_vector(t, "x", p.terrain_x, "m");
+    write_vector(t, "y", p.terrain_y, "m");
+    write_vector(t, "z", p.terrain_z, "m");
+    t.write("triangles", p.terrain_triangles.front().data(), {p.terrain_triangles.size(), 3}, {}, true);
+  }
+  if (!p.trajectory_realization.empty()) {
+    const Group t = g.create_group("trajectories");
+    t.write("realization", p.trajectory_realization.data(), {p.trajectory_realization.size()}, {}, true);
+    t.write("position", p.trajectory_position.front().data(), {p.trajectory_position.size(), 3}, "m", true);
+  }
+  if (!p.barrier_names.empty()) {
+    const Group b = g.create_group("barriers");
+    b.write_strings("names", p.barrier_names);
+    std::vector<std::array<double, 2>> vertices;
+    std::vector<std::int64_t> offsets = {0};
+    for (const auto& line : p.barrier_lines) {
+      vertices.insert(vertices.end(), line.begin(), line.end());
+      offsets.push_back(static_cast<std::int64_t>(vertices.size()));
+    }
+    write_pairs(b, "vertices", vertices);
+    b.write("offsets", offsets.data(), {offsets.size()});
+  }
+}
+
+}  // namespace
+
+void write_summary_file(const std::string& path, const std::vector<Run>& runs, const Analysis& a,
+                        const Settings& settings, const io::Provenance& provenance) {
+  io::AtomicOutput out(path);
+  {
+    const io::h5::File file = io::h5::File::create(out.temp_path());
+    const Group root = file.root();
+    io::write_header(root, "stats-summary", {1, 0}, provenance);
+    root.set_attr("confidence", settings.confidence);
+    root.set_attr("convergence_target", settings.convergence_target);
+    const Group all_runs = root.create_group("runs");
+    for (std::size_t r = 0; r < runs.size(); ++r) write_run(all_runs.create_group(std::to_string(r)), runs[r], a.runs[r]);
+    const Group all_series = root.create_group("series");
+    for (std::size_t k = 0; k < a.series.size(); ++k) {
+      const Series& s = a.series[k];
+      const Group g = all_series.create_group(std::to_string(k));
+      g.set_attr("run", s.run);
+      g.set_attr("block", s.block);
+      g.set_attr("run_index", static_cast<std::int64_t>(s.run_index));
+      g.set_attr("realizations", static_cast<std::int64_t>(s.realizations));
+      std::vector<std::string> names;
+      for (const auto& v : s.variables) names.push_back(v.name);
+      g.write_strings("variables", names);
+      const Group vars = g.create_group("variable");
+      for (const auto& v : s.variables) write_variable(vars, v, settings);
+      std::vector<std::string> fnames;
+      std::vector<std::int64_t> counts;
+      std::vector<double> values;
+      for (const auto& f : s.fractions) {
+        fnames.push_back(f.name);
+        counts.push_back(static_cast<std::int64_t>(f.count));
+        values.push_back(f.value);
+      }
+      g.write_strings("fraction_names", fnames);
+      g.write("fraction_count", counts.data(), {counts.size()});
+      write_vector(g, "fraction", values, "-");
+      write_pairs(g, "stop_points", s.stop_points);
+    }
+    if (!a.comparisons.empty()) {
+      const Group c = root.create_group("comparisons");
+      std::vector<std::string> variable;
+      std::vector<std::int64_t> sa, sb, na, nb;
+      std::vector<double> d, p;
+      for (const auto& x : a.comparisons) {
+        variable.push_back(x.variable);
+        sa.push_back(static_cast<std::int64_t>(x.a));
+        sb.push_back(static_cast<std::int64_t>(x.b));
+        na.push_back(static_cast<std::int64_t>(x.n_a));
+        nb.push_back(static_cast<std::int64_t>(x.n_b));
+        d.push_back(x.distance);
+        p.push_back(x.p_value);
+      }
+      c.write_strings("variable", variable);
+      c.write("series_a", sa.data(), {sa.size()});
+      c.write("series_b", sb.data(), {sb.size()});
+      c.write("n_a", na.data(), {na.size()});
+      c.write("n_b", nb.data(), {nb.size()});
+      write_vector(c, "ks_distance", d, "-");
+      write_vector(c, "p_value", p, "-");
+    }
+  }
+  out.commit();
+}
+
+std::vector<std::string> write_hazard_rasters(const std::string& dir, const std::vector<Run>& runs,
+                                              const Analysis& a, const Settings& settings) {
+  std::vector<std::string> written;
+  for (std::size_t r = 0; r < runs.size(); ++r) {
+    if (!a.runs[r].hazard) continue;
+    fs::create_directories(dir);
+    const HazardMaps& m = *a.runs[r].hazard;
+    const std::pair<const char*, const terrain::DemGrid*> layers[] = {
+        {"reach_probability", &m.reach_probability}, {"energy_p95", &m.energy_p95}, {"energy_p99", &m.energy_p99},
+        {"height_p95", &m.height_p95}, {"height_p99", &m.height_p99}};
+    for (const auto& [name, grid] : layers)
+      for (const auto& format : settings.raster_formats) {
+        const std::string path = (fs::path(dir) / (runs[r].name + "-" + name + "." + format)).string();
+        if (format == "asc")
+          io::write_esri_ascii(path, *grid);
+        else
+          io::write_geotiff(path, *grid);
+        written.push_back(path);
+      }
+  }
+  return written;
+}
+
+std::string python_interpreter() {
+  const char* env = std::getenv("TALUS_PYTHON");
+  return env && *env ? env : "/usr/bin/python3";
+}
+
+std::string plot_helper() {
+  const char* env = std::getenv("TALUS_PLOT");
+  if (env && *env) return env;
+  std::error_code ec;
+  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+  return ((ec ? fs::path(".") : self.parent_path()) / "talus-plot").string();
+}
+
+namespace {
+
+std::string quote(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+// Runs a shell command with stderr captured; returns (exit code, first line of stderr).
+std::pair<int, std::string> run_captured(const std::string& command) {
+  const fs::path err = fs::temp_directory_path() / ("talus-stats-" + std::to_string(::getpid()) + ".err");
+  const int status = std::system((command + " > /dev/null 2> " + quote(err.string())).c_str());
+  std::string line;
+  {
+    std::ifstream in(err);
+    std::string text;
+    // The helper's own message is its last line (a traceback, if any, comes before it).
+    while (std::getline(in, text))
+      if (!text.empty()) line = text;
+  }
+  fs::remove(err);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : 128, line};
+}
+
+}  // namespace
+
+void check_plotting() {
+  const std::string python = python_interpreter();
+  const auto [code, line] = run_captured(quote(python) + " -c 'import matplotlib, h5py, numpy'");
+  if (code == 127 || code == 126)
+    throw core::RuntimeError("plots: cannot run the Python interpreter '" + python +
+                             "' (set TALUS_PYTHON, or --set plots=false)");
+  if (code != 0)
+    throw core::RuntimeError("plots: " + python + " cannot import matplotlib, h5py and numpy (" + line +
+                             "): install python3-matplotlib python3-h5py, set TALUS_PYTHON, or --set plots=false");
+  if (!fs::exists(plot_helper()))
+    throw core::RuntimeError("plots: the helper " + plot_helper() + " is missing (set TALUS_PLOT, or --set plots=false)");
+}
+
+void draw_plots(const std::string& summary_path, const std::string& dir, const Settings& settings) {
+  std::string formats;
+  for (const auto& f : settings.plot_formats) formats += (formats.empty() ? "" : ",") + f;
+  if (formats.empty()) return;
+  const auto [code, line] = run_captured(quote(python_interpreter()) + " " + quote(plot_helper()) + " " +
+                                         quote(summary_path) + " " + quote(dir) + " --formats " + formats);
+  if (code != 0)
+    throw core::RuntimeError("plots: " + (line.empty() ? "talus-plot failed with exit code " + std::to_string(code) : line));
+}
+
+}  // namespace talus::stats_tool

@@ -1,0 +1,41 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+#include <string>
+#include <vector>
+
+#include "analysis.hpp"
+#include "talus/io/file_header.hpp"
+
+namespace talus::stats_tool {
+
+/// The tidy table: one row per run × block × variable × statistic (docs/stats.md).
+std::string summary_csv(const Analysis& analysis, const Settings& settings);
+/// Convergence curves: one row per run × block × variable × statistic × n.
+std::string convergence_csv(const Analysis& analysis);
+/// Two-sample KS distances and p-values of comparable series.
+std::string comparison_csv(const Analysis& analysis);
+/// The side-by-side table: one row per variable × statistic, one column per series.
+std::string side_by_side_csv(const Analysis& analysis);
+/// The same as aligned text for a terminal.
+std::string side_by_side_text(const Analysis& analysis);
+
+/// Writes the HDF5 summary (docs/formats.md, "Stats summary file") atomically.
+void write_summary_file(const std::string& path, const std::vector<Run>& runs, const Analysis& analysis,
+                        const Settings& settings, const io::Provenance& provenance);
+
+/// Writes the hazard rasters of each run into `dir` (RUN-reach_probability.asc …); returns the paths.
+std::vector<std::string> write_hazard_rasters(const std::string& dir, const std::vector<Run>& runs,
+                                              const Analysis& analysis, const Settings& settings);
+
+/// The Python interpreter of the plot helper: $TALUS_PYTHON, else /usr/bin/python3.
+std::string python_interpreter();
+/// The talus-plot helper next to this executable (or $TALUS_PLOT).
+std::string plot_helper();
+/// Throws core::RuntimeError with one line when the interpreter cannot import matplotlib,
+/// h5py and numpy.
+void check_plotting();
+/// Draws the plots of a summary file into `dir` with the helper; throws core::RuntimeError
+/// with the helper's one-line message when it fails.
+void draw_plots(const std::string& summary_path, const std::string& dir, const Settings& settings);
+
+}  // namespace talus::stats_tool

@@ -1,0 +1,65 @@
+#include "settings.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "talus/core/error.hpp"
+
+namespace talus::stats_tool {
+
+void Settings::visit(core::SettingsVisitor& v) {
+  v.field("names", names, "run names, one per run after shards are joined; empty = the file names");
+  v.field("allow_partial", allow_partial, "use the shards of a run even when some are missing");
+  v.field("by_block", by_block, "also report each block of a run that mixes several blocks");
+  v.field("quantiles", quantiles, "-", "probabilities of the reported quantiles");
+  v.field("confidence", confidence, "-", "level of the DKW bands and bootstrap intervals");
+  v.field("bootstrap_resamples", bootstrap_resamples, "", "bootstrap resamples (0 = no intervals)");
+  v.field("seed", seed, "", "seed of the bootstrap resampling");
+  v.field("convergence_target", convergence_target, "-", "relative-error target of the convergence study");
+  v.field("convergence_quantiles", convergence_quantiles, "-", "quantiles followed besides the mean");
+  v.field("convergence_points", convergence_points, "", "points of each convergence curve");
+  v.field("reach_distances", reach_distances, "m", "runout distances whose exceedance fraction is reported");
+  v.field("terrain", terrain, "terrain file (origin shift, plan view); empty = the one the run names");
+  v.field("hazard_maps", hazard_maps, "write hazard rasters from the per-cell accumulators");
+  v.field("raster_formats", raster_formats, "raster formats: asc (ESRI ASCII grid), tif (GeoTIFF)");
+  v.field("plots", plots, "draw plots with the talus-plot helper (Python 3, matplotlib, h5py)");
+  v.field("plot_formats", plot_formats, "plot formats: png, svg");
+  v.field("plot_trajectories", plot_trajectories, "", "trajectories drawn in a plan view at most");
+}
+
+namespace {
+
+void require_probabilities(const std::vector<double>& ps, const char* key) {
+  for (double p : ps)
+    if (!(p > 0.0 && p < 1.0))
+      throw core::InputError("settings", std::string(key) + ": " + core::format_number(p) + " is not in (0, 1)");
+}
+
+void require_subset(const std::vector<std::string>& values, std::initializer_list<const char*> allowed,
+                    const char* key) {
+  for (const auto& value : values)
+    if (std::none_of(allowed.begin(), allowed.end(), [&](const char* a) { return value == a; })) {
+      std::string list;
+      for (const char* a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
+      throw core::InputError("settings", std::string(key) + ": '" + value + "' is not one of: " + list);
+    }
+}
+
+}  // namespace
+
+void Settings::validate() const {
+  require_probabilities(quantiles, "quantiles");
+  require_probabilities(convergence_quantiles, "convergence_quantiles");
+  if (!(confidence > 0.0 && confidence < 1.0)) throw core::InputError("settings", "confidence must be in (0, 1)");
+  if (bootstrap_resamples < 0 || bootstrap_resamples > 1000000)
+    throw core::InputError("settings", "bootstrap_resamples must be in [0, 1000000]");
+  if (!(convergence_target > 0.0)) throw core::InputError("settings", "convergence_target must be positive");
+  if (convergence_points < 2) throw core::InputError("settings", "convergence_points must be at least 2");
+  if (plot_trajectories < 0) throw core::InputError("settings", "plot_trajectories must not be negative");
+  for (double d : reach_distances)
+    if (!std::isfinite(d)) throw core::InputError("settings", "reach_distances must be finite");
+  require_subset(raster_formats, {"asc", "tif"}, "raster_formats");
+  require_subset(plot_formats, {"png", "svg"}, "plot_formats");
+}
+
+}  // namespace talus::stats_tool

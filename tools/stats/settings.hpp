@@ -1,0 +1,56 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "talus/core/settings.hpp"
+
+namespace talus::stats_tool {
+
+/// What the stats tool computes and writes (docs/stats.md). Every field is optional in
+/// the YAML; the defaults are the SPEC §5 report.
+struct Settings {
+  /// Run names, one per run after shards are joined, in input order; empty = file stems.
+  std::vector<std::string> names;
+  /// Use the shards of a run even when some are missing (otherwise an error).
+  bool allow_partial = false;
+  /// Split a run that mixes several blocks into one series per block (R1–R4 of the
+  /// reference study), besides the whole run.
+  bool by_block = true;
+  /// Probabilities of the quantiles reported (-), each in (0, 1).
+  std::vector<double> quantiles = {0.05, 0.10, 0.25, 0.50, 0.75, 0.90, 0.95, 0.99};
+  /// Level of the DKW bands and bootstrap intervals (-), in (0, 1).
+  double confidence = 0.95;
+  /// Bootstrap resamples per series and variable; 0 = no bootstrap intervals.
+  std::int64_t bootstrap_resamples = 1000;
+  /// Seed of the bootstrap resampling streams.
+  std::uint64_t seed = 1;
+  /// Relative-error target of the convergence study (-).
+  double convergence_target = 0.01;
+  /// Quantiles followed by the convergence study besides the mean (-).
+  std::vector<double> convergence_quantiles = {0.50, 0.95};
+  /// Points of each convergence curve.
+  std::int64_t convergence_points = 20;
+  /// Runout distances whose exceedance fraction is reported (m), e.g. the toe.
+  std::vector<double> reach_distances;
+  /// Terrain file for the origin shift of the rasters and the plan view; empty = the
+  /// terrain named in the run file's provenance.
+  std::string terrain;
+  /// Hazard rasters from the per-cell accumulators.
+  bool hazard_maps = true;
+  /// Raster formats among "asc" (ESRI ASCII grid) and "tif" (GeoTIFF).
+  std::vector<std::string> raster_formats = {"asc", "tif"};
+  /// Plots through the talus-plot helper (Python 3 with matplotlib and h5py).
+  bool plots = true;
+  /// Plot formats among "png" and "svg".
+  std::vector<std::string> plot_formats = {"png", "svg"};
+  /// Trajectories drawn in each plan view at most (the first by realization index).
+  std::int64_t plot_trajectories = 200;
+
+  void visit(core::SettingsVisitor& v);
+  /// Throws core::InputError("settings", …) on a value out of range.
+  void validate() const;
+};
+
+}  // namespace talus::stats_tool

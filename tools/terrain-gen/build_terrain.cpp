@@ -57,6 +57,9 @@ struct Window {
   bool contains(double x, double y) const { return x >= xmin && x <= xmax && y >= ymin && y <= ymax; }
 };
 
+io::UpAxis up_axis(const Settings& s) { return s.tin.up_axis == "y" ? io::UpAxis::y : io::UpAxis::z; }
+
+// The crop window; unbounded when no side is given.
 Window window_of(const Settings::Crop& crop, const std::string& settings_source) {
   Window w;
   if (crop.xmin) w.xmin = *crop.xmin;
@@ -324,10 +327,8 @@ Terrain resample_tin(const Terrain& tin, const Settings& s, const std::string& s
 // A TIN (kept or resampled) from mesh files, one material per file.
 Terrain terrain_from_meshes(const Settings& s, const std::vector<std::string>& inputs,
                             const std::string& settings_source) {
-  io::MeshImportOptions options;
-  options.scale = s.tin.scale;
-  options.up = s.tin.up_axis == "y" ? io::UpAxis::y : io::UpAxis::z;
-  const Window w = s.crop.any() ? window_of(s.crop, settings_source) : Window{};
+  const io::MeshImportOptions options{.scale = s.tin.scale, .up = up_axis(s)};
+  const Window w = window_of(s.crop, settings_source);
   std::vector<geometry::TriangleMesh> parts;
   std::vector<std::string> part_names;
   PlanBounds b;
@@ -357,10 +358,8 @@ Terrain terrain_from_meshes(const Settings& s, const std::vector<std::string>& i
 // A TIN by Delaunay triangulation of point clouds.
 Terrain terrain_from_points(const Settings& s, const std::vector<std::string>& inputs,
                             const std::string& settings_source) {
-  io::PointCloudOptions options;
-  options.scale = s.tin.scale;
-  options.up = s.tin.up_axis == "y" ? io::UpAxis::y : io::UpAxis::z;
-  const Window w = s.crop.any() ? window_of(s.crop, settings_source) : Window{};
+  const io::PointCloudOptions options{.scale = s.tin.scale, .up = up_axis(s)};
+  const Window w = window_of(s.crop, settings_source);
   std::vector<Vec3> points;
   PlanBounds b;
   for (const auto& input : inputs)

@@ -3,7 +3,6 @@
 // rasters in terrain coordinates, shards against the whole run, comparisons, plots, and
 // bad inputs (missing, corrupt, empty, incompatible run files; no plotting library).
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -15,6 +14,7 @@
 #include <vector>
 
 #include "../mc/mc_fixtures.hpp"
+#include "tool_run.hpp"
 #include "talus/io/raster.hpp"
 #include "talus/io/run_file.hpp"
 #include "talus/io/terrain_file.hpp"
@@ -25,26 +25,8 @@ namespace {
 namespace fs = std::filesystem;
 using geometry::Vec3;
 
-std::string tool() {
-  const char* bin = std::getenv("TALUS_BIN");
-  return (fs::path(bin ? bin : TALUS_BINARY_DIR "/bin") / "stats").string();
-}
-
-std::string quote(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
-}
-
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
-
-struct Outcome {
-  int code = -1;
-  std::string out, err;
-};
+using testing::read_text;
+using Outcome = testing::ToolOutcome;
 
 constexpr std::uint32_t kRealizations = 12;
 const mc::HazardGridSpec kGrid{0.0, 0.0, 4.0, 15, 5};
@@ -165,15 +147,7 @@ class Stats : public ::testing::Test {
   static void TearDownTestSuite() { fs::remove_all(dir_); }
 
   static Outcome run(const std::vector<std::string>& args, const std::string& env = {}) {
-    std::string command = "cd " + quote(dir_.string()) + " && " + env + " " + quote(tool());
-    for (const auto& a : args) command += " " + quote(a);
-    command += " > .stdout 2> .stderr";
-    const int status = std::system(command.c_str());
-    Outcome o;
-    o.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    o.out = read_text(dir_ / ".stdout");
-    o.err = read_text(dir_ / ".stderr");
-    return o;
+    return testing::run_tool(testing::tool_path("stats"), args, dir_, env);
   }
   // A fast run: no plots, few bootstrap resamples.
   static Outcome run_fast(std::vector<std::string> args) {

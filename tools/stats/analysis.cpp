@@ -235,8 +235,10 @@ RunResult run_result(const Run& run, const Settings& settings) {
     throw core::InputError(run.files.front(),
                            path.empty() ? "the run names no terrain file: give it with --set terrain=FILE "
                                           "(or --set hazard_maps=false)"
-                                        : "terrain file '" + path + "' named by the run is missing: give it with "
-                                          "--set terrain=FILE (or --set hazard_maps=false)");
+                                        : "terrain file '" + path + "'" +
+                                              (settings.terrain.empty() ? " named by the run" : "") +
+                                              " is missing: give it with --set terrain=FILE (or --set "
+                                              "hazard_maps=false)");
   }
   if (settings.hazard_maps && grid) out.hazard = hazard_maps(run.file, out.origin_shift);
   const auto& shift = out.origin_shift;

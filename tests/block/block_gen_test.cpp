@@ -227,9 +227,14 @@ TEST_F(BlockGen, DocumentedConfigsAreValid) {
   Outcome r = run({"-c", dir + "box.yaml", "-o", "box.h5"});
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NEAR(io::read_block_file(path("box.h5"))[0].volume_exact, 1.0, 1e-15);
-  r = run({"-c", dir + "rock.yaml", "-o", "rocks.h5"});
+  r = run({"-c", dir + "rock.yaml", "-o", "rocks.h5", "--export-mesh", "rock.ply"});
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_EQ(io::read_block_file(path("rocks.h5")).size(), 4u);
+  // One mesh per block, and each reads back as the same solid.
+  for (const char* name : {"equant", "platy", "elongated", "rough"}) EXPECT_TRUE(exists(std::string("rock_") + name + ".ply"));
+  r = run({"rock_platy.ply", "-o", "platy.h5"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NEAR(io::read_block_file(path("platy.h5"))[0].volume_exact, 1.0, 1e-12);
 }
 
 }  // namespace

@@ -296,6 +296,13 @@ geometry::TriangleMesh read_ascii_stl(const std::string& path, const PointCloudO
   return mesh;
 }
 
+// OFF variants with colours or normals (COFF, NOFF …) are left to assimp.
+bool is_plain_off(const std::string& path) {
+  std::ifstream in(path);
+  std::string magic;
+  return (in >> magic) && magic == "OFF";
+}
+
 bool is_ascii_stl(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   std::string head(512, '\0');
@@ -334,7 +341,8 @@ bool is_point_cloud_file(const std::string& path) {
 
 ImportedMesh import_mesh_precise(const std::string& path, const MeshImportOptions& options) {
   const std::string ext = lower_extension(path);
-  const bool own = ext == ".obj" || ext == ".off" || ext == ".ply" || (ext == ".stl" && is_ascii_stl(path));
+  const bool own = ext == ".obj" || (ext == ".off" && is_plain_off(path)) || ext == ".ply" ||
+                   (ext == ".stl" && is_ascii_stl(path));
   if (!own) return import_mesh(path, options);
   if (!std::filesystem::is_regular_file(path)) throw core::InputError(path, "cannot open mesh file");
   if (std::filesystem::file_size(path) == 0) throw core::InputError(path, "empty mesh file");

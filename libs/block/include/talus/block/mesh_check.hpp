@@ -26,10 +26,10 @@ struct CheckedMesh {
 };
 
 /// Validates a triangle mesh as the boundary of one solid, in this order: empty,
-/// non-finite, degenerate (zero-area) triangles, non-manifold edges, inconsistent
-/// orientation, open boundary, non-manifold vertices, several pieces,
-/// self-intersection, inside-out. The first defect not repaired throws
-/// core::InputError(source, "<defect>: <detail>").
+/// non-finite, (stitching, when asked), degenerate (zero-area) triangles, non-manifold
+/// edges, inconsistent orientation, open boundary, non-manifold vertices, several
+/// pieces, self-intersection, zero volume, inside-out. The first defect not repaired
+/// throws core::InputError(source, "<defect>: <detail>"); docs/block.md lists them.
 CheckedMesh check_mesh(geometry::TriangleMesh mesh, const RepairOptions& repair, const std::string& source);
 
 /// The self-intersection test alone (CGAL, exact predicates): returns the number of

@@ -12,6 +12,17 @@ namespace talus::dda::detail {
 
 namespace {
 
+// Scalar box tests: the Eigen array form of Aabb::overlaps/contains does not vectorise
+// for 3-vectors and was a sixth of the contact search.
+inline bool overlaps(const geometry::Aabb& a, const geometry::Aabb& b) {
+  return a.lo.x() <= b.hi.x() && b.lo.x() <= a.hi.x() && a.lo.y() <= b.hi.y() && b.lo.y() <= a.hi.y() &&
+         a.lo.z() <= b.hi.z() && b.lo.z() <= a.hi.z();
+}
+inline bool contains(const geometry::Aabb& a, const Vec3& p) {
+  return a.lo.x() <= p.x() && p.x() <= a.hi.x() && a.lo.y() <= p.y() && p.y() <= a.hi.y() && a.lo.z() <= p.z() &&
+         p.z() <= a.hi.z();
+}
+
 // Point in polygon (crossing number) in the face's (u, v) coordinates.
 bool inside_polygon(const std::vector<Eigen::Vector2d>& poly, const Eigen::Vector2d& q) {
   bool inside = false;
@@ -114,7 +125,7 @@ void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& wo
   // block can touch it (a bounding-box argument, valid for any surface).
   double top = -std::numeric_limits<double>::infinity();
   for (const TerrainPatch::Triangle& tri : patch.triangles)
-    if (!prune || tri.box.overlaps(reach)) top = std::max(top, tri.box.hi.z());
+    if (!prune || overlaps(tri.box, reach)) top = std::max(top, tri.box.hi.z());
   const double ceiling = prune ? top + margin : std::numeric_limits<double>::infinity();
   thread_local std::vector<std::int32_t> low;
   low.clear();
@@ -125,13 +136,13 @@ void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& wo
   const std::size_t first = out.size();
   for (const TerrainPatch::Triangle& tri : patch.triangles) {
     if (low.empty()) break;
-    if (prune && !tri.box.overlaps(reach)) continue;
+    if (prune && !overlaps(tri.box, reach)) continue;
     const geometry::Aabb tbox = tri.box.inflated(margin);
     const Vec3 e0 = tri.p[1] - tri.p[0], e1 = tri.p[2] - tri.p[1], e2 = tri.p[0] - tri.p[2];
     for (const std::int32_t vi : low) {
       const std::size_t i = static_cast<std::size_t>(vi);
       const Vec3& p = world[i];
-      if (prune && !tbox.contains(p)) continue;
+      if (prune && !contains(tbox, p)) continue;
       const double gap = (p - tri.p[0]).dot(tri.normal);
       if (gap >= ds || gap <= -depth) continue;
       if (e0.cross(p - tri.p[0]).dot(tri.normal) < 0.0 || e1.cross(p - tri.p[1]).dot(tri.normal) < 0.0 ||
@@ -158,7 +169,7 @@ void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& wo
   // Terrain vertex – block face (a spike of rough ground piercing a face between
   // block vertices), tested in the body frame where the face polygons are stored.
   for (const TerrainPatch::Vertex& tv : patch.vertices) {
-    if (prune && !reach.contains(tv.p)) continue;
+    if (prune && !contains(reach, tv.p)) continue;
     const Vec3 qb = pose.inverse_map * (tv.p - pose.centre);
     int best = -1;
     double best_gap = -depth;
@@ -188,7 +199,7 @@ void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& wo
   thread_local std::vector<const TerrainPatch::Ridge*> near;
   near.clear();
   for (const TerrainPatch::Ridge& r : patch.ridges)
-    if (!prune || r.box.overlaps(reach)) near.push_back(&r);
+    if (!prune || overlaps(r.box, reach)) near.push_back(&r);
   if (near.empty()) return;
   for (std::size_t be = 0; be < model.edges.size(); ++be) {
     const BlockEdge& bedge = model.edges[be];
@@ -201,7 +212,7 @@ void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& wo
     ebox.add(p1);
     ebox = ebox.inflated(margin);
     for (const TerrainPatch::Ridge* te : near) {
-      if (prune && !te->box.overlaps(ebox)) continue;
+      if (prune && !overlaps(te->box, ebox)) continue;
       double s = 0.0, t = 0.0;
       if (!line_parameters(p0, p1, te->pa, te->pb, s, t)) continue;
       constexpr double kEnd = 1e-6;  // ends are vertex contacts

@@ -407,7 +407,7 @@ void start_episode(const Model& model, const Ground& ground, State& s, const Vec
   }
   e.normal = n.norm() > 0.0 ? Vec3(n.normalized()) : Vec3::UnitZ();
   const double approach = -v_in.dot(e.normal);
-  if (model.restitution == RestitutionLaw::off || approach < model.settings.impact_min_normal_speed) return;
+  if (approach < model.settings.impact_min_normal_speed) return;
   const terrain::Material& mat = material_of(ground, triangle);
   // Three draws per impact, always in this order, so a setting never shifts later draws.
   const double z_r = s.impacts_rng.normal();
@@ -426,7 +426,7 @@ void start_episode(const Model& model, const Ground& ground, State& s, const Vec
 void end_episode(const Model& model, State& s) {
   Episode& e = s.episode;
   e.active = false;
-  if (!e.impact) return;
+  if (!e.impact || model.restitution == RestitutionLaw::off) return;
   Vec3 v = s.velocity.head<3>();
   Vec3 w = s.velocity.segment<3>(3);
   if (model.restitution == RestitutionLaw::scaled) {

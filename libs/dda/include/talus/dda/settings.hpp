@@ -40,7 +40,7 @@ struct Settings {
 
   std::string restitution = "scaled";       ///< "scaled", "normal_component" or "off"
   /// An episode whose normal approach speed is below this is rolling/sliding, not an
-  /// impact: no restitution limit, no draws (m/s).
+  /// impact: no restitution limit, no draws, no 12-DOF strain hold (m/s).
   double impact_min_normal_speed = 0.5;
   /// full12 only: let the strains respond during impact episodes (the reference model's
   /// behaviour; the strain mode then keeps most of the impact energy, docs/dda.md).

@@ -5,9 +5,6 @@
 #include "talus/io/atomic_output.hpp"
 
 namespace talus::io {
-namespace {
-
-// Characters with a meaning in XML attribute values.
 std::string xml_escape(const std::string& text) {
   std::string out;
   for (char c : text) {
@@ -21,8 +18,6 @@ std::string xml_escape(const std::string& text) {
   }
   return out;
 }
-
-}  // namespace
 
 std::string xdmf_sidecar_path(const std::string& h5_path) {
   return std::filesystem::path(h5_path).replace_extension(".xmf").string();

@@ -5,6 +5,10 @@
 
 namespace talus::io {
 
+/// `text` with the characters XML reserves in attribute values and text (& < > ")
+/// replaced by entities; for names written into any XDMF file.
+std::string xml_escape(const std::string& text);
+
 /// The sidecar path of a terrain file: the same path with the extension .xmf
 /// ("slope.h5" → "slope.xmf").
 std::string xdmf_sidecar_path(const std::string& h5_path);

@@ -347,6 +347,12 @@ TEST_F(TerrainGen, ExampleConfigsAreValid) {
   EXPECT_EQ(plane.grid->ny, 11);
   // z = (40 − x) tan 30°: the top edge at 40 tan 30° = 23.094 m (to rounding).
   EXPECT_NEAR(plane.mesh.vertices[0].z(), 40.0 * std::tan(M_PI / 6.0), 1e-9);
+  // R on a 1 m grid: built, with a warning that the R → σ table is for 2 m cells.
+  const Outcome r = run({"-c", (configs / "plane.yaml").string(), "--set", "roughness.roughness_index=0.25",
+                         "-o", "plane-r.h5"});
+  EXPECT_EQ(r.code, 0);
+  EXPECT_NE(r.err.find("warning: roughness_index maps to sigma by the reference table for 2 m cells"),
+            std::string::npos) << r.err;
   ASSERT_EQ(run({"-c", (configs / "profile.yaml").string(), "-o", "profile.h5"}).code, 0);
   const terrain::Terrain profile = io::read_terrain_file((dir_ / "profile.h5").string());
   EXPECT_EQ(profile.grid->nx, 51);

@@ -422,6 +422,12 @@ Built build_terrain(const Settings& s, const std::vector<std::string>& inputs, c
     case SourceKind::file: break;
   }
   if (t.grid) built.triangulation = s.triangulation;
+  // The R → σ table is that of a 2 m cell (SPEC §2): say so when it is used elsewhere.
+  if (built.roughness_index && !(t.grid && t.grid->dx == 2.0 && t.grid->dy == 2.0))
+    core::log_warn("roughness_index maps to sigma by the reference table for 2 m cells; this terrain has " +
+                   (t.grid ? format_number(t.grid->dx) + " x " + format_number(t.grid->dy) + " m cells"
+                           : std::string("no cells (TIN)")) +
+                   ": give roughness.sigma to choose sigma for it");
   assign_materials(t, s, settings_source);
   t.roughness.sigma = sigma;
   t.roughness.seed = s.seed;

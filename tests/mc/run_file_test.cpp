@@ -68,8 +68,8 @@ TEST_F(RunFileTest, RoundTripsEveryTable) {
   const RunFile f = read_run_file(path);
   mc::testing::expect_same_run(ref, f.data);
   EXPECT_EQ(f.info.shard, "0/1");
-  EXPECT_EQ(f.info.barriers, std::vector<std::string>{"toe"});
-  EXPECT_EQ(f.info.barrier_lines[0][1][1], 20.0);
+  EXPECT_EQ(f.info.barriers, (std::vector<std::string>{"lower slope", "toe"}));
+  EXPECT_EQ(f.info.barrier_lines[1][1][1], 20.0);
   EXPECT_EQ(f.info.hazard.nx, scene_->hazard_grid().nx);
   EXPECT_TRUE(fs::exists(dir_ / "run.xmf"));
   // Not a run file: a journal, and a file of another kind.

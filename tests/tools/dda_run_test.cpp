@@ -226,6 +226,10 @@ TEST_F(DdaRun, BadScenesAreRefusedWithOneLine) {
   // Usage errors.
   EXPECT_EQ(run({"-c", "scene.yaml", "--shard", "3/3", "-o", "bad.h5"}).code, 2);
   EXPECT_EQ(run({"-c", "scene.yaml", "--threads", "x", "-o", "bad.h5"}).code, 2);
+  const Outcome no_output = run({"-c", "scene.yaml"});
+  EXPECT_EQ(no_output.code, 2);
+  EXPECT_NE(no_output.err.find("no output file given"), std::string::npos) << no_output.err;
+  EXPECT_EQ(run({"merge", "-o", "bad.h5"}).code, 2);  // no shard given
 }
 
 TEST_F(DdaRun, ExampleScenesRun) {

@@ -207,6 +207,7 @@ int main(int argc, char** argv) {
                   {"--shard", "run only realizations i = K (mod N), K/N; join the shards with 'dda-run merge'",
                    &opt.shard}};
   spec.check = [&](const cli::Invocation& inv) {
+    if (inv.output.empty()) throw core::UsageError("no output file given (-o FILE)");
     parse_threads(opt.threads);
     if (!opt.shard.empty()) mc::Shard::parse(opt.shard);
     if (!opt.shard.empty() && ranks > 1) throw core::UsageError("--shard cannot be combined with MPI ranks");

@@ -48,8 +48,8 @@ int main(int argc, char** argv) {
                  &print_summary}};
   spec.options = {
       {"--export-mesh", "also write a realization of the surface as a mesh (.obj or .ply with material per face)",
-       &export_path},
-      {"--realization", "realization exported by --export-mesh (default: the smooth base)", &realization_text}};
+       &export_path, "FILE"},
+      {"--realization", "realization exported by --export-mesh (default: the smooth base)", &realization_text, "N"}};
 
   spec.check = [&](const cli::Invocation& inv) {
     if (inv.output.empty() && !print_summary && export_path.empty())

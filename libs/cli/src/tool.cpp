@@ -54,7 +54,7 @@ int run_tool(int argc, char** argv, const ToolSpec& spec) {
   app.add_flag("-q,--quiet", quiet, "log errors only");
   app.add_flag("-v,--verbose", verbose, "log progress (same as --log-level info)");
   for (const auto& f : spec.flags) app.add_flag(f.name, *f.value, f.doc);
-  for (const auto& o : spec.options) app.add_option(o.name, *o.value, o.doc);
+  for (const auto& o : spec.options) app.add_option(o.name, *o.value, o.doc)->option_text(o.placeholder);
   app.add_option("inputs", inv.inputs, spec.inputs_doc.empty() ? "input files" : spec.inputs_doc)
       ->option_text("INPUT ...");
   app.footer("Exit codes: 0 success, 1 runtime failure, 2 usage error, 3 bad input. See docs/cli.md.");

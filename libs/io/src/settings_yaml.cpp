@@ -321,13 +321,15 @@ class Writer final : public SettingsVisitor {
   }
   void section(std::string_view key, std::string_view doc,
                const std::function<void(SettingsVisitor&)>& body) override {
-    if (comments_ && !doc.empty()) out_ << YAML::Comment(std::string(doc));
+    // On a line of its own above the key (a bare Comment would trail the previous value).
+    if (comments_ && !doc.empty()) out_ << YAML::Newline << YAML::Comment(std::string(doc));
     out_ << YAML::Key << std::string(key) << YAML::Value << YAML::BeginMap;
     body(*this);
     out_ << YAML::EndMap;
   }
   void list(std::string_view key, std::string_view doc, const ListAccess& items) override {
-    if (comments_ && !doc.empty()) out_ << YAML::Comment(std::string(doc));
+    // On a line of its own above the key (a bare Comment would trail the previous value).
+    if (comments_ && !doc.empty()) out_ << YAML::Newline << YAML::Comment(std::string(doc));
     out_ << YAML::Key << std::string(key) << YAML::Value << YAML::BeginSeq;
     for (std::size_t i = 0; i < items.size(); ++i) {
       out_ << YAML::BeginMap;

@@ -33,6 +33,7 @@ struct ExtraOption {
   std::string name;  ///< e.g. "--export-mesh"
   std::string doc;
   std::string* value;
+  std::string placeholder = "VALUE";  ///< shown in --help, e.g. "FILE", "N"
 };
 
 /// The shared command-line conventions of every Talus tool (docs/cli.md):

@@ -9,6 +9,7 @@
 #include "talus/geometry/half_edge.hpp"
 #include "talus/io/atomic_output.hpp"
 #include "talus/io/hdf5.hpp"
+#include "talus/io/xdmf.hpp"
 
 namespace talus::io {
 
@@ -44,21 +45,6 @@ Mat3 read_mat(const h5::Group& g, const std::string& name) {
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) m(i, j) = v[static_cast<std::size_t>(3 * i + j)];
   return m;
-}
-
-// Block names are free text: escape what XML reserves.
-std::string xml_escape(const std::string& text) {
-  std::string out;
-  for (char c : text) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
-    }
-  }
-  return out;
 }
 
 std::string join_lines(const std::vector<std::string>& lines) {

@@ -129,14 +129,15 @@ TEST(DdaRealization, BothDofPathsRunTheBenchSlope) {
 }
 
 // The 12-DOF and 6-DOF paths agree on the runout distribution within the stochastic
-// scatter: the mean runouts of whole realizations differ by less than three standard
-// errors. (With impact_strains on, the 12-DOF block keeps most of each impact's energy
+// scatter: the mean runouts after up to 8 s differ by less than three standard errors. (With impact_strains on, the 12-DOF block keeps most of each impact's energy
 // as strain vibration and the paths differ by 3–4 standard errors; docs/dda.md.)
 TEST(DdaRealization, DofPathsAgreeWithinScatter) {
   const terrain::Terrain t = bench_slope(0.2);
-  constexpr int n = 12;
-  const std::vector<double> x6 = runouts(t, "rigid6", n, 35000);
-  const std::vector<double> x12 = runouts(t, "full12", n, 35000);
+  // 10 realizations of at most 8 s of motion (most have stopped by then): the test stays
+  // within seconds under the sanitizers.
+  constexpr int n = 10;
+  const std::vector<double> x6 = runouts(t, "rigid6", n, 8000);
+  const std::vector<double> x12 = runouts(t, "full12", n, 8000);
   const auto mean_var = [](const std::vector<double>& v) {
     double mean = 0.0, var = 0.0;
     for (double x : v) mean += x / static_cast<double>(v.size());

@@ -1,7 +1,6 @@
 // End-to-end tests of the block-gen executable: run the built binary, check the exit
 // code, the one-line message and the output files.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -9,6 +8,7 @@
 #include "talus/block/solids.hpp"
 #include "talus/io/block_file.hpp"
 #include "talus/io/hdf5.hpp"
+#include "../tools/tool_run.hpp"
 #include "test_support.hpp"
 
 namespace talus::block {
@@ -20,40 +20,14 @@ using test::write_text;
 
 const std::string kSample = std::string(TALUS_SOURCE_DIR) + "/samples/blocks/platonic.yaml";
 
-std::string tool() {
-  const char* bin = std::getenv("TALUS_BIN");
-  return (fs::path(bin ? bin : TALUS_BINARY_DIR "/bin") / "block-gen").string();
-}
-
-std::string quote(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
-}
-
-struct Outcome {
-  int code = -1;
-  std::string out;
-  std::string err;
-};
+using Outcome = talus::testing::ToolOutcome;
 
 bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
 class BlockGen : public test::ScratchTest {
  protected:
   Outcome run(const std::vector<std::string>& args) const {
-    std::string command = "cd " + quote(dir_.string()) + " && " + quote(tool());
-    for (const auto& a : args) command += " " + quote(a);
-    const fs::path out = dir_ / ".stdout", err = dir_ / ".stderr";
-    command += " > " + quote(out.string()) + " 2> " + quote(err.string());
-    const int status = std::system(command.c_str());
-    Outcome r;
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = read_text(out.string());
-    r.err = read_text(err.string());
-    fs::remove(out);
-    fs::remove(err);
-    return r;
+    return talus::testing::run_tool(talus::testing::tool_path("block-gen"), args, dir_);
   }
   // A triangulated solid written as OBJ in the scratch directory, moved off the origin.
   std::string solid_obj(const std::string& name, SolidKind kind, bool inside_out = false, bool open = false) const {

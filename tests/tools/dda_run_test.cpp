@@ -2,7 +2,6 @@
 // check exit codes, one-line messages and the run files (threads, shards and merge,
 // kill and resume, MPI ranks, bad scenes).
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -13,6 +12,7 @@
 #include <vector>
 
 #include "../mc/mc_fixtures.hpp"
+#include "tool_run.hpp"
 #include "../mc/run_compare.hpp"
 #include "talus/io/block_file.hpp"
 #include "talus/io/run_file.hpp"
@@ -23,26 +23,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string tool() {
-  const char* bin = std::getenv("TALUS_BIN");
-  return (fs::path(bin ? bin : TALUS_BINARY_DIR "/bin") / "dda-run").string();
-}
-
-std::string quote(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
-}
-
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
-
-struct Outcome {
-  int code = -1;
-  std::string err;
-};
+using Outcome = testing::ToolOutcome;
+using testing::read_text;
 
 // Six realizations of two blocks on a 20 m wide rough bench slope, flushed in chunks of
 // two, with a barrier at the toe, a hazard grid and bench zones. Blocks start on the
@@ -92,15 +74,7 @@ class DdaRun : public ::testing::Test {
 
   static Outcome run(const std::vector<std::string>& args, const std::string& env = {},
                      const std::string& launcher = {}) {
-    std::string command = "cd " + quote(dir_.string()) + " && " + env + " " + launcher + " " + quote(tool());
-    for (const auto& a : args) command += " " + quote(a);
-    const fs::path err = dir_ / ".stderr";
-    command += " > /dev/null 2> " + quote(err.string());
-    const int status = std::system(command.c_str());
-    Outcome o;
-    o.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    o.err = read_text(err);
-    return o;
+    return testing::run_tool(testing::tool_path("dda-run"), args, dir_, env, launcher);
   }
 
   static io::RunFile load(const std::string& name) { return io::read_run_file((dir_ / name).string()); }

@@ -9,6 +9,7 @@
 
 #include "talus/core/error.hpp"
 #include "talus/io/atomic_output.hpp"
+#include "../support/temp_path.hpp"
 
 namespace talus::cli {
 namespace {
@@ -41,16 +42,16 @@ Result run(const std::vector<std::string>& args, std::function<void(const Invoca
   storage.insert(storage.end(), args.begin(), args.end());
   std::vector<char*> argv;
   for (auto& s : storage) argv.push_back(s.data());
-  testing::internal::CaptureStderr();
-  testing::internal::CaptureStdout();
+  ::testing::internal::CaptureStderr();
+  ::testing::internal::CaptureStdout();
   const int code = run_tool(static_cast<int>(argv.size()), argv.data(), spec);
-  Result r{code, testing::internal::GetCapturedStderr(), testing::internal::GetCapturedStdout()};
+  Result r{code, ::testing::internal::GetCapturedStderr(), ::testing::internal::GetCapturedStdout()};
   if (settings_out) *settings_out = settings;
   return r;
 }
 
 std::string temp_file(const std::string& name) {
-  return (std::filesystem::temp_directory_path() / ("talus_cli_test_" + name)).string();
+  return talus::testing::temp_path("cli_test", name);
 }
 
 TEST(RunTool, HelpAndVersionSucceed) {

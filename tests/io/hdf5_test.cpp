@@ -9,12 +9,13 @@
 #include "talus/core/error.hpp"
 #include "talus/io/atomic_output.hpp"
 #include "talus/io/file_header.hpp"
+#include "../support/temp_path.hpp"
 
 namespace talus::io {
 namespace {
 
 std::string temp_file(const std::string& name) {
-  return (std::filesystem::temp_directory_path() / ("talus_io_test_" + name)).string();
+  return talus::testing::temp_path("io_test", name);
 }
 
 TEST(Hdf5, RoundTripsDatasetsAndAttributes) {

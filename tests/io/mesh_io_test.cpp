@@ -6,12 +6,13 @@
 
 #include "talus/core/error.hpp"
 #include "talus/io/atomic_output.hpp"
+#include "../support/temp_path.hpp"
 
 namespace talus::io {
 namespace {
 
 std::string temp_file(const std::string& name) {
-  return (std::filesystem::temp_directory_path() / ("talus_mesh_test_" + name)).string();
+  return talus::testing::temp_path("mesh_test", name);
 }
 
 // An ASCII STL stores each triangle's vertices separately: welding must share them.

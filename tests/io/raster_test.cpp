@@ -9,6 +9,7 @@
 #include <string>
 
 #include "talus/core/error.hpp"
+#include "../support/temp_path.hpp"
 
 namespace talus::io {
 namespace {
@@ -16,7 +17,7 @@ namespace {
 namespace fs = std::filesystem;
 
 std::string temp_file(const std::string& name) {
-  return (fs::temp_directory_path() / ("talus_raster_test_" + name)).string();
+  return talus::testing::temp_path("raster_test", name);
 }
 
 std::string write_file(const std::string& name, const std::string& text) {

@@ -13,6 +13,7 @@
 #include "talus/io/hdf5.hpp"
 #include "talus/io/xdmf.hpp"
 #include "talus/terrain/build.hpp"
+#include "../support/temp_path.hpp"
 
 namespace talus::io {
 namespace {
@@ -21,7 +22,7 @@ namespace fs = std::filesystem;
 using terrain::Terrain;
 
 std::string temp_file(const std::string& name) {
-  return (fs::temp_directory_path() / ("talus_terrain_file_test_" + name)).string();
+  return talus::testing::temp_path("terrain_file_test", name);
 }
 
 std::string bytes_of(const std::string& path) {

@@ -54,7 +54,7 @@ void BM_LoadValidateProperties(benchmark::State& state) {
   const std::string& file = scan_file();
   std::size_t faces = 0;
   for (auto _ : state) {
-    io::ImportedMesh mesh = io::import_mesh_precise(file);
+    io::ImportedMesh mesh = io::import_mesh(file);
     block::CheckedMesh checked = block::check_mesh(std::move(mesh.mesh), block::RepairOptions{}, file);
     const block::Block b = block::make_block("scan", checked.polyhedron, 2800.0, file);
     faces = b.polyhedron.faces.size();

@@ -121,14 +121,14 @@ TEST_F(PreciseMeshes, ObjKeepsDoublesAndSplitsPolygons) {
   const std::string file = path("quad.obj");
   block::test::write_text(file, "o sheet\nv 0.1 0 123456.789\nv 1 0 123456.789\nv 1 1 123456.789\nv 0 1 123456.789\n"
                                 "vt 0 0\nvn 0 0 1\nf 1/1/1 2/1/1 3/1/1 4/1/1\nf -4 -2 -1\n");
-  const ImportedMesh m = import_mesh_precise(file);
+  const ImportedMesh m = import_mesh(file);
   ASSERT_EQ(m.mesh.vertices.size(), 4u);
   EXPECT_EQ(m.mesh.vertices[0], Vec3(0.1, 0, 123456.789));
   EXPECT_EQ(m.mesh.triangles.size(), 3u);
   EXPECT_EQ(m.mesh.triangles[2], (std::array<std::int32_t, 3>{0, 2, 3}));
   block::test::write_text(file, "v 0 0 0\nv 1 0 0\nf 1 2 9\n");
   try {
-    import_mesh_precise(file);
+    import_mesh(file);
     FAIL();
   } catch (const core::InputError& e) {
     EXPECT_EQ(std::string(e.what()), file + ": line 3: face refers to vertex 9 of 2");
@@ -138,14 +138,14 @@ TEST_F(PreciseMeshes, ObjKeepsDoublesAndSplitsPolygons) {
 TEST_F(PreciseMeshes, OffAndBinaryPlyFaces) {
   const std::string off = path("t.off");
   block::test::write_text(off, "OFF\n# tetra\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n");
-  EXPECT_EQ(import_mesh_precise(off).mesh.triangles.size(), 4u);
+  EXPECT_EQ(import_mesh(off).mesh.triangles.size(), 4u);
 
   const std::string ply = path("t.ply");
   geometry::TriangleMesh tet;
   tet.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1e-3}};
   tet.triangles = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
   export_mesh(ply, tet);  // binary little-endian doubles
-  const ImportedMesh m = import_mesh_precise(ply);
+  const ImportedMesh m = import_mesh(ply);
   EXPECT_EQ(m.mesh.vertices, tet.vertices);
   EXPECT_EQ(m.mesh.triangles, tet.triangles);
 }

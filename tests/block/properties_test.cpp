@@ -102,7 +102,7 @@ TEST_F(PlatonicMeshes, ArbitraryPoseThroughImportMatchesClosedForms) {
     const std::string format = formats[which++];
     const std::string file = path(std::string(solid_name(s.kind)) + "." + format);
     test::write_text(file, test::mesh_text(test::as_triangles(posed), format));
-    const CheckedMesh checked = check_mesh(io::import_mesh_precise(file).mesh, RepairOptions{}, file);
+    const CheckedMesh checked = check_mesh(io::import_mesh(file).mesh, RepairOptions{}, file);
     EXPECT_TRUE(checked.repairs.empty());
     const Block b = make_block("b", checked.polyhedron, 2800.0, file);
     expect_platonic(b, s, 2.0, "mesh");

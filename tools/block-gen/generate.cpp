@@ -68,7 +68,7 @@ Polyhedron read_solid_file(const std::string& path, bool cloud, const InputSetti
     io::MeshImportOptions options;
     options.scale = in.scale;
     options.up = up;
-    io::ImportedMesh imported = io::import_mesh_precise(path, options);
+    io::ImportedMesh imported = io::import_mesh(path, options);
     checked = block::check_mesh(std::move(imported.mesh), repair, path);
   }
   for (const auto& r : checked.repairs) {

@@ -9,14 +9,16 @@
 #include <filesystem>
 #include <fstream>
 
+#include "mesh_text_readers.hpp"
 #include "talus/core/error.hpp"
 #include "talus/io/atomic_output.hpp"
 
 namespace talus::io {
 
-ImportedMesh import_mesh(const std::string& path, const MeshImportOptions& options) {
-  if (!std::filesystem::is_regular_file(path)) throw core::InputError(path, "cannot open mesh file");
-  if (std::filesystem::file_size(path) == 0) throw core::InputError(path, "empty mesh file");
+namespace {
+
+// Every triangle of a scene through assimp (32-bit float coordinates), meshes merged.
+ImportedMesh import_with_assimp(const std::string& path, const MeshImportOptions& options) {
   Assimp::Importer importer;
   // Points and lines are removed; polygons are split into triangles.
   importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
@@ -50,6 +52,22 @@ ImportedMesh import_mesh(const std::string& path, const MeshImportOptions& optio
                                 base + static_cast<std::int32_t>(face.mIndices[2])});
     }
   }
+  return out;
+}
+
+}  // namespace
+
+ImportedMesh import_mesh(const std::string& path, const MeshImportOptions& options) {
+  if (!std::filesystem::is_regular_file(path)) throw core::InputError(path, "cannot open mesh file");
+  if (std::filesystem::file_size(path) == 0) throw core::InputError(path, "empty mesh file");
+  ImportedMesh out;
+  if (auto mesh = detail::read_mesh_in_double(path, options.scale, options.up)) {
+    out.mesh = std::move(*mesh);
+    out.source_meshes = 1;
+  } else {
+    out = import_with_assimp(path, options);
+  }
+  auto& mesh = out.mesh;
   if (mesh.triangles.empty()) throw core::InputError(path, "mesh has no triangles");
   if (options.weld) {
     double tol = options.weld_tolerance;

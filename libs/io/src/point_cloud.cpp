@@ -11,6 +11,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "mesh_text_readers.hpp"
 #include "talus/core/error.hpp"
 
 namespace talus::io {
@@ -339,36 +340,26 @@ bool is_point_cloud_file(const std::string& path) {
   }
 }
 
-ImportedMesh import_mesh_precise(const std::string& path, const MeshImportOptions& options) {
+namespace detail {
+
+std::optional<geometry::TriangleMesh> read_mesh_in_double(const std::string& path, double scale, UpAxis up) {
   const std::string ext = lower_extension(path);
   const bool own = ext == ".obj" || (ext == ".off" && is_plain_off(path)) || ext == ".ply" ||
                    (ext == ".stl" && is_ascii_stl(path));
-  if (!own) return import_mesh(path, options);
-  if (!std::filesystem::is_regular_file(path)) throw core::InputError(path, "cannot open mesh file");
-  if (std::filesystem::file_size(path) == 0) throw core::InputError(path, "empty mesh file");
+  if (!own) return std::nullopt;
   PointCloudOptions placement;
-  placement.scale = options.scale;
-  placement.up = options.up;
-  ImportedMesh out;
-  out.source_meshes = 1;
-  if (ext == ".obj") out.mesh = read_obj(path, placement);
-  else if (ext == ".off") out.mesh = read_off(path, placement);
-  else if (ext == ".stl") out.mesh = read_ascii_stl(path, placement);
-  else {
-    PlyData ply = read_ply(path, placement, true);
-    out.mesh.vertices = std::move(ply.points);
-    for (const auto& face : ply.faces) add_polygon(out.mesh, face, path);
-  }
-  if (out.mesh.triangles.empty()) throw core::InputError(path, "mesh has no triangles");
-  if (options.weld) {
-    double tol = options.weld_tolerance;
-    if (tol <= 0.0) tol = 1e-9 * std::max(out.mesh.bounds().extent().norm(), 1e-300);
-    const std::size_t before = out.mesh.triangles.size();
-    out.welded_vertices = geometry::weld_vertices(out.mesh, tol);
-    out.dropped_triangles = before - out.mesh.triangles.size();
-    if (out.mesh.triangles.empty()) throw core::InputError(path, "every triangle is degenerate");
-  }
-  return out;
+  placement.scale = scale;
+  placement.up = up;
+  if (ext == ".obj") return read_obj(path, placement);
+  if (ext == ".off") return read_off(path, placement);
+  if (ext == ".stl") return read_ascii_stl(path, placement);
+  PlyData ply = read_ply(path, placement, true);
+  geometry::TriangleMesh mesh;
+  mesh.vertices = std::move(ply.points);
+  for (const auto& face : ply.faces) add_polygon(mesh, face, path);
+  return mesh;
 }
+
+}  // namespace detail
 
 }  // namespace talus::io

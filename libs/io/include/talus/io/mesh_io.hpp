@@ -25,9 +25,11 @@ struct ImportedMesh {
   std::size_t dropped_triangles = 0;  ///< triangles degenerate after welding
 };
 
-/// Reads every triangle of a mesh file through assimp (OBJ, STL, PLY, OFF, glTF …), with
-/// node transforms applied and all meshes merged. Throws core::InputError naming the file
-/// when it cannot be read or holds no triangles.
+/// Reads every triangle of a mesh file. OBJ, plain OFF, PLY and ASCII STL are parsed in
+/// double precision (a scan or survey in projected coordinates keeps every digit); other
+/// formats (binary STL, glTF …) go through assimp, with node transforms applied and all
+/// meshes merged, in its 32-bit float precision. Throws core::InputError naming the file
+/// (and line, for the text formats) when it cannot be read or holds no triangles.
 ImportedMesh import_mesh(const std::string& path, const MeshImportOptions& options = {});
 
 /// Writes a triangle mesh as OBJ or binary PLY, chosen by the extension, atomically.

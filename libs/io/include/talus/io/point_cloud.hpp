@@ -27,11 +27,5 @@ std::vector<geometry::Vec3> read_point_cloud(const std::string& path, const Poin
 /// without faces: block-gen then treats it as a cloud rather than a mesh.
 bool is_point_cloud_file(const std::string& path);
 
-/// Reads a mesh like import_mesh (same options, welding and errors), but parses OBJ, OFF,
-/// PLY and ASCII STL itself in double precision: assimp keeps coordinates as 32-bit
-/// floats, which rounds a scan in projected coordinates (10⁵ m) to centimetres and the
-/// properties of any block to about 1e-7. Binary STL (floats by definition) and every
-/// other format go through import_mesh.
-ImportedMesh import_mesh_precise(const std::string& path, const MeshImportOptions& options = {});
 
 }  // namespace talus::io

@@ -13,17 +13,13 @@
 #include "talus/io/atomic_output.hpp"
 #include "talus/io/block_file.hpp"
 #include "talus/io/mesh_io.hpp"
+#include "talus/io/paths.hpp"
 #include "talus/io/xdmf.hpp"
 
 namespace {
 
 using namespace talus;
 
-std::string lower_extension(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
-}
 
 // `block-gen info FILE ...` or `block-gen --info FILE`.
 std::vector<std::string> info_files(const cli::Invocation& inv, const std::string& info_option) {
@@ -85,11 +81,11 @@ int main(int argc, char** argv) {
       return;
     }
     if (inv.output.empty()) throw core::UsageError("no output file given (-o FILE)");
-    if (lower_extension(inv.output) == ".xmf")
+    if (io::lower_extension(inv.output) == ".xmf")
       throw core::UsageError("the output is the HDF5 block file; its .xmf sidecar is written next to it");
     io::AtomicOutput probe(inv.output);  // fails now if its directory is missing
     if (!export_path.empty()) {
-      const std::string ext = lower_extension(export_path);
+      const std::string ext = io::lower_extension(export_path);
       if (ext != ".obj" && ext != ".ply")
         throw core::UsageError("--export-mesh writes .obj or .ply, got '" + export_path + "'");
     }

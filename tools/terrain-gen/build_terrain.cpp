@@ -11,6 +11,7 @@
 #include "talus/core/error.hpp"
 #include "talus/core/log.hpp"
 #include "talus/io/mesh_io.hpp"
+#include "talus/io/paths.hpp"
 #include "talus/io/point_cloud.hpp"
 #include "talus/io/raster.hpp"
 #include "talus/io/terrain_file.hpp"
@@ -30,7 +31,7 @@ using terrain::Terrain;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 std::optional<SourceKind> kind_of_extension(const std::string& path) {
-  const std::string ext = lower_extension(path);
+  const std::string ext = io::lower_extension(path);
   if (io::is_dem_path(path)) return SourceKind::dem;
   if (ext == ".h5") return SourceKind::file;
   // Before the mesh extensions: a PLY file without faces is a cloud.
@@ -199,12 +200,6 @@ std::vector<terrain::MaterialZone> shifted_zones(const std::vector<terrain::Mate
 }
 
 }  // namespace
-
-std::string lower_extension(const std::string& path) {
-  std::string ext = fs::path(path).extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
-}
 
 SourceKind resolve_source(const Settings& s, const std::vector<std::string>& inputs) {
   if (s.source == "synthetic" || (s.source == "auto" && inputs.empty())) {

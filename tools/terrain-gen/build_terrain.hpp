@@ -30,9 +30,6 @@ struct Built {
 Built build_terrain(const Settings& settings, const std::vector<std::string>& inputs,
                     const std::string& settings_source);
 
-/// The extension of `path` in lower case, with its dot (".tif"), or "".
-std::string lower_extension(const std::string& path);
-
 /// A human-readable description of the terrain (several lines).
 std::string summary(const Built& built);
 

@@ -12,6 +12,7 @@
 #include "talus/core/timer.hpp"
 #include "talus/io/atomic_output.hpp"
 #include "talus/io/mesh_io.hpp"
+#include "talus/io/paths.hpp"
 #include "talus/io/terrain_file.hpp"
 #include "talus/io/xdmf.hpp"
 
@@ -58,13 +59,13 @@ int main(int argc, char** argv) {
       throw core::UsageError("--realization needs --export-mesh");
     parse_realization(realization_text);
     if (!export_path.empty()) {
-      const std::string ext = terrain_gen::lower_extension(export_path);
+      const std::string ext = io::lower_extension(export_path);
       if (ext != ".obj" && ext != ".ply")
         throw core::UsageError("--export-mesh writes .obj or .ply, got '" + export_path + "'");
       io::AtomicOutput probe(export_path);  // fails now if its directory is missing
     }
     if (!inv.output.empty()) {
-      if (terrain_gen::lower_extension(inv.output) == ".xmf")
+      if (io::lower_extension(inv.output) == ".xmf")
         throw core::UsageError("the output is the HDF5 terrain file; its .xmf sidecar is written next to it");
       io::AtomicOutput probe(inv.output);
     }

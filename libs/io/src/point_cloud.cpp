@@ -13,16 +13,11 @@
 
 #include "mesh_text_readers.hpp"
 #include "talus/core/error.hpp"
+#include "talus/io/paths.hpp"
 
 namespace talus::io {
 
 namespace {
-
-std::string lower_extension(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return ext;
-}
 
 bool is_text_cloud_extension(const std::string& ext) {
   return ext == ".xyz" || ext == ".txt" || ext == ".pts" || ext == ".csv";

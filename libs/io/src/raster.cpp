@@ -19,6 +19,7 @@
 #include <string_view>
 
 #include "talus/core/error.hpp"
+#include "talus/io/paths.hpp"
 #include "talus/io/atomic_output.hpp"
 
 namespace talus::io {
@@ -33,10 +34,6 @@ std::string lower(std::string_view text) {
   std::string out(text);
   for (char& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return out;
-}
-
-std::string extension_of(const std::string& path) {
-  return lower(std::filesystem::path(path).extension().string());
 }
 
 std::string read_whole_file(const std::string& path) {
@@ -398,12 +395,12 @@ void write_geotiff(const std::string& path, const DemGrid& dem, double nodata, c
 }
 
 bool is_dem_path(const std::string& path) {
-  const std::string ext = extension_of(path);
+  const std::string ext = lower_extension(path);
   return ext == ".asc" || ext == ".tif" || ext == ".tiff";
 }
 
 DemGrid read_dem(const std::string& path) {
-  const std::string ext = extension_of(path);
+  const std::string ext = lower_extension(path);
   if (ext == ".asc") return read_esri_ascii(path);
   if (ext == ".tif" || ext == ".tiff") return read_geotiff(path);
   throw InputError(path, "unknown DEM format '" + ext + "' (expected .asc, .tif or .tiff)");

@@ -106,7 +106,7 @@ inline ReboundResult rebound(const Settings& set, double v_in, double restitutio
   r.velocity = Vec3(0.0, 0.0, -std::sqrt(std::max(0.0, v_in * v_in - 2.0 * set.gravity * h)));
   State s = start(m, r, impact_stream());
   ReboundResult out;
-  out.omega = std::sqrt(4.0 * set.penalty_stiffness / m.mass) * set.time_step;
+  out.omega = std::sqrt(4.0 * m.stiffness / m.mass) * set.time_step;
   bool touched = false;
   for (int i = 0; i < 20000 && s.end == EndReason::running; ++i) {
     const Vec3 v_before = s.velocity.head<3>();

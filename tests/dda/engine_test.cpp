@@ -54,7 +54,7 @@ TEST(DdaContact, RestOnFlatGround) {
     const testing::SlideResult r = testing::on_slope(set, 0.0, 0.5, 2.0);
     ASSERT_EQ(r.end, EndReason::running) << dof;
     const double mass = 2800.0;
-    const double expected = mass * kG / (4.0 * set.penalty_stiffness);
+    const double expected = mass * kG / (4.0 * Model::build(set, cube(1.0)).stiffness);
     if (std::string(dof) == "rigid6") {
       EXPECT_NEAR(r.mean_sink, expected, 0.02 * expected);  // 2 %: the spring's residual oscillation
     } else {

@@ -172,6 +172,7 @@ struct Work {
 struct StepOutcome {
   bool converged = false;
   int iterations = 0;
+  int held = 0;  // contacts held in their state before the iteration settled
 };
 
 // Shi's implicit step: assemble, iterate on the contact states, solve. On return `d`
@@ -214,16 +215,24 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
       }
     }
   }
-  const double p = set.penalty_stiffness;
+  const double p = model.stiffness;
   const double ps = p / set.shear_stiffness_ratio;
-  // Contacts of a block lying across a low ridge can trade the load back and forth at
-  // gaps of 1e-8 m so that the states never settle. In the second half of the
-  // iterations an open contact therefore closes only beyond a penetration of half the
-  // block's weight on one spring (m·g/(2p)): a tolerated overlap of ~1e-8 m, and never
-  // a tensile spring (which would also turn its friction around).
-  const double late_close_tolerance = 0.5 * model.mass * set.gravity / p;
+  // Each contact may visit each of its three modes once per step; a contact whose
+  // re-judgement would take it back to a mode it already had in this step (open -> locked
+  // -> open, locked -> sliding -> locked, ...) is held closed -- sliding if it slid -- for
+  // the rest of the step, and so is every contact that changes state after
+  // `max_open_close_iterations`. The iteration therefore always ends, after at most
+  // max_open_close_iterations + 3·(contacts) + 1 solves; a held contact carries at most
+  // the small tension or slip error of one state flip (counted in Counters::held_contacts).
+  thread_local std::vector<std::uint8_t> visited;
+  thread_local std::vector<std::uint8_t> held;
+  visited.assign(contacts.size(), 0);
+  held.assign(contacts.size(), 0);
+  auto bit = [](ContactMode m) { return static_cast<std::uint8_t>(1u << static_cast<unsigned>(m)); };
+  for (std::size_t i = 0; i < contacts.size(); ++i) visited[i] = bit(contacts[i].mode);
   StepOutcome out;
-  const int max_iter = static_cast<int>(set.max_open_close_iterations);
+  const int free_iterations = static_cast<int>(set.max_open_close_iterations);
+  const int max_iter = free_iterations + 3 * static_cast<int>(contacts.size()) + 1;
   for (int iter = 0; iter < max_iter; ++iter) {
     ++out.iterations;
     MatN<N> k = k0;
@@ -284,74 +293,120 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
     for (std::size_t i = 0; i < contacts.size(); ++i) {
       Contact& c = contacts[i];
       Work<N>& w = work[i];
+      if (held[i]) continue;
       const double g = w.g0 + w.gn.dot(d);
+      // The state the solution asks for, and the slip direction or re-stick it implies.
+      ContactMode next = c.mode;
+      Vec3 slip = c.slip_direction;
+      bool restick = false;
       if (c.mode == ContactMode::open) {
-        if (g < (2 * iter >= max_iter ? -late_close_tolerance : 0.0)) {
-          c.mode = c.resume == ContactMode::sliding && c.slip_direction.squaredNorm() > 0.0 ? ContactMode::sliding
-                                                                                              : ContactMode::locked;
-          changed = true;
-        }
-        continue;
-      }
-      if (g >= 0.0) {
-        c.resume = c.mode;
-        c.mode = ContactMode::open;
-        changed = true;
-        continue;
-      }
-      const double fn = -p * g;
-      if (c.mode == ContactMode::locked) {
+        if (g < 0.0)
+          next = c.resume == ContactMode::sliding && c.slip_direction.squaredNorm() > 0.0 ? ContactMode::sliding
+                                                                                          : ContactMode::locked;
+      } else if (g >= 0.0) {
+        next = ContactMode::open;
+      } else if (c.mode == ContactMode::locked) {
         const Vec3 sv = w.s0 + w.ta * d;
         const Vec3 st = sv - c.normal * c.normal.dot(sv);
         const double fs = ps * st.norm();
-        if (fs > friction * fn * (1.0 + 1e-12) && st.norm() > 0.0) {
-          c.mode = ContactMode::sliding;
-          c.slip_direction = st.normalized();
-          changed = true;
+        if (fs > friction * (-p * g) * (1.0 + 1e-12) && st.norm() > 0.0) {
+          next = ContactMode::sliding;
+          slip = st.normalized();
         }
       } else {
         const Vec3 du = w.t * d;
         const Vec3 dt_slip = du - c.normal * c.normal.dot(du);
         if (dt_slip.dot(c.slip_direction) < 0.0) {
-          // The friction would reverse the slip: the contact sticks. Its shear spring
-          // starts stretched to the friction force it carried, so the force is
-          // continuous; a zero-stretch anchor would let the load jump to the other
-          // contacts and make the block ratchet down a slope it should stick to.
-          c.mode = ContactMode::locked;
-          c.anchored = true;
-          w.s0 = (friction * fn / ps) * c.slip_direction;
-          c.body_anchor = pose.inverse_map * (c.point - pose.centre);
-          c.ground_anchor = c.point - c.gap * c.normal - w.s0;
-          w.ta = w.t;
-          changed = true;
+          next = ContactMode::locked;
+          restick = true;
         }
       }
+      if (next == c.mode) continue;
+      const bool revisit = (visited[i] & bit(next)) != 0;
+      if (revisit || iter >= free_iterations) held[i] = 1;
+      if (revisit) {
+        // Held closed and sliding: a contact that cycles carries almost no load (the
+        // cycle is between a closed state in tension or at the friction limit and an open
+        // one that penetrates), so it gets the bounded Coulomb force along its tangential
+        // motion in this solution; locked only if it does not move tangentially at all.
+        const Vec3 du = w.t * d;
+        const Vec3 tangential = du - c.normal * c.normal.dot(du);
+        if (c.mode == ContactMode::sliding) continue;
+        if (tangential.norm() > 0.0) {
+          next = ContactMode::sliding;
+          slip = tangential.normalized();
+        } else if (c.mode == ContactMode::locked) {
+          continue;
+        } else {
+          next = ContactMode::locked;
+        }
+        restick = false;
+      }
+      visited[i] |= bit(next);
+      changed = true;
+      if (next == ContactMode::sliding && (c.mode != ContactMode::sliding)) c.slip_direction = slip;
+      if (next == ContactMode::open) c.resume = c.mode;
+      if (restick) {
+        // The friction would reverse the slip: the contact sticks. Its shear spring
+        // starts stretched to the friction force it carried, so the force is
+        // continuous; a zero-stretch anchor would let the load jump to the other
+        // contacts and make the block ratchet down a slope it should stick to.
+        c.anchored = true;
+        w.s0 = (friction * (-p * g) / ps) * c.slip_direction;
+        c.body_anchor = pose.inverse_map * (c.point - pose.centre);
+        c.ground_anchor = c.point - c.gap * c.normal - w.s0;
+        w.ta = w.t;
+      }
+      c.mode = next;
     }
     if (!changed) {
       out.converged = true;
+      for (const std::uint8_t h : held) out.held += h;
       return out;
     }
   }
   return out;
 }
 
-// Carries modes and anchors of contacts that persist from the previous step.
-void carry_contacts(const std::vector<Contact>& previous, std::vector<Contact>& now) {
+// Carries modes and anchors of contacts that persist from the previous step: the same
+// kind and features, or -- for a block vertex -- a coplanar neighbour triangle of the one
+// it was on (a vertex sliding across a flat grid keeps its state). An anchor never holds
+// more shear stretch than the friction force the contact last carried allows
+// (μ·F_n/k_s): an anchor left behind while the contact was open or slid on would
+// otherwise pull the block back with a spring force friction cannot have stored, which
+// both creates energy and makes the contact flip open and closed without end.
+void carry_contacts(const std::vector<Contact>& previous, std::vector<Contact>& now, const Pose& pose,
+                    double friction, double shear_stiffness) {
   for (Contact& c : now) {
     c.gap_offset = std::min(c.gap, 0.0);
+    const Contact* match = nullptr;
     for (const Contact& old : previous) {
-      if (old.kind != c.kind || old.block_feature != c.block_feature || old.terrain_feature != c.terrain_feature)
-        continue;
-      c.mode = old.mode;
-      c.resume = old.resume;
-      c.anchored = old.anchored;
-      c.body_anchor = old.body_anchor;
-      c.ground_anchor = old.ground_anchor;
-      c.slip_direction = old.slip_direction;
-      c.normal_force = old.normal_force;
-      // The accepted penetration only shrinks: it follows the block out, never in.
-      c.gap_offset = c.gap > old.gap_offset ? std::min(0.0, c.gap) : old.gap_offset;
-      break;
+      if (old.kind != c.kind || old.block_feature != c.block_feature) continue;
+      if (old.terrain_feature == c.terrain_feature) {
+        match = &old;
+        break;
+      }
+      if (c.kind == ContactKind::vertex_face && old.normal.dot(c.normal) > 1.0 - 1e-12) match = &old;
+    }
+    if (match == nullptr) continue;
+    const Contact& old = *match;
+    c.mode = old.mode;
+    c.resume = old.resume;
+    c.anchored = old.anchored;
+    c.body_anchor = old.body_anchor;
+    c.ground_anchor = old.ground_anchor;
+    c.slip_direction = old.slip_direction;
+    c.normal_force = old.normal_force;
+    c.anchor_force = old.anchor_force;
+    // The accepted penetration only shrinks: it follows the block out, never in.
+    c.gap_offset = c.gap > old.gap_offset ? std::min(0.0, c.gap) : old.gap_offset;
+    if (c.anchored) {
+      const Vec3 xa = pose.centre + pose.map * c.body_anchor;
+      const Vec3 s_raw = xa - c.ground_anchor;
+      const Vec3 st = s_raw - c.normal * c.normal.dot(s_raw);
+      const double allowed = friction * c.anchor_force / shear_stiffness;
+      const double stretch = st.norm();
+      if (stretch > allowed) c.ground_anchor += st * (1.0 - allowed / stretch);
     }
   }
 }
@@ -504,7 +559,9 @@ void finish_step(const Model& model, const Ground& ground, State& s, double dt) 
   } else {
     s.rest_time = 0.0;
   }
-  if (s.counters.steps >= static_cast<std::uint64_t>(model.settings.max_steps)) end_with(s, EndReason::step_limit);
+  if (s.time >= s.time_limit * (1.0 - 1e-12) ||
+      (model.settings.max_steps > 0 && s.counters.steps >= static_cast<std::uint64_t>(model.settings.max_steps)))
+    end_with(s, EndReason::step_limit);
 }
 
 // The swept box of the block's bounding sphere over [t, t+h] on its free parabola.
@@ -649,16 +706,16 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
       contacts.clear();
       const double reach = std::max(2.0 * predicted_reach(model, s, dt), limit);
       detail::detect_contacts(model, *ground.surface, pose, s.world_vertices, reach, depth, s.patch, contacts);
-      carry_contacts(s.contacts, contacts);
-    }
-    if (!s.friction_drawn && !contacts.empty()) {
-      friction = mean_friction(material_of(ground, contacts.front().triangle));
+      if (!s.friction_drawn && !contacts.empty())
+        friction = mean_friction(material_of(ground, contacts.front().triangle));
+      carry_contacts(s.contacts, contacts, pose, friction, model.stiffness / set.shear_stiffness_ratio);
     }
     thread_local std::vector<ContactMode> start_modes;
     start_modes.clear();
     for (const Contact& c : contacts) start_modes.push_back(c.mode);
     const StepOutcome outcome = solve_step<N>(model, pose, s, dt, friction, contacts, d, s.times, freeze_strain);
     s.counters.open_close_iterations += static_cast<std::uint64_t>(outcome.iterations);
+    s.counters.held_contacts += static_cast<std::uint64_t>(outcome.held);
     if (!d.allFinite()) {
       end_with(s, EndReason::non_finite);
       return;
@@ -704,7 +761,7 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   PhaseTimer timer(timing, s.times.update);
   // Keep the closed contacts with the state they end the step in, and the memory of
   // those that opened by less than a micro-gap (the penalty spring's own oscillation).
-  const double p = set.penalty_stiffness;
+  const double p = model.stiffness;
   const double keep_gap = 1e-6 * model.radius;
   s.contacts.clear();
   bool any_closed = false;
@@ -724,6 +781,7 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
     }
     if (c.gap < 0.0 && c.gap == c.gap_offset && c.mode != ContactMode::open) ++s.counters.offset_contacts;
     c.normal_force = p * std::max(0.0, -g);
+    c.anchor_force = c.normal_force;
     if (c.mode == ContactMode::sliding) {
       const Vec3 slip = du - c.normal * c.normal.dot(du);
       if (slip.norm() > 1e-12) c.slip_direction = slip.normalized();
@@ -743,6 +801,15 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
 }
 
 }  // namespace
+
+// The simulated-time limit: the setting, or 60 s plus the time to cross the terrain's
+// plan diagonal at 1 m/s (a block that averages less than that is creeping, not falling).
+static double time_limit(const Model& model, const terrain::Surface& surface) {
+  if (model.settings.max_time > 0.0) return model.settings.max_time;
+  const geometry::Aabb& b = surface.bounds();
+  const double diagonal = std::hypot(b.hi.x() - b.lo.x(), b.hi.y() - b.lo.y());
+  return 60.0 + diagonal / 1.0;
+}
 
 State start(const Model& model, const Release& release, core::RandomStream impact_stream) {
   if (!release.position.allFinite() || !release.velocity.allFinite() ||
@@ -778,6 +845,9 @@ void step(const Model& model, const Ground& ground, State& s) {
     s.trajectory.push_back(TrajectorySample{s.time, s.position, s.velocity.head<3>(), height, mechanical_energy(model, s)});
     s.next_sample_time = model.settings.trajectory_interval;
   }
+  if (s.counters.steps == 0) s.time_limit = time_limit(model, *ground.surface);
+  // The last step ends exactly at the time limit.
+  if (s.time + s.dt > s.time_limit) s.dt = std::max(s.time_limit - s.time, 1e-3 * model.settings.min_time_step);
   bool flew = false;
   if (std::none_of(s.contacts.begin(), s.contacts.end(),
                    [](const Contact& c) { return c.mode != ContactMode::open; })) {

@@ -20,11 +20,14 @@ void Settings::visit(core::SettingsVisitor& v) {
           "largest vertex displacement per contact step over the block's circumscribed diameter");
   v.field("dynamic_coefficient", dynamic_coefficient, "-",
           "share of the end-of-step velocity carried to the next step (1 = fully dynamic)");
-  v.field("penalty_stiffness", penalty_stiffness, "N/m", "normal contact spring stiffness");
+  v.field("penalty_stiffness", penalty_stiffness, "N/m",
+          "normal contact spring stiffness, 0 = from the block mass: m*(penalty_omega/time_step)^2");
+  v.field("penalty_omega", penalty_omega, "-",
+          "sqrt(k/m)*time_step of one contact spring when penalty_stiffness is 0");
   v.field("shear_stiffness_ratio", shear_stiffness_ratio, "-",
           "normal over shear contact spring stiffness");
   v.field("max_open_close_iterations", max_open_close_iterations, "-",
-          "open-close iterations before the step is cut and redone");
+          "open-close iterations after which a contact that changes state is held in it");
   v.field("penetration_limit_ratio", penetration_limit_ratio, "-",
           "penetration over block diameter that ends a realization as a numerical failure");
   v.field("gravity", gravity, "m/s^2", "gravitational acceleration (along -z)");
@@ -37,7 +40,9 @@ void Settings::visit(core::SettingsVisitor& v) {
   v.field("rest_kinetic_energy", rest_kinetic_energy, "J/kg",
           "kinetic energy per unit mass below which the block may be at rest");
   v.field("rest_dwell", rest_dwell, "s", "time below the rest threshold that ends the realization");
-  v.field("max_steps", max_steps, "-", "step limit per realization");
+  v.field("max_time", max_time, "s",
+          "simulated-time limit per realization, 0 = 60 s + terrain plan diagonal / (1 m/s)");
+  v.field("max_steps", max_steps, "-", "accepted-step limit per realization, 0 = none");
   v.field("trajectory_interval", trajectory_interval, "s", "sampled trajectory spacing, 0 = none");
   v.field("density", density, "kg/m^3", "block density");
   v.field("young_modulus", young_modulus, "Pa", "block Young's modulus (full12 only)");
@@ -62,7 +67,9 @@ void validate(const Settings& s) {
                 "max_displacement_ratio", s.max_displacement_ratio, "must be in (0, 1]");
   require_range(s.dynamic_coefficient >= 0.0 && s.dynamic_coefficient <= 1.0, "dynamic_coefficient",
                 s.dynamic_coefficient, "must be in [0, 1]");
-  require_range(s.penalty_stiffness > 0.0, "penalty_stiffness", s.penalty_stiffness, "must be > 0");
+  require_range(s.penalty_stiffness >= 0.0, "penalty_stiffness", s.penalty_stiffness,
+                "must be >= 0 (0 = from the block)");
+  require_range(s.penalty_omega > 0.0, "penalty_omega", s.penalty_omega, "must be > 0");
   require_range(s.shear_stiffness_ratio > 0.0, "shear_stiffness_ratio", s.shear_stiffness_ratio,
                 "must be > 0");
   require_range(s.max_open_close_iterations >= 1 && s.max_open_close_iterations <= 1000,
@@ -75,7 +82,8 @@ void validate(const Settings& s) {
                 "must be >= 0");
   require_range(s.rest_kinetic_energy >= 0.0, "rest_kinetic_energy", s.rest_kinetic_energy, "must be >= 0");
   require_range(s.rest_dwell >= 0.0, "rest_dwell", s.rest_dwell, "must be >= 0");
-  require_range(s.max_steps >= 1, "max_steps", static_cast<double>(s.max_steps), "must be >= 1");
+  require_range(s.max_time >= 0.0, "max_time", s.max_time, "must be >= 0 (0 = from the terrain)");
+  require_range(s.max_steps >= 0, "max_steps", static_cast<double>(s.max_steps), "must be >= 0 (0 = none)");
   require_range(s.trajectory_interval >= 0.0, "trajectory_interval", s.trajectory_interval, "must be >= 0");
   require_range(s.density > 0.0, "density", s.density, "must be > 0");
   require_range(s.young_modulus > 0.0, "young_modulus", s.young_modulus, "must be > 0");
@@ -192,6 +200,9 @@ Model Model::build(const Settings& settings, const geometry::Polyhedron& block) 
   }
   m.edges = build_edges(block, m.faces, m.vertices, tol);
   m.elasticity = isotropic_elasticity(settings.young_modulus, settings.poisson_ratio);
+  m.stiffness = settings.penalty_stiffness > 0.0
+                    ? settings.penalty_stiffness
+                    : m.mass * (settings.penalty_omega / settings.time_step) * (settings.penalty_omega / settings.time_step);
   return m;
 }
 

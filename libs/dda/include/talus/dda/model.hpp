@@ -52,6 +52,9 @@ struct Model {
   double radius = 0.0;          ///< circumscribed radius about the centroid (m)
   /// Elastic matrix (Pa) mapping (εx εy εz γyz γzx γxy) to (σx σy σz τyz τzx τxy).
   Mat6 elasticity = Mat6::Zero();
+  /// Normal contact spring stiffness in use (N/m): Settings::penalty_stiffness, or from
+  /// the mass and penalty_omega when that is 0.
+  double stiffness = 0.0;
 
   /// Validates `settings` and `block` and builds the model. Throws core::InputError
   /// (source "dda settings" or "block") with a one-line reason on bad values, an open,

@@ -30,9 +30,16 @@ struct Settings {
   /// circumscribed diameter (-). Scaled from the block, not the terrain (docs/dda.md).
   double max_displacement_ratio = 0.02;
   double dynamic_coefficient = 1.0;         ///< velocity carried to the next step (-), 1 = fully dynamic
-  double penalty_stiffness = 1e12;          ///< normal contact spring (N/m)
+  /// Normal contact spring (N/m); 0 (the default) sets it from the block:
+  /// k = m·(penalty_omega/time_step)², so every block of a library is equally well posed.
+  double penalty_stiffness = 0.0;
+  /// √(k/m)·Δt of one normal contact spring when penalty_stiffness is 0 (-): how stiff the
+  /// contact is relative to the block's inertia over one nominal step (docs/dda.md).
+  double penalty_omega = 20.0;
   double shear_stiffness_ratio = 2.5;       ///< normal over shear spring stiffness h₂ (-)
-  std::int64_t max_open_close_iterations = 8;  ///< before the step is cut (×0.3) and redone
+  /// Open–close iterations after which a contact that changes state is held in its new
+  /// state for the rest of the step (-): the iteration always ends (docs/dda.md).
+  std::int64_t max_open_close_iterations = 8;
   /// A closed contact deeper than this fraction of the block diameter ends the run as a
   /// numerical failure (-).
   double penetration_limit_ratio = 0.05;
@@ -48,7 +55,10 @@ struct Settings {
 
   double rest_kinetic_energy = 1e-3;        ///< rest threshold on kinetic energy per unit mass (J/kg)
   double rest_dwell = 0.5;                  ///< time below the threshold that means rest (s)
-  std::int64_t max_steps = 35000;           ///< step limit (accepted steps)
+  /// Simulated-time limit of a realization (s); 0 = from the terrain: 60 s plus the time
+  /// to cross the terrain's plan diagonal at 1 m/s.
+  double max_time = 0.0;
+  std::int64_t max_steps = 0;               ///< limit on accepted steps (-), 0 = none
   double trajectory_interval = 0.0;         ///< sampled trajectory spacing (s), 0 = none
 
   double density = 2800.0;                  ///< block density (kg/m³)

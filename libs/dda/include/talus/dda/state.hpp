@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <string_view>
 #include <vector>
 
@@ -56,6 +57,9 @@ struct Contact {
   Vec3 ground_anchor = Vec3::Zero();  ///< terrain point of a locked contact (world, m)
   Vec3 slip_direction = Vec3::Zero(); ///< unit tangential slip direction of a sliding contact
   double normal_force = 0.0;          ///< at the end of the last accepted step (N)
+  /// Normal force at the end of the last step the contact was closed (N): bounds the
+  /// shear stretch its anchor may keep (μ·F/k_s).
+  double anchor_force = 0.0;
 };
 
 /// Wall-clock seconds spent per phase (filled when Settings::time_phases is on).
@@ -79,6 +83,7 @@ struct Counters {
   std::uint64_t contacts = 0;         ///< contact candidates found, summed over steps
   std::uint64_t offset_contacts = 0;  ///< contacts first found already penetrated
   std::uint64_t impacts_rescaled = 0; ///< rebounds the restitution law reduced
+  std::uint64_t held_contacts = 0;    ///< contacts held in a state to end an open–close cycle
 };
 
 /// The contact episode in progress (an impact when its approach speed is high enough).
@@ -169,6 +174,7 @@ struct State {
   double max_speed = 0.0;             ///< centroid (m/s)
   double max_jump_height = 0.0;       ///< centroid above the terrain after the first contact (m)
   double rest_time = 0.0;             ///< time spent below the rest threshold (s)
+  double time_limit = std::numeric_limits<double>::infinity();  ///< simulated-time limit (s), set at the first step
   EndReason end = EndReason::running;
   Counters counters;
   PhaseTimes times;

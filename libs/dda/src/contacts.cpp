@@ -56,7 +56,11 @@ bool line_parameters(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3&
 void fill_patch(const terrain::Surface& surface, const std::vector<std::int32_t>& list, TerrainPatch& patch) {
   patch.triangles.clear();
   patch.vertices.clear();
+  patch.neighbours.clear();
   patch.ridges.clear();
+  // (vertex id, direction to a neighbour) from every triangle corner.
+  thread_local std::vector<std::pair<std::int32_t, Vec3>> spokes;
+  spokes.clear();
   for (std::int32_t t : list) {
     TerrainPatch::Triangle d;
     d.index = t;
@@ -68,6 +72,7 @@ void fill_patch(const terrain::Surface& surface, const std::vector<std::int32_t>
     patch.triangles.push_back(d);
     for (int k = 0; k < 3; ++k) {
       patch.vertices.push_back(TerrainPatch::Vertex{d.ids[k], t, d.p[k]});
+      for (int o = 1; o < 3; ++o) spokes.emplace_back(d.ids[k], (d.p[(k + o) % 3] - d.p[k]).normalized());
       int i = k, j = (k + 1) % 3;
       if (d.ids[i] > d.ids[j]) std::swap(i, j);
       TerrainPatch::Ridge e;
@@ -85,6 +90,15 @@ void fill_patch(const terrain::Surface& surface, const std::vector<std::int32_t>
   patch.vertices.erase(std::unique(patch.vertices.begin(), patch.vertices.end(),
                                    [](const TerrainPatch::Vertex& x, const TerrainPatch::Vertex& y) { return x.id == y.id; }),
                        patch.vertices.end());
+  std::stable_sort(spokes.begin(), spokes.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+  std::size_t spoke = 0;
+  for (TerrainPatch::Vertex& v : patch.vertices) {
+    while (spoke < spokes.size() && spokes[spoke].first < v.id) ++spoke;
+    v.first = static_cast<std::int32_t>(patch.neighbours.size());
+    for (; spoke < spokes.size() && spokes[spoke].first == v.id; ++spoke)
+      patch.neighbours.push_back(spokes[spoke].second);
+    v.count = static_cast<std::int32_t>(patch.neighbours.size()) - v.first;
+  }
   auto& edges = patch.ridges;
   std::sort(edges.begin(), edges.end(), [](const TerrainPatch::Ridge& x, const TerrainPatch::Ridge& y) {
     return x.a != y.a ? x.a < y.a : x.b < y.b;
@@ -167,7 +181,17 @@ void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& wo
   }
 
   // Terrain vertex – block face (a spike of rough ground piercing a face between
-  // block vertices), tested in the body frame where the face polygons are stored.
+  // block vertices), tested in the body frame where the face polygons are stored. Only a
+  // vertex that is an extreme point of the terrain towards the face can touch it: every
+  // terrain edge from it must leave on the outer side of the face plane. A vertex of flat
+  // or concave ground (a grid node under a sliding cube) is no spike: without this test
+  // it would take a side face's horizontal normal and trip the block.
+  auto spike_towards = [&](const TerrainPatch::Vertex& tv, const Vec3& face_normal_body) {
+    const Vec3 n = pose.rotation * face_normal_body;
+    for (std::int32_t k = tv.first; k < tv.first + tv.count; ++k)
+      if (patch.neighbours[static_cast<std::size_t>(k)].dot(n) < -1e-6) return false;
+    return true;
+  };
   for (const TerrainPatch::Vertex& tv : patch.vertices) {
     if (prune && !contains(reach, tv.p)) continue;
     const Vec3 qb = pose.inverse_map * (tv.p - pose.centre);
@@ -178,6 +202,7 @@ void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& wo
       const double gap = face.normal.dot(qb) - face.offset;
       if (gap >= ds || gap <= best_gap) continue;
       if (!inside_polygon(face.polygon, Eigen::Vector2d(face.u.dot(qb), face.v.dot(qb)))) continue;
+      if (!spike_towards(tv, face.normal)) continue;
       best = static_cast<int>(f);
       best_gap = gap;
     }

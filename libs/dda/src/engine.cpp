@@ -325,22 +325,43 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
       const bool revisit = (visited[i] & bit(next)) != 0;
       if (revisit || iter >= free_iterations) held[i] = 1;
       if (revisit) {
-        // Held closed and sliding: a contact that cycles carries almost no load (the
-        // cycle is between a closed state in tension or at the friction limit and an open
-        // one that penetrates), so it gets the bounded Coulomb force along its tangential
-        // motion in this solution; locked only if it does not move tangentially at all.
-        const Vec3 du = w.t * d;
-        const Vec3 tangential = du - c.normal * c.normal.dot(du);
-        if (c.mode == ContactMode::sliding) continue;
-        if (tangential.norm() > 0.0) {
-          next = ContactMode::sliding;
-          slip = tangential.normalized();
-        } else if (c.mode == ContactMode::locked) {
-          continue;
+        const bool touched_open = ((visited[i] | bit(next)) & bit(ContactMode::open)) != 0;
+        if (!touched_open) {
+          // Cycling between sticking and slipping: the contact is at the friction limit.
+          // It is held locked with its anchor moved so that the shear spring carries
+          // exactly μ·F_n along the stretch of this solution (a return mapping): a
+          // sticking block that just stopped keeps its load shared, without more slip.
+          if (c.mode == ContactMode::locked) {
+            const Vec3 sv = w.s0 + w.ta * d;
+            const Vec3 st = sv - c.normal * c.normal.dot(sv);
+            const double limit = friction * std::max(0.0, -p * g) / ps;
+            if (st.norm() > limit) {
+              const Vec3 shift = st * (limit / st.norm() - 1.0);
+              w.s0 += shift;
+              c.ground_anchor -= shift;
+              changed = true;
+            }
+            continue;
+          }
+          next = ContactMode::locked;  // the re-stick below pre-stretches it to the limit
         } else {
-          next = ContactMode::locked;
+          // Cycling between open and closed: the contact carries almost no load (a closed
+          // state in tension against an open one that penetrates). It is held closed and
+          // sliding along its tangential motion in this solution, so it bears the bounded
+          // Coulomb force; locked only if it does not move tangentially at all.
+          const Vec3 du = w.t * d;
+          const Vec3 tangential = du - c.normal * c.normal.dot(du);
+          if (c.mode == ContactMode::sliding) continue;
+          if (tangential.norm() > 0.0) {
+            next = ContactMode::sliding;
+            slip = tangential.normalized();
+          } else if (c.mode == ContactMode::locked) {
+            continue;
+          } else {
+            next = ContactMode::locked;
+          }
+          restick = false;
         }
-        restick = false;
       }
       visited[i] |= bit(next);
       changed = true;
@@ -478,10 +499,13 @@ void start_episode(const Model& model, const Ground& ground, State& s, const Vec
   ++s.impacts;
 }
 
-void end_episode(const Model& model, State& s) {
+// Applies the restitution law to the rebound of the impact in progress; the episode
+// goes on as a rolling/sliding one if contacts stay closed.
+void finish_impact(const Model& model, State& s) {
   Episode& e = s.episode;
-  e.active = false;
-  if (!e.impact || model.restitution == RestitutionLaw::off) return;
+  const bool impact = e.impact;
+  e.impact = false;
+  if (!impact || model.restitution == RestitutionLaw::off) return;
   Vec3 v = s.velocity.head<3>();
   Vec3 w = s.velocity.segment<3>(3);
   if (model.restitution == RestitutionLaw::scaled) {
@@ -513,6 +537,61 @@ void end_episode(const Model& model, State& s) {
   }
   s.velocity.head<3>() = v;
   s.velocity.segment<3>(3) = w;
+}
+
+void end_episode(const Model& model, State& s) {
+  finish_impact(model, s);
+  s.episode.active = false;
+}
+
+// An impact whose block stays in contact (it lands and slides or rolls on) has rebounded
+// once the block no longer approaches the ground along the impact normal and its
+// contact springs hold less than 1 % of the impact's kinetic energy: the law applies then
+// rather than never.
+bool rebound_complete(const Model& model, const State& s, double spring_energy) {
+  const Episode& e = s.episode;
+  if (s.velocity.head<3>().dot(e.normal) < 0.0) return false;
+  return spring_energy <= 0.01 * 0.5 * model.mass * e.velocity_in.squaredNorm();
+}
+
+// Contacts that stay closed through a step have no normal relative velocity in the
+// physics: a penalty spring at Ω = √(k/m)·Δt ≫ 1 keeps a barely damped vibration instead,
+// which rocks a resting block and turns its friction forces from side to side until it
+// creeps down a slope it should stick to. Outside impacts the approaching normal velocity
+// of such contacts is therefore removed by non-negative impulses at the contact points
+// (projected Gauss–Seidel on the block's mass metric): each impulse only removes kinetic
+// energy, and a contact that separates is left to separate.
+template <int N>
+void settle_contacts(const Model& model, State& s, const std::vector<std::pair<Vec3, Vec3>>& persistent) {
+  if (persistent.empty()) return;
+  const MatN<N> m = current_mass<N>(model, pose_of(model, s));
+  const Eigen::LLT<MatN<N>> llt(m);
+  thread_local std::vector<VecN<N>> g, minv_g;
+  thread_local std::vector<double> weight, impulse;
+  const std::size_t n = persistent.size();
+  g.resize(n);
+  minv_g.resize(n);
+  weight.assign(n, 0.0);
+  impulse.assign(n, 0.0);
+  for (std::size_t i = 0; i < n; ++i) {
+    g[i] = dof_matrix<N>(persistent[i].first - s.position).transpose() * persistent[i].second;
+    minv_g[i] = llt.solve(g[i]);
+    weight[i] = g[i].dot(minv_g[i]);
+  }
+  VecN<N> v = s.velocity.template head<N>();
+  for (int sweep = 0; sweep < 16; ++sweep) {
+    double largest = 0.0;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!(weight[i] > 0.0)) continue;
+      const double next = std::max(0.0, impulse[i] - g[i].dot(v) / weight[i]);
+      const double change = next - impulse[i];
+      v += change * minv_g[i];
+      impulse[i] = next;
+      largest = std::max(largest, std::abs(change) * std::sqrt(weight[i]));
+    }
+    if (largest <= 1e-12 * (1.0 + v.norm())) break;
+  }
+  s.velocity.template head<N>() = v;
 }
 
 void end_with(State& s, EndReason reason) {
@@ -700,6 +779,7 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   const bool arriving = std::none_of(s.contacts.begin(), s.contacts.end(),
                                      [](const Contact& c) { return c.mode != ContactMode::open; });
   const bool freeze_strain = N == 12 && !set.impact_strains && (arriving || (s.episode.active && s.episode.impact));
+  thread_local std::vector<ContactMode> start_modes;
   for (;;) {
     {
       PhaseTimer timer(timing, s.times.detect);
@@ -710,7 +790,6 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
         friction = mean_friction(material_of(ground, contacts.front().triangle));
       carry_contacts(s.contacts, contacts, pose, friction, model.stiffness / set.shear_stiffness_ratio);
     }
-    thread_local std::vector<ContactMode> start_modes;
     start_modes.clear();
     for (const Contact& c : contacts) start_modes.push_back(c.mode);
     const StepOutcome outcome = solve_step<N>(model, pose, s, dt, friction, contacts, d, s.times, freeze_strain);
@@ -765,7 +844,12 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   const double keep_gap = 1e-6 * model.radius;
   s.contacts.clear();
   bool any_closed = false;
-  for (Contact& c : contacts) {
+  double spring_energy = 0.0;
+  // Contacts closed through the whole step: their end points (world) and normals.
+  thread_local std::vector<std::pair<Vec3, Vec3>> persistent;
+  persistent.clear();
+  for (std::size_t i = 0; i < contacts.size(); ++i) {
+    Contact& c = contacts[i];
     const Vec3 du = point_displacement<N>(c.point - pose.centre, d);
     const double g = c.gap - c.gap_offset + c.normal.dot(du);
     if (c.mode == ContactMode::open) {
@@ -787,6 +871,8 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
       if (slip.norm() > 1e-12) c.slip_direction = slip.normalized();
     }
     any_closed = true;
+    spring_energy += 0.5 * p * std::min(0.0, g) * std::min(0.0, g);
+    if (start_modes[i] != ContactMode::open) persistent.emplace_back(c.point + du, c.normal);
     s.contacts.push_back(c);
   }
   apply_displacement<N>(model, s, d, dt, freeze_strain);
@@ -794,6 +880,8 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   s.last_step_contact = true;
   if (any_closed && !s.episode.active) start_episode(model, ground, s, v_start);
   else if (!any_closed && s.episode.active) end_episode(model, s);
+  else if (s.episode.active && s.episode.impact && rebound_complete(model, s, spring_energy)) finish_impact(model, s);
+  if (!(s.episode.active && s.episode.impact)) settle_contacts<N>(model, s, persistent);
   s.clear_until = -1.0;
   finish_step(model, ground, s, dt);
   // Grow back towards the nominal step after a cut.

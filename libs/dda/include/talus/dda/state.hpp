@@ -122,6 +122,9 @@ struct TerrainPatch {
     std::int32_t id = -1;
     std::int32_t triangle = -1;      ///< one triangle using it (material)
     Vec3 p = Vec3::Zero();
+    /// Its neighbours: unit directions towards the other corners of its triangles, in
+    /// `neighbours` from `first` (count `count`).
+    std::int32_t first = 0, count = 0;
   };
   /// An edge between two non-coplanar triangles, or on the patch border.
   struct Ridge {
@@ -133,6 +136,7 @@ struct TerrainPatch {
   };
   std::vector<Triangle> triangles;
   std::vector<Vertex> vertices;
+  std::vector<Vec3> neighbours;      ///< see Vertex::first
   std::vector<Ridge> ridges;
   std::vector<std::int32_t> query;   ///< scratch for Surface::triangles_in_box
 };

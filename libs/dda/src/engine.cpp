@@ -9,6 +9,7 @@
 #include <string>
 
 #include "contacts.hpp"
+#include "invariants.hpp"
 #include "talus/core/error.hpp"
 
 namespace talus::dda {
@@ -179,7 +180,8 @@ struct StepOutcome {
 // holds the step displacement and each contact's mode its converged state.
 template <int N>
 StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, double dt, double friction,
-                       std::vector<Contact>& contacts, VecN<N>& d, PhaseTimes& times, bool freeze_strain = false) {
+                       std::vector<Contact>& contacts, VecN<N>& d, PhaseTimes& times, bool freeze_strain = false,
+                       bool impact_phase = false) {
   const Settings& set = model.settings;
   const bool timing = set.time_phases;
   MatN<N> k0;
@@ -202,10 +204,14 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
     }
     work.resize(contacts.size());
     for (std::size_t i = 0; i < contacts.size(); ++i) {
-      const Contact& c = contacts[i];
+      Contact& c = contacts[i];
       Work<N>& w = work[i];
       w.t = dof_matrix<N>(c.point - pose.centre);
       w.gn = w.t.transpose() * c.normal;
+      // A slip direction carried from an earlier step (an edge–edge normal turns with
+      // the block) is made tangent again: friction must have no normal part.
+      const Vec3 slip = c.slip_direction - c.normal * c.normal.dot(c.slip_direction);
+      c.slip_direction = slip.norm() > 1e-9 ? Vec3(slip.normalized()) : Vec3::Zero();
       w.g0 = c.gap - c.gap_offset;
       if (c.anchored) {
         const Vec3 xa = pose.centre + pose.map * c.body_anchor;
@@ -232,7 +238,7 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
   for (std::size_t i = 0; i < contacts.size(); ++i) visited[i] = bit(contacts[i].mode);
   StepOutcome out;
   const int free_iterations = static_cast<int>(set.max_open_close_iterations);
-  const int max_iter = free_iterations + 3 * static_cast<int>(contacts.size()) + 1;
+  const int max_iter = free_iterations + 4 * static_cast<int>(contacts.size()) + 1;
   for (int iter = 0; iter < max_iter; ++iter) {
     ++out.iterations;
     MatN<N> k = k0;
@@ -290,11 +296,53 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
     PhaseTimer timer(timing, times.open_close);
     if (!d.allFinite()) return out;
     bool changed = false;
+    bool shifted = false;
+    // A contact that re-sticks after slipping gets its shear spring stretched to the
+    // friction force it carried, so the force is continuous and the load does not jump
+    // to the other contacts (which would make a block ratchet down a slope it should
+    // stick to). That stretch stores ½(μF_n)²/k_s that no force stored, negligible at
+    // rest but not under an impact's forces: there the anchor starts unstretched.
+    auto restick_stretch = [&](double g) { return impact_phase ? 0.0 : friction * (-p * g) / ps; };
+    // Return mapping: moves a locked contact's anchor so that its shear spring carries at
+    // most μ·F_n of this solution (F_n = −p·g, nothing in tension) once it carries more
+    // than `slack` times that. True if it moved.
+    auto cap_at_friction = [&](Contact& c, Work<N>& w, double g, double slack) {
+      const Vec3 sv = w.s0 + w.ta * d;
+      const Vec3 st = sv - c.normal * c.normal.dot(sv);
+      const double limit = friction * std::max(0.0, -p * g) / ps;
+      const double stretch = st.norm();
+      if (stretch <= slack * limit * (1.0 + 1e-9) + 1e-15 * model.radius) return false;
+      const Vec3 shift = st * (limit / stretch - 1.0);
+      w.s0 += shift;
+      c.ground_anchor -= shift;
+      return true;
+    };
     for (std::size_t i = 0; i < contacts.size(); ++i) {
       Contact& c = contacts[i];
       Work<N>& w = work[i];
-      if (held[i]) continue;
       const double g = w.g0 + w.gn.dot(d);
+      if (held[i]) {
+        // A held contact keeps its mode but not a force friction cannot carry: a locked
+        // one has its anchor moved to the friction limit of this solution (none in
+        // tension), and a sliding one may still stick once, since Coulomb friction must
+        // never push along the slip.
+        if (c.mode == ContactMode::locked) {
+          shifted = cap_at_friction(c, w, g, 2.0) || shifted;
+        } else if (held[i] == 1 && c.mode == ContactMode::sliding && g < 0.0) {
+          const Vec3 du = w.t * d;
+          if ((du - c.normal * c.normal.dot(du)).dot(c.slip_direction) < 0.0) {
+            c.mode = ContactMode::locked;
+            c.anchored = true;
+            w.s0 = restick_stretch(g) * c.slip_direction;
+            c.body_anchor = pose.inverse_map * (c.point - pose.centre);
+            c.ground_anchor = c.point - c.gap * c.normal - w.s0;
+            w.ta = w.t;
+            held[i] = 2;
+            changed = true;
+          }
+        }
+        continue;
+      }
       // The state the solution asks for, and the slip direction or re-stick it implies.
       ContactMode next = c.mode;
       Vec3 slip = c.slip_direction;
@@ -332,26 +380,38 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
           // exactly μ·F_n along the stretch of this solution (a return mapping): a
           // sticking block that just stopped keeps its load shared, without more slip.
           if (c.mode == ContactMode::locked) {
-            const Vec3 sv = w.s0 + w.ta * d;
-            const Vec3 st = sv - c.normal * c.normal.dot(sv);
-            const double limit = friction * std::max(0.0, -p * g) / ps;
-            if (st.norm() > limit) {
-              const Vec3 shift = st * (limit / st.norm() - 1.0);
-              w.s0 += shift;
-              c.ground_anchor -= shift;
-              changed = true;
-            }
+            shifted = cap_at_friction(c, w, g, 1.0) || shifted;
             continue;
           }
           next = ContactMode::locked;  // the re-stick below pre-stretches it to the limit
         } else {
           // Cycling between open and closed: the contact carries almost no load (a closed
-          // state in tension against an open one that penetrates). It is held closed and
-          // sliding along its tangential motion in this solution, so it bears the bounded
-          // Coulomb force; locked only if it does not move tangentially at all.
+          // state in tension against an open one that penetrates). A contact touching at
+          // the step start is held closed and sliding along its tangential motion in this
+          // solution, so it bears the bounded Coulomb force; locked only if it does not
+          // move tangentially at all.
+          // A contact that starts the step with a gap is held open instead: closed, its
+          // spring would pull with the whole gap as tension.
+          if (w.g0 > 0.0) {
+            if (c.mode == ContactMode::open) continue;
+            next = ContactMode::open;
+            restick = false;
+            visited[i] |= bit(next);
+            changed = true;
+            c.resume = c.mode;
+            c.mode = next;
+            continue;
+          }
           const Vec3 du = w.t * d;
           const Vec3 tangential = du - c.normal * c.normal.dot(du);
-          if (c.mode == ContactMode::sliding) continue;
+          if (c.mode == ContactMode::sliding) {
+            // It stays sliding, against its motion in this solution.
+            if (tangential.norm() > 0.0 && c.slip_direction.dot(tangential.normalized()) < 1.0 - 1e-9) {
+              c.slip_direction = tangential.normalized();
+              changed = true;
+            }
+            continue;
+          }
           if (tangential.norm() > 0.0) {
             next = ContactMode::sliding;
             slip = tangential.normalized();
@@ -373,16 +433,18 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
         // continuous; a zero-stretch anchor would let the load jump to the other
         // contacts and make the block ratchet down a slope it should stick to.
         c.anchored = true;
-        w.s0 = (friction * (-p * g) / ps) * c.slip_direction;
+        w.s0 = restick_stretch(g) * c.slip_direction;
         c.body_anchor = pose.inverse_map * (c.point - pose.centre);
         c.ground_anchor = c.point - c.gap * c.normal - w.s0;
         w.ta = w.t;
       }
       c.mode = next;
     }
-    if (!changed) {
+    // Anchor moves of held contacts converge geometrically; the last iteration accepts
+    // what is left of them.
+    if (!changed && (!shifted || iter + 1 >= max_iter)) {
       out.converged = true;
-      for (const std::uint8_t h : held) out.held += h;
+      for (const std::uint8_t h : held) out.held += h > 0 ? 1 : 0;
       return out;
     }
   }
@@ -396,8 +458,19 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
 // (μ·F_n/k_s): an anchor left behind while the contact was open or slid on would
 // otherwise pull the block back with a spring force friction cannot have stored, which
 // both creates energy and makes the contact flip open and closed without end.
+//
+// An edge–edge pair that was not in contact in the previous step and is found already
+// deeper than `fresh_depth` (the search distance: how far features can approach in one
+// step) is dropped: a real crossing is found while it approaches, and the normal e₁ × e₂
+// of a pair found deep inside says nothing about the way out.
 void carry_contacts(const std::vector<Contact>& previous, std::vector<Contact>& now, const Pose& pose,
-                    double friction, double shear_stiffness) {
+                    double friction, double shear_stiffness, double fresh_depth, double radius) {
+  std::erase_if(now, [&](const Contact& c) {
+    if (c.kind != ContactKind::edge_edge || c.gap >= -fresh_depth) return false;
+    return std::none_of(previous.begin(), previous.end(), [&](const Contact& old) {
+      return old.kind == c.kind && old.block_feature == c.block_feature && old.terrain_feature == c.terrain_feature;
+    });
+  });
   for (Contact& c : now) {
     c.gap_offset = std::min(c.gap, 0.0);
     const Contact* match = nullptr;
@@ -419,13 +492,20 @@ void carry_contacts(const std::vector<Contact>& previous, std::vector<Contact>& 
     c.slip_direction = old.slip_direction;
     c.normal_force = old.normal_force;
     c.anchor_force = old.anchor_force;
-    // The accepted penetration only shrinks: it follows the block out, never in.
-    c.gap_offset = c.gap > old.gap_offset ? std::min(0.0, c.gap) : old.gap_offset;
+    // The springs resume where the last solve left them: the exact rotation of the
+    // geometry update puts a rotating block's points up to |θ|²·r/2 deeper than the
+    // linearised step predicted, and a spring compressed by that extra depth would push
+    // it out with energy no force stored. So the compression never exceeds the predicted
+    // one, and the accepted penetration follows the block out, never in.
+    double offset = old.gap_offset;
+    const double extra = old.spring_gap - (c.gap - offset);
+    if (extra > 1e-3 * -old.spring_gap && extra > 1e-9 * radius) offset = c.gap - old.spring_gap;
+    c.gap_offset = c.gap > offset ? std::min(0.0, c.gap) : offset;
     if (c.anchored) {
       const Vec3 xa = pose.centre + pose.map * c.body_anchor;
       const Vec3 s_raw = xa - c.ground_anchor;
       const Vec3 st = s_raw - c.normal * c.normal.dot(s_raw);
-      const double allowed = friction * c.anchor_force / shear_stiffness;
+      const double allowed = std::min(friction * c.anchor_force, old.spring_shear) / shear_stiffness;
       const double stretch = st.norm();
       if (stretch > allowed) c.ground_anchor += st * (1.0 - allowed / stretch);
     }
@@ -464,11 +544,12 @@ Vec3 travel_axis(const Vec3& v_in, const Release& release) {
   return h.normalized();
 }
 
-void start_episode(const Model& model, const Ground& ground, State& s, const Vec3& v_in) {
+void start_episode(const Model& model, const Ground& ground, State& s, const Vec3& v_in, double kinetic_in) {
   Episode& e = s.episode;
   e = Episode{};
   e.active = true;
   e.velocity_in = v_in;
+  e.kinetic_in = kinetic_in;
   Vec3 n = Vec3::Zero();
   std::int32_t triangle = -1;
   double strongest = -1.0;
@@ -508,23 +589,40 @@ void finish_impact(const Model& model, State& s) {
   if (!impact || model.restitution == RestitutionLaw::off) return;
   Vec3 v = s.velocity.head<3>();
   Vec3 w = s.velocity.segment<3>(3);
+  const auto rotational = [&](const Vec3& omega) {
+    const Vec3 wb = s.orientation.conjugate() * omega;
+    return 0.5 * wb.dot(model.inertia * wb);
+  };
+  const double kinetic_out = 0.5 * model.mass * v.squaredNorm() + rotational(w);
+  // The rebound's whole kinetic energy (spin included) is bounded too: a contact step
+  // can turn translation into spin, which a cap on the speed alone would let through.
+  double energy_ratio = 1.0;  // allowed kinetic energy over the impact's
   if (model.restitution == RestitutionLaw::scaled) {
     const double vin = e.velocity_in.norm();
     const double sf = 1.0 / (1.0 + (vin / e.restitution_scale) * (vin / e.restitution_scale));
     const double cap = e.restitution * sf * vin;
+    energy_ratio = (e.restitution * sf) * (e.restitution * sf);
     const double vout = v.norm();
-    if (vout > cap) {
+    double factor = vout > cap ? cap / vout : 1.0;
+    if (kinetic_out * factor * factor > energy_ratio * e.kinetic_in)
+      factor = std::sqrt(energy_ratio * e.kinetic_in / kinetic_out);
+    if (factor < 1.0) {
       // The whole rigid velocity is scaled: rebound direction and spin-to-speed ratio
       // of the DDA rebound are kept, its kinetic energy scaled by factor².
-      const double factor = cap / vout;
       v *= factor;
       w *= factor;
       ++s.counters.impacts_rescaled;
     }
+    // The lateral scatter turns the rebound about the horizontal travel direction. The
+    // spin turns with it and keeps its energy (½ωᵀJω changes under a rotation of ω
+    // unless the inertia is isotropic).
     const Vec3 axis = travel_axis(e.velocity_in, s.release);
     const double tilt = e.tilt_deg * kPi / 180.0;
     v = rotate_about(v, axis, tilt);
+    const double spin_energy = rotational(w);
     w = rotate_about(w, axis, tilt);
+    const double turned = rotational(w);
+    if (turned > 0.0) w *= std::sqrt(spin_energy / turned);
   } else if (model.restitution == RestitutionLaw::normal_component) {
     const double vin_n = std::abs(e.velocity_in.dot(e.normal));
     const double sf = 1.0 / (1.0 + (vin_n / e.restitution_scale) * (vin_n / e.restitution_scale));
@@ -533,6 +631,14 @@ void finish_impact(const Model& model, State& s) {
     if (vn > cap) {
       v -= (vn - cap) * e.normal;
       ++s.counters.impacts_rescaled;
+    }
+    // The tangential velocity and spin are kept, but never with more kinetic energy
+    // than the block brought into the impact.
+    const double now = 0.5 * model.mass * v.squaredNorm() + rotational(w);
+    if (now > e.kinetic_in && now > 0.0) {
+      const double factor = std::sqrt(e.kinetic_in / now);
+      v *= factor;
+      w *= factor;
     }
   }
   s.velocity.head<3>() = v;
@@ -552,6 +658,22 @@ bool rebound_complete(const Model& model, const State& s, double spring_energy) 
   const Episode& e = s.episode;
   if (s.velocity.head<3>().dot(e.normal) < 0.0) return false;
   return spring_energy <= 0.01 * 0.5 * model.mass * e.velocity_in.squaredNorm();
+}
+
+// Nothing in the model is a source of energy, but a contact step can still gain some: a
+// friction direction that a held contact could not revise, a feature pair found deep
+// inside at a fast impact. Whatever the step gained beyond round-off is taken back
+// from the kinetic energy (the velocity is scaled, its direction kept), and counted, so
+// that a realization can never gain energy it had no source for.
+void limit_energy(const Model& model, State& s, double energy_start) {
+  const double potential = model.mass * model.settings.gravity * s.position.z();
+  const double kinetic = kinetic_energy(model, s);
+  const double scale = std::abs(energy_start) + std::abs(potential) + model.mass * model.settings.gravity * model.radius;
+  const double excess = kinetic + potential + s.stored_energy - energy_start;
+  if (!(excess > 1e-10 * scale) || !(kinetic > 0.0)) return;
+  s.velocity *= std::sqrt(std::max(0.0, kinetic - excess) / kinetic);
+  ++s.counters.energy_limited;
+  s.energy_removed += std::min(excess, kinetic);
 }
 
 // Contacts that stay closed through a step have no normal relative velocity in the
@@ -598,6 +720,20 @@ void end_with(State& s, EndReason reason) {
   if (s.end == EndReason::running) s.end = reason;
 }
 
+// The total energy -- kinetic, potential and held by the contact springs -- never rises
+// beyond round-off of its terms: nothing in the model is a source.
+void check_energy(const Model& model, State& s) {
+  const double potential = model.mass * model.settings.gravity * s.position.z();
+  const double total = kinetic_energy(model, s) + potential + s.stored_energy;
+  if (std::isfinite(s.checked_energy)) {
+    const double gain = total - s.checked_energy;
+    const double scale = std::abs(total) + std::abs(potential) + model.mass * model.settings.gravity * model.radius;
+    s.max_energy_gain = std::max(s.max_energy_gain, gain);
+    if (gain > 1e-9 * scale) ++s.counters.energy_violations;
+  }
+  s.checked_energy = total;
+}
+
 // Bookkeeping after an accepted step: time, maxima, rest, leaving, trajectory, limits.
 void finish_step(const Model& model, const Ground& ground, State& s, double dt) {
   s.time += dt;
@@ -606,6 +742,7 @@ void finish_step(const Model& model, const Ground& ground, State& s, double dt) 
     end_with(s, EndReason::non_finite);
     return;
   }
+  if (model.settings.check_invariants) check_energy(model, s);
   const double speed = s.velocity.head<3>().norm();
   s.max_speed = std::max(s.max_speed, speed);
   const terrain::Surface& surf = *ground.surface;
@@ -731,6 +868,7 @@ bool flight_step(const Model& model, const Ground& ground, State& s) {
   }
   ++s.counters.flight_steps;
   s.last_step_contact = false;
+  s.stored_energy = 0.0;
   return true;
 }
 
@@ -766,6 +904,8 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   const double limit = model.max_step_displacement();
   const double depth = model.penetration_limit();
   const Vec3 v_start = s.velocity.head<3>();
+  const double kinetic_start = rigid_kinetic_energy(model, s);
+  const double energy_start = kinetic_energy(model, s) + model.mass * set.gravity * s.position.z() + s.stored_energy;
   double dt = s.dt;
   std::vector<Contact>& contacts = s.scratch_contacts;
   const Pose pose = pose_of(model, s);
@@ -788,11 +928,13 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
       detail::detect_contacts(model, *ground.surface, pose, s.world_vertices, reach, depth, s.patch, contacts);
       if (!s.friction_drawn && !contacts.empty())
         friction = mean_friction(material_of(ground, contacts.front().triangle));
-      carry_contacts(s.contacts, contacts, pose, friction, model.stiffness / set.shear_stiffness_ratio);
+      carry_contacts(s.contacts, contacts, pose, friction, model.stiffness / set.shear_stiffness_ratio, reach,
+                     model.radius);
     }
     start_modes.clear();
     for (const Contact& c : contacts) start_modes.push_back(c.mode);
-    const StepOutcome outcome = solve_step<N>(model, pose, s, dt, friction, contacts, d, s.times, freeze_strain);
+    const StepOutcome outcome = solve_step<N>(model, pose, s, dt, friction, contacts, d, s.times, freeze_strain,
+                                                  arriving || (s.episode.active && s.episode.impact));
     s.counters.open_close_iterations += static_cast<std::uint64_t>(outcome.iterations);
     s.counters.held_contacts += static_cast<std::uint64_t>(outcome.held);
     if (!d.allFinite()) {
@@ -841,6 +983,7 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   // Keep the closed contacts with the state they end the step in, and the memory of
   // those that opened by less than a micro-gap (the penalty spring's own oscillation).
   const double p = model.stiffness;
+  const double ps_end = p / set.shear_stiffness_ratio;
   const double keep_gap = 1e-6 * model.radius;
   s.contacts.clear();
   bool any_closed = false;
@@ -866,6 +1009,15 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
     if (c.gap < 0.0 && c.gap == c.gap_offset && c.mode != ContactMode::open) ++s.counters.offset_contacts;
     c.normal_force = p * std::max(0.0, -g);
     c.anchor_force = c.normal_force;
+    c.spring_gap = std::min(0.0, g);
+    c.spring_shear = std::numeric_limits<double>::infinity();
+    if (c.mode == ContactMode::locked && c.anchored) {
+      const Vec3 xa = pose.centre + pose.map * c.body_anchor;
+      const Vec3 sv = xa + point_displacement<N>(xa - pose.centre, d) - c.ground_anchor;
+      const double stretch = (sv - c.normal * c.normal.dot(sv)).norm();
+      c.spring_shear = ps_end * stretch;
+      spring_energy += 0.5 * ps_end * stretch * stretch;
+    }
     if (c.mode == ContactMode::sliding) {
       const Vec3 slip = du - c.normal * c.normal.dot(du);
       if (slip.norm() > 1e-12) c.slip_direction = slip.normalized();
@@ -876,12 +1028,23 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
     s.contacts.push_back(c);
   }
   apply_displacement<N>(model, s, d, dt, freeze_strain);
+  {
+    const Pose now = pose_of(model, s);
+    s.stored_energy = spring_energy;
+    if (set.check_invariants) {
+      const double overlap = std::max(detail::terrain_depth_in_block(model, now, s.patch),
+                                      detail::block_depth_below_terrain(s.world_vertices, s.patch, model.radius));
+      s.max_depth = std::max(s.max_depth, overlap);
+      if (overlap > depth) ++s.counters.depth_violations;
+    }
+  }
   ++s.counters.contact_steps;
   s.last_step_contact = true;
-  if (any_closed && !s.episode.active) start_episode(model, ground, s, v_start);
+  if (any_closed && !s.episode.active) start_episode(model, ground, s, v_start, kinetic_start);
   else if (!any_closed && s.episode.active) end_episode(model, s);
   else if (s.episode.active && s.episode.impact && rebound_complete(model, s, spring_energy)) finish_impact(model, s);
   if (!(s.episode.active && s.episode.impact)) settle_contacts<N>(model, s, persistent);
+  limit_energy(model, s, energy_start);
   s.clear_until = -1.0;
   finish_step(model, ground, s, dt);
   // Grow back towards the nominal step after a cut.
@@ -966,6 +1129,9 @@ Summary summarize(const State& s) {
   out.max_speed = s.max_speed;
   out.max_jump_height = s.max_jump_height;
   out.impacts = s.impacts;
+  out.max_energy_gain = s.max_energy_gain;
+  out.max_depth = s.max_depth;
+  out.energy_removed = s.energy_removed;
   out.counters = s.counters;
   out.times = s.times;
   out.trajectory = s.trajectory;

@@ -47,6 +47,8 @@ void Settings::visit(core::SettingsVisitor& v) {
   v.field("density", density, "kg/m^3", "block density");
   v.field("young_modulus", young_modulus, "Pa", "block Young's modulus (full12 only)");
   v.field("poisson_ratio", poisson_ratio, "-", "block Poisson's ratio (full12 only)");
+  v.field("check_invariants", check_invariants,
+          "check depth and energy invariants at every step (counted per realization; slow)");
   v.field("time_phases", time_phases, "time each step phase (reporting only)");
 }
 

@@ -55,6 +55,10 @@ Table record_table(const std::vector<mc::Record>& records) {
   auto& speed = col(t, "max_speed", Element::f64, 0, "m/s").f64;
   auto& jump = col(t, "max_jump_height", Element::f64, 0, "m").f64;
   auto& energy = col(t, "max_kinetic_energy", Element::f64, 0, "J").f64;
+  auto& violations = col(t, "invariant_violations", Element::i64).i64;
+  auto& gain = col(t, "max_energy_gain", Element::f64, 0, "J").f64;
+  auto& overlap = col(t, "max_overlap", Element::f64, 0, "m").f64;
+  auto& removed = col(t, "energy_removed", Element::f64, 0, "J").f64;
   for (const auto& r : records) {
     realization.push_back(r.realization);
     block.push_back(r.block);
@@ -70,6 +74,10 @@ Table record_table(const std::vector<mc::Record>& records) {
     speed.push_back(r.max_speed);
     jump.push_back(r.max_jump_height);
     energy.push_back(r.max_kinetic_energy);
+    violations.push_back(static_cast<std::int64_t>(r.invariant_violations));
+    gain.push_back(r.max_energy_gain);
+    overlap.push_back(r.max_overlap);
+    removed.push_back(r.energy_removed);
   }
   return t;
 }
@@ -237,6 +245,10 @@ std::vector<mc::Record> decode_records(const h5::Group& g, const RunInfo& info, 
     r.max_speed = t["max_speed"].f64[k];
     r.max_jump_height = t["max_jump_height"].f64[k];
     r.max_kinetic_energy = t["max_kinetic_energy"].f64[k];
+    r.invariant_violations = static_cast<std::uint64_t>(t["invariant_violations"].i64[k]);
+    r.max_energy_gain = t["max_energy_gain"].f64[k];
+    r.max_overlap = t["max_overlap"].f64[k];
+    r.energy_removed = t["energy_removed"].f64[k];
   }
   return out;
 }

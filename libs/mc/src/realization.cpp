@@ -265,6 +265,10 @@ RealizationResult run_realization(const Scene& scene, std::uint32_t index) {
   rec.max_speed = summary.max_speed;
   rec.max_jump_height = summary.max_jump_height;
   rec.max_kinetic_energy = max_kinetic;
+  rec.invariant_violations = summary.counters.energy_violations + summary.counters.depth_violations;
+  rec.max_energy_gain = summary.max_energy_gain;
+  rec.max_overlap = summary.max_depth;
+  rec.energy_removed = summary.energy_removed;
   result.trajectory = std::move(summary.trajectory);
   if (observe) result.cells = observer.cells();
   return result;

@@ -41,6 +41,12 @@ struct Summary {
   double max_speed = 0.0;  ///< centroid (m/s)
   double max_jump_height = 0.0;  ///< centroid above the terrain surface, from the first contact on (m)
   std::uint64_t impacts = 0;
+  /// With Settings::check_invariants: the largest one-step rise of the total energy
+  /// (kinetic + potential + contact springs) (J) and the deepest overlap of terrain and
+  /// block (m) seen in the run.
+  double max_energy_gain = 0.0;
+  double max_depth = 0.0;
+  double energy_removed = 0.0;  ///< kinetic energy the energy limiter took back (J, see docs/dda.md)
   Counters counters;
   PhaseTimes times;
   std::vector<TrajectorySample> trajectory;  ///< empty unless trajectory_interval > 0

@@ -65,6 +65,10 @@ struct Settings {
   double young_modulus = 3.0e10;            ///< block E (Pa), full12 only
   double poisson_ratio = 0.2;               ///< block ν (-), full12 only
 
+  /// Check the physical invariants at every step (no terrain point deeper in the block,
+  /// nor block vertex deeper in the terrain, than the penetration limit; no rise of the
+  /// total energy): counted in Counters, slow, for stress tests.
+  bool check_invariants = false;
   bool time_phases = false;                 ///< time each phase with steady_clock (costs ~0.1 µs/step)
 
   void visit(core::SettingsVisitor& v);

@@ -60,6 +60,11 @@ struct Contact {
   /// Normal force at the end of the last step the contact was closed (N): bounds the
   /// shear stretch its anchor may keep (μ·F/k_s).
   double anchor_force = 0.0;
+  /// The last solve's end-of-step state of the springs: normal gap below the offset (m,
+  /// ≤ 0) and shear spring force (N, infinite when not locked); a carried contact
+  /// resumes from them, never from a deeper state the geometry update left.
+  double spring_gap = 0.0;
+  double spring_shear = std::numeric_limits<double>::infinity();
 };
 
 /// Wall-clock seconds spent per phase (filled when Settings::time_phases is on).
@@ -84,6 +89,10 @@ struct Counters {
   std::uint64_t offset_contacts = 0;  ///< contacts first found already penetrated
   std::uint64_t impacts_rescaled = 0; ///< rebounds the restitution law reduced
   std::uint64_t held_contacts = 0;    ///< contacts held in a state to end an open–close cycle
+  std::uint64_t energy_limited = 0;   ///< contact steps whose energy gain was taken back
+  /// Steps that broke an invariant (only with Settings::check_invariants).
+  std::uint64_t energy_violations = 0;  ///< total energy rose beyond round-off
+  std::uint64_t depth_violations = 0;   ///< terrain and block overlapped beyond the penetration limit
 };
 
 /// The contact episode in progress (an impact when its approach speed is high enough).
@@ -91,6 +100,7 @@ struct Episode {
   bool active = false;
   bool impact = false;           ///< restitution law applies at its end
   Vec3 velocity_in = Vec3::Zero();  ///< centroid velocity at the start (m/s)
+  double kinetic_in = 0.0;       ///< rigid kinetic energy (translation and spin) at the start (J)
   Vec3 normal = Vec3::UnitZ();   ///< ground normal at the start, tilted laterally
   double restitution = 1.0;      ///< R_v drawn for this impact (-)
   double tilt_deg = 0.0;         ///< lateral tilt drawn for this impact (deg)
@@ -178,6 +188,13 @@ struct State {
   double max_speed = 0.0;             ///< centroid (m/s)
   double max_jump_height = 0.0;       ///< centroid above the terrain after the first contact (m)
   double rest_time = 0.0;             ///< time spent below the rest threshold (s)
+  /// Energy held by the contact springs at the end of the last step (J).
+  double stored_energy = 0.0;
+  double energy_removed = 0.0;        ///< kinetic energy taken back by the energy limiter (J)
+  // Invariant checks (Settings::check_invariants).
+  double checked_energy = std::numeric_limits<double>::quiet_NaN();  ///< total energy after the last step (J)
+  double max_energy_gain = 0.0;       ///< largest rise of the total energy in one step (J)
+  double max_depth = 0.0;             ///< deepest overlap of terrain and block (m)
   double time_limit = std::numeric_limits<double>::infinity();  ///< simulated-time limit (s), set at the first step
   EndReason end = EndReason::running;
   Counters counters;

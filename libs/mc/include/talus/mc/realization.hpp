@@ -28,6 +28,15 @@ struct Record {
   double max_speed = 0.0;               ///< m/s, centroid
   double max_jump_height = 0.0;         ///< m, centroid above the terrain
   double max_kinetic_energy = 0.0;      ///< J, translational + rotational
+  /// Invariant checks (engine.check_invariants; zero when off): steps that broke one,
+  /// the largest one-step rise of the total energy (J), the deepest overlap of terrain
+  /// and block (m).
+  std::uint64_t invariant_violations = 0;
+  double max_energy_gain = 0.0;
+  double max_overlap = 0.0;
+  /// Kinetic energy the engine's energy limiter took back from contact steps that gained
+  /// energy without a source (J; docs/dda.md).
+  double energy_removed = 0.0;
   bool operator==(const Record&) const = default;
 };
 

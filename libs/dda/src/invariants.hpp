@@ -1,0 +1,18 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+#include <vector>
+
+#include "contacts.hpp"
+
+namespace talus::dda::detail {
+
+/// Depth (m) of the deepest terrain vertex of `patch` inside the block at `pose`, 0 if
+/// none is inside. Any closed polyhedron: inside by ray parity, depth = distance to the
+/// nearest face.
+double terrain_depth_in_block(const Model& model, const Pose& pose, const TerrainPatch& patch);
+
+/// Depth (m) of the deepest block vertex below the terrain triangles of `patch` it lies
+/// over (vertical projection, depth measured along the triangle normal), 0 if none.
+double block_depth_below_terrain(const std::vector<Vec3>& world, const TerrainPatch& patch, double radius);
+
+}  // namespace talus::dda::detail

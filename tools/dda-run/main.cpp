@@ -109,10 +109,13 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
   if (!opt.resume && journal_exists)
     throw core::InputError(journal_path, "a journal of an interrupted run exists: add --resume to complete it, "
                                          "or delete it to start afresh");
+  const std::vector<std::uint32_t> all = shard.indices(scene.realizations());
+  // A block released into the ground is refused before any work (and before a journal
+  // exists, which the corrected scene could not resume).
+  if (!opt.resume) mc::check_releases(scene, all, parse_threads(opt.threads));
   io::RunJournal journal = opt.resume ? io::RunJournal::resume(journal_path, info)
                                       : io::RunJournal::create(journal_path, info);
 
-  const std::vector<std::uint32_t> all = shard.indices(scene.realizations());
   const std::vector<std::uint32_t> done = journal.finished();
   std::vector<std::uint32_t> pending;
   std::set_difference(all.begin(), all.end(), done.begin(), done.end(), std::back_inserter(pending));

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 // Small terrains, blocks and scenes shared by the Monte-Carlo tests.
 #pragma once
+#include <cmath>
 #include <vector>
 
 #include "talus/block/block.hpp"
@@ -30,6 +31,19 @@ inline terrain::Terrain flat_terrain() {
   dem.z.assign(dem.spec.point_count(), 0.0);
   terrain::Terrain t = terrain::build_grid_terrain(dem, terrain::Diagonal::alternating, 1, "test");
   t.name = "flat";
+  return t;
+}
+
+/// A plane descending along +x at `slope_deg`: z = (20 − x)·tan(slope), x in [0, 20],
+/// y in [0, 10], 1 m cells.
+inline terrain::Terrain plane_terrain(double slope_deg) {
+  terrain::DemGrid dem;
+  dem.spec = {0.0, 0.0, 1.0, 1.0, 21, 11};
+  const double rise = std::tan(slope_deg * M_PI / 180.0);
+  for (std::int32_t j = 0; j < dem.spec.ny; ++j)
+    for (std::int32_t i = 0; i < dem.spec.nx; ++i) dem.z.push_back((20.0 - i) * rise);
+  terrain::Terrain t = terrain::build_grid_terrain(dem, terrain::Diagonal::alternating, 1, "test");
+  t.name = "plane";
   return t;
 }
 

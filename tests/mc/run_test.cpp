@@ -157,5 +157,34 @@ TEST(Barrier, CrossingOfAFreeFlightMatchesTheParabola) {
   EXPECT_TRUE(seen);
 }
 
+TEST(Release, ABlockReleasedAtRestOnASlopeStaysAtRest) {
+  // SPEC §7: a cube set face down on a 20° plane (friction angle 35°, so tan 20° < μ) with
+  // release.height 0 above its lowest point starts touching and never moves: the run ends
+  // at rest after the dwell time, where it started.
+  SceneSettings s;
+  s.release.points = {{8.0, 5.0}};
+  s.release.height = 0.0;
+  s.release.height_reference = "lowest_point";
+  s.release.orientation = "fixed";
+  s.release.orientation_deg = {0.0, 20.0, 0.0};  // the cube's bottom face on the plane
+  MaterialOverride rough;
+  rough.name = "default";
+  rough.friction_angle_mean_deg = 35.0;
+  s.materials = {rough};
+  s.stochastic.friction = false;
+  s.realizations = 1;
+  const Scene scene = Scene::build(s, testing::plane_terrain(20.0), library({block::SolidKind::cube}), "test");
+  const RealizationResult r = run_realization(scene, 0);
+  EXPECT_EQ(r.record.end, dda::EndReason::rest);
+  // Its centroid starts half a side above the plane along the normal: 0.5/cos 20° vertically.
+  const double plane_z = 12.0 * std::tan(20.0 * M_PI / 180.0);
+  EXPECT_NEAR(r.record.release_position.z(), plane_z + 0.5 / std::cos(20.0 * M_PI / 180.0), 1e-12);
+  // It only settles onto the penalty springs: mg cos 20°/(4k) ≈ 7e-9 m at the default k.
+  EXPECT_LT((r.record.final_position - r.record.release_position).norm(), 1e-7);
+  // At rest from the start, so it ends one dwell time (0.5 s) later.
+  EXPECT_NEAR(r.record.time, scene.settings().engine.rest_dwell, 1e-3);
+  EXPECT_EQ(r.record.impacts, 0u);
+}
+
 }  // namespace
 }  // namespace talus::mc

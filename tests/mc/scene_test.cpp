@@ -6,7 +6,9 @@
 
 #include "mc_fixtures.hpp"
 #include "talus/core/error.hpp"
+#include "talus/mc/clearance.hpp"
 #include "talus/mc/realization.hpp"
+#include "talus/mc/runner.hpp"
 
 namespace talus::mc {
 namespace {
@@ -41,7 +43,12 @@ TEST(Scene, RefusesBadScenesWithOneLineReasons) {
       {[](SceneSettings& s) { s.outputs.chunk = 0; }, "outputs.chunk must be positive"},
       {[](SceneSettings& s) { s.release.points = {{70.0, 10.0}}; }, "release point (70, 10) is outside the terrain"},
       {[](SceneSettings& s) { s.release.kind = "line"; }, "needs at least 2 points"},
-      {[](SceneSettings& s) { s.release.height = 0.5; }, "puts block 'cube' into the ground"},
+      {[](SceneSettings& s) {
+         s.release.height_reference = "lowest_point";
+         s.release.height = -0.1;
+       },
+       "release.height -0.1 m is negative"},
+      {[](SceneSettings& s) { s.release.clearance_gap = -1.0; }, "release.clearance_gap must be finite and >= 0"},
       {[](SceneSettings& s) { s.blocks = {"R9"}; }, "block 'R9' is not in the block file (it has: cube)"},
       {[](SceneSettings& s) { s.materials = {restitution_override("rock", 0.5)}; }, "material 'rock' is not in the terrain file"},
       {[](SceneSettings& s) { s.materials = {restitution_override("slope", -0.5)}; }, "material 'slope': values must be finite"},
@@ -114,6 +121,142 @@ TEST(Release, DrawsAreFunctionsOfSeedAndIndex) {
   for (std::uint32_t i = 0; i < 40; ++i) first += draw_release(scene, ground, i).block == 0 ? 1 : 0;
   EXPECT_GT(first, 5);
   EXPECT_LT(first, 35);
+}
+
+// A unit cube over the 45° plane z = 20 − x, released at (5, 5) with a fixed orientation
+// (axis-aligned unless told): its uphill bottom edge lies 1 m lower than the centroid
+// relative to the plane, so a centroid `height` above the plane leaves a gap height − 1.
+SceneSettings plane_scene(double height) {
+  SceneSettings s;
+  s.release.points = {{5.0, 5.0}};
+  s.release.height = height;
+  s.release.orientation = "fixed";
+  s.realizations = 1;
+  return s;
+}
+
+struct PlaneRelease {
+  Scene scene;
+  terrain::Surface ground;
+  explicit PlaneRelease(const SceneSettings& s)
+      : scene(Scene::build(s, testing::plane_terrain(45.0), library({block::SolidKind::cube}), "plane.yaml")),
+        ground(scene.base_surface().realization(std::nullopt)) {}
+  ReleaseDraw draw(std::uint32_t i = 0) const { return draw_release(scene, ground, i); }
+  double gap(const ReleaseDraw& d) const {
+    return vertical_clearance(scene.blocks()[0].model, d.release.position, d.release.orientation, ground).gap;
+  }
+};
+
+std::string draw_error(const PlaneRelease& p) {
+  try {
+    p.draw();
+  } catch (const core::InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(Release, RefusesABlockStartingInTheGround) {
+  // Centroid 0.3 m above the plane: the cube reaches 0.7 m into the uphill ground.
+  const std::string message = draw_error(PlaneRelease(plane_scene(0.3)));
+  EXPECT_EQ(message.rfind("plane.yaml: release of realization 0 at (5, 5): block 'cube' reaches 0.7 m into the "
+                          "ground (at x 4.5, y ",
+                          0),
+            0u)
+      << message;
+  EXPECT_NE(message.find("raise release.height by at least 0.7 m, or set release.clearance to lift"),
+            std::string::npos)
+      << message;
+  EXPECT_EQ(message.find('\n'), std::string::npos);
+  // 1.2 m leaves a gap of 0.2 m: accepted, and the centroid is where the scene says.
+  const PlaneRelease clear(plane_scene(1.2));
+  EXPECT_NEAR(clear.draw().release.position.z(), 15.0 + 1.2, 1e-12);
+  // Unless a larger gap is required.
+  SceneSettings s = plane_scene(1.2);
+  s.release.clearance_gap = 0.5;
+  const std::string near = draw_error(PlaneRelease(s));
+  EXPECT_NE(near.find("block 'cube' is only 0.2 m above the ground"), std::string::npos) << near;
+  EXPECT_NE(near.find("less than release.clearance_gap 0.5 m: raise release.height by at least 0.3 m"),
+            std::string::npos)
+      << near;
+}
+
+TEST(Release, LiftRaisesTheBlockJustClearOfTheGround) {
+  // Lifted vertically by the 0.7 m it reached into the ground (plus the gap asked for):
+  // the gap is then exactly the one asked for (round-off of sums of O(20) values).
+  for (const double gap : {0.0, 0.05}) {
+    SceneSettings s = plane_scene(0.3);
+    s.release.clearance = "lift";
+    s.release.clearance_gap = gap;
+    const PlaneRelease p(s);
+    const ReleaseDraw d = p.draw();
+    EXPECT_NEAR(d.release.position.x(), 5.0, 0.0);
+    EXPECT_NEAR(d.release.position.z(), 16.0 + gap, 1e-12);
+    EXPECT_NEAR(p.gap(d), gap, 1e-12);
+  }
+  // A block already clear enough is not moved.
+  SceneSettings s = plane_scene(1.2);
+  s.release.clearance = "lift";
+  EXPECT_EQ(PlaneRelease(s).draw().release.position.z(), 15.0 + 1.2);
+}
+
+TEST(Release, LowestPointHeightIsTheGapUnderTheBlock) {
+  // Height 0 puts the cube on the plane, touching along its uphill bottom edge.
+  for (const double height : {0.0, 0.25}) {
+    SceneSettings s = plane_scene(height);
+    s.release.height_reference = "lowest_point";
+    const PlaneRelease p(s);
+    const ReleaseDraw d = p.draw();
+    EXPECT_NEAR(d.release.position.z(), 16.0 + height, 1e-12);
+    EXPECT_NEAR(p.gap(d), height, 1e-12);
+  }
+  // Random orientations on the rough bench slope (each realization its own ground): every
+  // block starts touching its ground, to round-off.
+  SceneSettings s = bench_scene(20);
+  s.release.kind = "line";
+  s.release.points = {{1.0, 5.0}, {50.0, 15.0}};
+  s.release.height = 0.0;
+  s.release.height_reference = "lowest_point";
+  const Scene scene = Scene::build(s, bench_terrain(0.2), library({block::SolidKind::tetrahedron, block::SolidKind::cube}), "s");
+  for (std::uint32_t i = 0; i < 20; ++i) {
+    const terrain::Surface ground = scene.base_surface().realization(i);
+    const ReleaseDraw d = draw_release(scene, ground, i);
+    const dda::Model& m = scene.blocks()[static_cast<std::size_t>(d.block)].model;
+    EXPECT_NEAR(vertical_clearance(m, d.release.position, d.release.orientation, ground).gap, 0.0, 1e-9) << i;
+  }
+}
+
+TEST(Release, CheckReleasesReportsTheLowestFailingRealization) {
+  // Random orientations 1.17 m above the 45° plane: a cube reaches into it when its
+  // support along (1, 0, 1)/√2, between 0.5 and 0.87 m, exceeds 1.17/√2 m. The check names
+  // the first of them at any thread count.
+  SceneSettings s = plane_scene(1.19);
+  s.release.orientation = "random";
+  s.realizations = 40;
+  const PlaneRelease p(s);
+  std::string first;
+  std::uint32_t refused = 0;
+  for (std::uint32_t i = 0; i < 40; ++i) try {
+      p.draw(i);
+    } catch (const core::InputError& e) {
+      if (first.empty()) first = e.what();
+      ++refused;
+    }
+  // Which orientations reach into the plane is fixed by the seed (deterministic draws).
+  EXPECT_EQ(refused, 8u);
+  ASSERT_EQ(first.rfind("plane.yaml: release of realization 9 at (5, 5): block 'cube' reaches ", 0), 0u) << first;
+  std::vector<std::uint32_t> all(40);
+  for (std::uint32_t i = 0; i < 40; ++i) all[i] = i;
+  for (const unsigned threads : {1u, 2u, 3u}) {
+    try {
+      check_releases(p.scene, all, threads);
+      ADD_FAILURE() << "no error at " << threads << " threads";
+    } catch (const core::InputError& e) {
+      EXPECT_EQ(std::string(e.what()), first) << threads;
+    }
+  }
+  s.release.clearance = "lift";
+  EXPECT_NO_THROW(check_releases(PlaneRelease(s).scene, all, 2));
 }
 
 }  // namespace

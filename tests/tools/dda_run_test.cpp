@@ -23,6 +23,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
+using geometry::Vec3;
 using Outcome = testing::ToolOutcome;
 using testing::read_text;
 
@@ -54,6 +55,17 @@ stop_zones:
     x_range: [35.5, 61]
 )";
 
+// A unit cube over the 45° plane z = 20 − x (x in [0, 20]), axis-aligned at (5, 5): with
+// its centroid 0.3 m above the plane its uphill bottom edge is 0.7 m inside it.
+const char* kPlaneScene = R"(terrain: plane.h5
+block_file: cube.h5
+release:
+  points: [[5.0, 5.0]]
+  height: 0.3
+  orientation: fixed
+realizations: 1
+)";
+
 class DdaRun : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
@@ -66,6 +78,9 @@ class DdaRun : public ::testing::Test {
     io::write_block_file((dir_ / "blocks.h5").string(),
                          mc::testing::library({block::SolidKind::cube, block::SolidKind::octahedron}), p);
     std::ofstream(dir_ / "scene.yaml") << kScene;
+    io::write_terrain_file((dir_ / "plane.h5").string(), mc::testing::plane_terrain(45.0), p);
+    io::write_block_file((dir_ / "cube.h5").string(), mc::testing::library({block::SolidKind::cube}), p);
+    std::ofstream(dir_ / "plane.yaml") << kPlaneScene;
     // The reference: one uninterrupted run on one thread.
     const Outcome r = run({"-c", "scene.yaml", "--threads", "1", "-o", "single.h5"});
     ASSERT_EQ(r.code, 0) << r.err;
@@ -227,6 +242,75 @@ TEST_F(DdaRun, ExampleScenesRun) {
     EXPECT_EQ(load("example.h5").data.records.size(), 2u) << e.path();
   }
   EXPECT_GE(count, 2);
+}
+
+
+TEST_F(DdaRun, BlockInTheGroundIsRefusedWithOneLine) {
+  const Outcome r = run({"-c", "plane.yaml", "-o", "refused.h5"});
+  EXPECT_EQ(r.code, 3) << r.err;
+  EXPECT_EQ(r.err.rfind("dda-run: error: plane.yaml: release of realization 0 at (5, 5): block 'cube' reaches 0.7 m "
+                        "into the ground (at x 4.5, y ",
+                        0),
+            0u)
+      << r.err;
+  EXPECT_NE(r.err.find("raise release.height by at least 0.7 m, or set release.clearance to lift\n"), std::string::npos)
+      << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  // Refused before anything ran: no output, no journal to resume.
+  EXPECT_FALSE(fs::exists(dir_ / "refused.h5"));
+  EXPECT_FALSE(fs::exists(dir_ / "refused.h5.journal"));
+}
+
+TEST_F(DdaRun, LiftedOrLoweredBlocksStartTouchingTheGround) {
+  // Lifted by 0.7 m, or lowered onto the plane (height 0 above its lowest point): the
+  // centroid starts 1 m above the plane's 15 m at x = 5 (round-off of O(20) values).
+  const std::vector<std::vector<std::string>> ways = {
+      {"--set", "release.clearance=lift"},
+      {"--set", "release.height_reference=lowest_point", "--set", "release.height=0"}};
+  for (const auto& way : ways) {
+    std::vector<std::string> args = {"-c", "plane.yaml", "-o", "placed.h5"};
+    args.insert(args.end(), way.begin(), way.end());
+    const Outcome r = run(args);
+    ASSERT_EQ(r.code, 0) << way[1] << ": " << r.err;
+    const io::RunFile f = load("placed.h5");
+    ASSERT_EQ(f.data.records.size(), 1u);
+    const Vec3 start = f.data.records[0].release_position;
+    EXPECT_EQ(start.x(), 5.0);
+    EXPECT_NEAR(start.z(), 16.0, 1e-9) << way[1];
+  }
+  // 0.25 m above its lowest point: the centroid 0.25 m higher.
+  const Outcome r = run({"-c", "plane.yaml", "--set", "release.height_reference=lowest_point", "--set",
+                         "release.height=0.25", "-o", "placed.h5"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NEAR(load("placed.h5").data.records[0].release_position.z(), 16.25, 1e-9);
+}
+
+TEST_F(DdaRun, WarnsOnceWhenRealizationsDoNotEndAtRest) {
+  // Cut at 50 steps, no realization reaches rest: one warning line, counts by end reason.
+  const Outcome cut = run({"-c", "scene.yaml", "--set", "engine.max_steps=50", "-o", "cut.h5"});
+  ASSERT_EQ(cut.code, 0) << cut.err;
+  EXPECT_EQ(cut.err, "dda-run: warning: cut.h5: 6 of 6 realizations did not end at rest: 6 step_limit\n");
+  // The lifted cube slides down the 45° plane and leaves it at its foot.
+  const Outcome off = run({"-c", "plane.yaml", "--set", "release.clearance=lift", "-o", "off.h5"});
+  ASSERT_EQ(off.code, 0) << off.err;
+  EXPECT_EQ(off.err, "dda-run: warning: off.h5: 1 of 1 realizations did not end at rest: 1 left_terrain\n");
+  EXPECT_EQ(load("off.h5").data.records[0].end, dda::EndReason::left_terrain);
+  // Set face down on the flat run-out of the bench slope, the cube rests: no warning.
+  const Outcome rest = run({"-c", "plane.yaml", "--set", "terrain=terrain.h5", "--set", "release.points=[[50, 10]]",
+                            "--set", "release.height_reference=lowest_point", "--set", "release.height=0", "-o",
+                            "rest.h5"});
+  ASSERT_EQ(rest.code, 0) << rest.err;
+  EXPECT_EQ(rest.err, "");
+  EXPECT_EQ(load("rest.h5").data.records[0].end, dda::EndReason::rest);
+  // Joining shards reports the whole run once more.
+  for (const char* shard : {"0/2", "1/2"})
+    ASSERT_EQ(run({"-c", "scene.yaml", "--set", "engine.max_steps=50", "--shard", shard, "-o",
+                   std::string("cut") + shard[0] + ".h5"})
+                  .code,
+              0);
+  const Outcome merged = run({"merge", "cut0.h5", "cut1.h5", "-o", "cut-all.h5"});
+  ASSERT_EQ(merged.code, 0) << merged.err;
+  EXPECT_EQ(merged.err, "dda-run merge: warning: cut-all.h5: 6 of 6 realizations did not end at rest: 6 step_limit\n");
 }
 
 #ifdef TALUS_TEST_MPIEXEC

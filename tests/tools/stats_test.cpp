@@ -15,6 +15,7 @@
 
 #include "../mc/mc_fixtures.hpp"
 #include "tool_run.hpp"
+#include "talus/io/hdf5.hpp"
 #include "talus/io/raster.hpp"
 #include "talus/io/run_file.hpp"
 #include "talus/io/terrain_file.hpp"
@@ -33,16 +34,33 @@ const mc::HazardGridSpec kGrid{0.0, 0.0, 4.0, 15, 5};
 // The terrain lies at projected coordinates: rasters must carry this shift.
 const Vec3 kShift(500000.0, 4200000.0, 300.0);
 
-// Runouts of the realizations (12 distinct values); realization 11 fails numerically.
+// Runouts of the realizations (12 distinct values).
 double runout_of(std::uint32_t i) { return 20.0 + 3.7 * std::fmod(i * 7.0, 12.0) + 0.01 * i; }
 
-// A realization with known values: block i mod 2, stop class i mod 5, a toe crossing for
-// even i, hazard visits of cells 0 (every realization) and 16 (i < 4).
+// How realization i ended: 11 fails numerically, 4 and 9 leave the terrain (their stop
+// class i mod 5 is 'out of domain'), 7 is cut by the step limit; the others rest.
+dda::EndReason end_of(std::uint32_t i) {
+  if (i == 11) return dda::EndReason::non_finite;
+  if (i == 4 || i == 9) return dda::EndReason::left_terrain;
+  if (i == 7) return dda::EndReason::step_limit;
+  return dda::EndReason::rest;
+}
+
+// The realizations whose runouts enter the distributions: those that ended at rest.
+std::vector<std::uint32_t> resting() {
+  std::vector<std::uint32_t> out;
+  for (std::uint32_t i = 0; i < 12; ++i)
+    if (end_of(i) == dda::EndReason::rest) out.push_back(i);
+  return out;
+}
+
+// A realization with known values: block i mod 2, stop class i mod 5, end end_of(i), a toe
+// crossing for even i, hazard visits of cells 0 (every realization) and 16 (i < 4).
 mc::RealizationResult realization(std::uint32_t i, double runout_offset = 0.0) {
   mc::RealizationResult r;
   r.record.realization = i;
   r.record.block = static_cast<std::int32_t>(i % 2);
-  r.record.end = i == 11 ? dda::EndReason::non_finite : dda::EndReason::rest;
+  r.record.end = end_of(i);
   r.record.stop_class = static_cast<std::int32_t>(i % 5);
   r.record.runout = runout_of(i) + runout_offset;
   r.record.lateral = 0.5 * std::sin(i);
@@ -170,39 +188,41 @@ TEST_F(Stats, TablesAgreeWithIndependentValues) {
   ASSERT_EQ(o.code, 0) << o.err;
   const std::string csv = read_text(dir_ / "out-whole" / "summary.csv");
   ASSERT_EQ(csv.rfind("run,block,variable,statistic,value,unit\n", 0), 0u);
-  // Realization 11 failed: 11 runouts enter the distribution.
+  // The 8 realizations at rest enter the runout distribution (11 failed; 4, 7, 9 censored).
   std::vector<double> runouts, cube;
-  for (std::uint32_t i = 0; i < 11; ++i) {
+  for (std::uint32_t i : resting()) {
     runouts.push_back(runout_of(i));
     if (i % 2 == 0) cube.push_back(runout_of(i));
   }
   double mean = 0.0;
-  for (double r : runouts) mean += r / 11.0;
+  for (double r : runouts) mean += r / 8.0;
   double ss = 0.0;
   for (double r : runouts) ss += (r - mean) * (r - mean);
   // Sums in another order: 1e-12 relative.
   EXPECT_NEAR(csv_value(csv, "whole,all,runout,mean"), mean, 1e-12 * mean);
-  EXPECT_NEAR(csv_value(csv, "whole,all,runout,sd"), std::sqrt(ss / 10.0), 1e-12 * mean);
-  EXPECT_EQ(csv_value(csv, "whole,all,runout,n"), 11.0);
+  EXPECT_NEAR(csv_value(csv, "whole,all,runout,sd"), std::sqrt(ss / 7.0), 1e-12 * mean);
+  EXPECT_EQ(csv_value(csv, "whole,all,runout,n"), 8.0);
+  EXPECT_EQ(csv_value(csv, "whole,all,runout,censored"), 3.0);
   EXPECT_EQ(csv_value(csv, "whole,all,runout,min"), *std::min_element(runouts.begin(), runouts.end()));
   EXPECT_NEAR(csv_value(csv, "whole,all,runout,P95"), type7(runouts, 0.95), 1e-12 * mean);
   EXPECT_NEAR(csv_value(csv, "whole,cube,runout,P25"), type7(cube, 0.25), 1e-12 * mean);
   EXPECT_LE(csv_value(csv, "whole,all,runout,P50_ci_low"), type7(runouts, 0.5));
   EXPECT_GE(csv_value(csv, "whole,all,runout,P50_ci_high"), type7(runouts, 0.5));
-  // DKW at 95 % for n = 11: sqrt(ln 40 / 22).
-  EXPECT_NEAR(csv_value(csv, "whole,all,runout,dkw_epsilon"), std::sqrt(std::log(40.0) / 22.0), 1e-15);
+  // DKW at 95 % for n = 8: sqrt(ln 40 / 16).
+  EXPECT_NEAR(csv_value(csv, "whole,all,runout,dkw_epsilon"), std::sqrt(std::log(40.0) / 16.0), 1e-15);
   // Mean relative error s/(√n·x̄) and realizations needed n·(RE/0.01)².
-  const double re = std::sqrt(ss / 10.0) / std::sqrt(11.0) / mean;
+  const double re = std::sqrt(ss / 7.0) / std::sqrt(8.0) / mean;
   EXPECT_NEAR(csv_value(csv, "whole,all,runout,mean_relative_error"), re, 1e-12 * re);
-  EXPECT_EQ(csv_value(csv, "whole,all,runout,mean_realizations_needed"), std::ceil(11.0 * re * re * 1e4));
+  EXPECT_EQ(csv_value(csv, "whole,all,runout,mean_realizations_needed"), std::ceil(8.0 * re * re * 1e4));
   // Fractions over all 12 realizations: stop class i mod 5, toe crossed by even i, failure 11.
   EXPECT_EQ(csv_value(csv, "whole,all,stop:bench 1,count"), 3.0);  // 0, 5, 10
   EXPECT_EQ(csv_value(csv, "whole,all,stop:out of domain,fraction"), 2.0 / 12.0);  // 4, 9
   EXPECT_EQ(csv_value(csv, "whole,all,cross:toe,fraction"), 0.5);
   EXPECT_EQ(csv_value(csv, "whole,all,numerical_failure,count"), 1.0);
   EXPECT_EQ(csv_value(csv, "whole,octahedron,numerical_failure,count"), 1.0);
+  // Reaching 36 m: every realization that got there, censored ones included (11 excluded).
   double reach = 0.0;
-  for (double r : runouts) reach += r >= 36.0 ? 1.0 : 0.0;
+  for (std::uint32_t i = 0; i < 11; ++i) reach += runout_of(i) >= 36.0 ? 1.0 : 0.0;
   EXPECT_EQ(csv_value(csv, "whole,all,runout>=36,count"), reach);
   // Barrier: the first crossing of each even realization: heights 0.2(i+1), never 99.
   EXPECT_EQ(csv_value(csv, "whole,all,toe.passing_height,n"), 6.0);
@@ -217,8 +237,58 @@ TEST_F(Stats, TablesAgreeWithIndependentValues) {
   EXPECT_EQ(read_text(dir_ / "out-whole" / "table.csv").rfind("variable,statistic,unit,whole,whole/cube,whole/octahedron\n", 0),
             0u);
   const std::string conv = read_text(dir_ / "out-whole" / "convergence.csv");
-  EXPECT_NE(conv.find("\nwhole,all,runout,P95,11,"), std::string::npos) << conv;
+  EXPECT_NE(conv.find("\nwhole,all,runout,P95,8,"), std::string::npos) << conv;
   EXPECT_TRUE(fs::file_size(dir_ / "out-whole" / "summary.h5") > 0);
+}
+
+TEST_F(Stats, EndReasonsAreReportedAndUnstoppedBlocksCensored) {
+  const Outcome o = run_fast({"whole.h5", "-o", "out-ends", "--print-table"});
+  ASSERT_EQ(o.code, 0) << o.err;
+  const std::string csv = read_text(dir_ / "out-ends" / "summary.csv");
+  // End reasons over all 12 realizations: 8 rest, 2 left the terrain, 1 step limit, 1 failed.
+  EXPECT_EQ(csv_value(csv, "whole,all,end:rest,count"), 8.0);
+  EXPECT_EQ(csv_value(csv, "whole,all,end:rest,fraction"), 8.0 / 12.0);
+  EXPECT_EQ(csv_value(csv, "whole,all,end:left_terrain,fraction"), 2.0 / 12.0);
+  EXPECT_EQ(csv_value(csv, "whole,all,end:step_limit,fraction"), 1.0 / 12.0);
+  EXPECT_EQ(csv_value(csv, "whole,all,end:non_finite,fraction"), 1.0 / 12.0);
+  EXPECT_EQ(csv_value(csv, "whole,all,end:no_convergence,count"), 0.0);
+  EXPECT_EQ(csv_value(csv, "whole,all,end:penetration,count"), 0.0);
+  // Per block: the cube (even i) left the terrain once (4); the octahedron was cut by the
+  // step limit (7) and left the terrain (9), and 11 failed: 1, 3, 5 rested.
+  EXPECT_EQ(csv_value(csv, "whole,cube,end:left_terrain,count"), 1.0);
+  EXPECT_EQ(csv_value(csv, "whole,cube,runout,censored"), 1.0);
+  EXPECT_EQ(csv_value(csv, "whole,octahedron,runout,censored"), 2.0);
+  EXPECT_EQ(csv_value(csv, "whole,octahedron,runout,n"), 3.0);
+  EXPECT_EQ(csv_value(csv, "whole,octahedron,runout,min"), runout_of(1));
+  EXPECT_EQ(csv_value(csv, "whole,all,lateral,n"), 8.0);
+  EXPECT_EQ(csv_value(csv, "whole,all,lateral,censored"), 3.0);
+  // Speeds, heights and energies keep every realization that did not fail (their values
+  // so far are real): no censored row.
+  EXPECT_EQ(csv_value(csv, "whole,all,max_speed,n"), 11.0);
+  EXPECT_EQ(csv_value(csv, "whole,all,max_speed,max"), 20.0);
+  EXPECT_EQ(csv_value(csv, "whole,all,max_jump_height,n"), 11.0);
+  EXPECT_EQ(csv.find("\nwhole,all,max_speed,censored,"), std::string::npos);
+  // A block cut by the step limit stopped nowhere: of stop class 'run-out' (i mod 5 = 2),
+  // 2 counts and 7 does not.
+  EXPECT_EQ(csv_value(csv, "whole,all,stop:run-out,count"), 1.0);
+  // Every realization stopped in one class, was cut by the step limit, or failed.
+  double parts = csv_value(csv, "whole,all,end:step_limit,count") + csv_value(csv, "whole,all,numerical_failure,count");
+  for (const char* c : {"bench 1", "slope", "run-out", "other", "out of domain"})
+    parts += csv_value(csv, std::string("whole,all,stop:") + c + ",count");
+  EXPECT_EQ(parts, 12.0);
+  // The side-by-side table says how many each runout distribution left out.
+  EXPECT_NE(o.out.find("runout censored"), std::string::npos) << o.out;
+  EXPECT_NE(o.out.find("end:step_limit fraction (-)"), std::string::npos) << o.out;
+  const std::string table = read_text(dir_ / "out-ends" / "table.csv");
+  EXPECT_NE(table.find("\nrunout,n,,8,5,3\n"), std::string::npos) << table;
+  EXPECT_NE(table.find("\nrunout,censored,,3,1,2\n"), std::string::npos) << table;
+  EXPECT_NE(table.find("\nend:rest,fraction,-,0.6667,0.8333,0.5\n"), std::string::npos) << table;
+  // summary.h5: the count as an attribute, and stop points of the 8 resting blocks only.
+  const io::h5::File h5 = io::h5::File::open((dir_ / "out-ends" / "summary.h5").string());
+  const io::h5::Group all = h5.root().open_group("series").open_group("0");
+  EXPECT_EQ(all.open_group("variable").open_group("runout").attr_int("censored"), 3);
+  EXPECT_FALSE(all.open_group("variable").open_group("max_speed").has_attr("censored"));
+  EXPECT_EQ(all.read_doubles("stop_points").size(), 16u);
 }
 
 TEST_F(Stats, HazardRastersInTerrainCoordinates) {
@@ -257,10 +327,11 @@ TEST_F(Stats, ComparesRunsSideBySide) {
   const Outcome o = run_fast({"whole.h5", "longer.h5", "-o", "out-cmp"});
   ASSERT_EQ(o.code, 0) << o.err;
   const std::string cmp = read_text(dir_ / "out-cmp" / "comparison.csv");
-  // Runouts of 'longer' are those of 'whole' + 5 m. The KS distance of two 11-value
-  // samples is a multiple of 1/11; computed here by brute force over all thresholds.
+  // Runouts of 'longer' are those of 'whole' + 5 m. The KS distance of two 8-value
+  // samples (the realizations at rest) is a multiple of 1/8; computed here by brute force
+  // over all thresholds.
   std::vector<double> a, b;
-  for (std::uint32_t i = 0; i < 11; ++i) {
+  for (std::uint32_t i : resting()) {
     a.push_back(runout_of(i));
     b.push_back(runout_of(i) + 5.0);
   }
@@ -269,9 +340,9 @@ TEST_F(Stats, ComparesRunsSideBySide) {
     for (double x : {t, t + 5.0}) {
       const auto fa = static_cast<double>(std::count_if(a.begin(), a.end(), [&](double v) { return v <= x; }));
       const auto fb = static_cast<double>(std::count_if(b.begin(), b.end(), [&](double v) { return v <= x; }));
-      d = std::max(d, std::abs(fa - fb) / 11.0);
+      d = std::max(d, std::abs(fa - fb) / 8.0);
     }
-  const std::string key = "runout,whole,all,longer,all,11,11,";
+  const std::string key = "runout,whole,all,longer,all,8,8,";
   const auto at = cmp.find("\n" + key);
   ASSERT_NE(at, std::string::npos) << cmp;
   EXPECT_NEAR(std::stod(cmp.substr(at + key.size() + 1)), d, 1e-15);

@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <charconv>
 #include <cstdio>
 #include <cstdlib>
@@ -88,9 +89,37 @@ struct Options {
   bool resume = false;
 };
 
-// Runs the shard of the scene into `output` through its journal.
+// One warning line when realizations of the run file `path` did not end at rest: their
+// count by end reason (a run of blocks that did not stop is not a finished study).
+void warn_unrested(const std::string& path, const std::vector<mc::Record>& records) {
+  constexpr int kReasons = static_cast<int>(dda::EndReason::penetration) + 1;
+  std::array<std::size_t, kReasons> count{};
+  std::size_t unknown = 0;
+  for (const auto& r : records) {
+    const auto k = static_cast<std::size_t>(r.end);
+    if (k < count.size())
+      ++count[k];
+    else
+      ++unknown;
+  }
+  const std::size_t unrested = records.size() - count[static_cast<std::size_t>(dda::EndReason::rest)];
+  if (unrested == 0) return;
+  std::string reasons;
+  for (int k = 0; k < kReasons; ++k) {
+    const auto reason = static_cast<dda::EndReason>(k);
+    if (reason == dda::EndReason::rest || count[static_cast<std::size_t>(k)] == 0) continue;
+    reasons += (reasons.empty() ? "" : ", ") + std::to_string(count[static_cast<std::size_t>(k)]) + " " +
+               std::string(dda::to_string(reason));
+  }
+  if (unknown > 0) reasons += (reasons.empty() ? "" : ", ") + std::to_string(unknown) + " unknown";
+  core::log_warn(path + ": " + std::to_string(unrested) + " of " + std::to_string(records.size()) +
+                 " realizations did not end at rest: " + reasons);
+}
+
+// Runs the shard of the scene into `output` through its journal; with `report_ends`,
+// warns about realizations that did not end at rest.
 void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, const Options& opt,
-               const mc::Shard& shard, const std::string& output) {
+               const mc::Shard& shard, const std::string& output, bool report_ends) {
   const std::string source = inv.config_path.empty() ? "scene" : inv.config_path;
   if (settings.terrain.empty()) throw core::InputError(source, "no terrain file given (key 'terrain')");
   if (settings.block_file.empty()) throw core::InputError(source, "no block file given (key 'block_file')");
@@ -109,10 +138,13 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
   if (!opt.resume && journal_exists)
     throw core::InputError(journal_path, "a journal of an interrupted run exists: add --resume to complete it, "
                                          "or delete it to start afresh");
+  const std::vector<std::uint32_t> all = shard.indices(scene.realizations());
+  // A block released into the ground is refused before any work (and before a journal
+  // exists, which the corrected scene could not resume).
+  if (!opt.resume) mc::check_releases(scene, all, parse_threads(opt.threads));
   io::RunJournal journal = opt.resume ? io::RunJournal::resume(journal_path, info)
                                       : io::RunJournal::create(journal_path, info);
 
-  const std::vector<std::uint32_t> all = shard.indices(scene.realizations());
   const std::vector<std::uint32_t> done = journal.finished();
   std::vector<std::uint32_t> pending;
   std::set_difference(all.begin(), all.end(), done.begin(), done.end(), std::back_inserter(pending));
@@ -140,14 +172,10 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
   const mc::RunData data = journal.read();
   io::write_run_file(output, info, data);
   std::filesystem::remove(journal_path);
-  std::size_t failures = 0;
-  for (const auto& r : data.records) failures += dda::is_failure(r.end) ? 1 : 0;
   core::log_info("ran " + std::to_string(pending.size()) + " realizations in " + core::format_number(seconds) +
                  " s (" + core::format_number(seconds > 0 ? static_cast<double>(pending.size()) / seconds : 0.0) +
                  "/s); wrote " + output);
-  if (failures > 0)
-    core::log_warn(std::to_string(failures) + " of " + std::to_string(data.records.size()) +
-                   " realizations ended in a numerical failure (see records/end_reason)");
+  if (report_ends) warn_unrested(output, data.records);
 }
 
 // The shard file of MPI rank r: "run.h5" → "run.rank1.h5" (its own .xmf sidecar name).
@@ -172,6 +200,7 @@ int merge_main(int argc, char** argv) {
       core::log_warn("the shards hold " + std::to_string(merged.data.records.size()) + " of " +
                      std::to_string(merged.info.realizations) + " realizations");
     io::write_run_file(inv.output, merged.info, merged.data);
+    warn_unrested(inv.output, merged.data.records);
   };
   return cli::run_tool(argc, argv, spec);
 }
@@ -215,7 +244,8 @@ int main(int argc, char** argv) {
   };
   spec.run = [&](const cli::Invocation& inv) {
     if (ranks == 1) {
-      run_scene(settings, inv, opt, opt.shard.empty() ? mc::Shard{} : mc::Shard::parse(opt.shard), inv.output);
+      run_scene(settings, inv, opt, opt.shard.empty() ? mc::Shard{} : mc::Shard::parse(opt.shard), inv.output,
+                true);
       return;
     }
 #ifdef TALUS_WITH_MPI
@@ -226,7 +256,7 @@ int main(int argc, char** argv) {
     std::exception_ptr failure;
     try {
       run_scene(settings, inv, opt, mc::Shard{static_cast<std::uint32_t>(rank), static_cast<std::uint32_t>(ranks)},
-                part);
+                part, false);
     } catch (...) {
       ok = 0;
       failure = std::current_exception();
@@ -245,6 +275,7 @@ int main(int argc, char** argv) {
     }
     const io::RunFile merged = io::merge_run_files(files, names);
     io::write_run_file(inv.output, merged.info, merged.data);
+    warn_unrested(inv.output, merged.data.records);
     for (const auto& n : names) {
       std::filesystem::remove(n);
       std::filesystem::remove(io::xdmf_sidecar_path(n));  // written when trajectories are on

@@ -6,6 +6,7 @@
 #include <limits>
 #include <map>
 #include <set>
+#include <utility>
 
 #include "talus/core/error.hpp"
 #include "talus/core/log.hpp"
@@ -143,19 +144,27 @@ Series make_series(const Run& run, std::size_t run_index, const std::string& blo
   s.run_index = run_index;
   s.realizations = rows.size();
   // Numerically failed realizations carry no trustworthy values: counted, not used.
-  std::vector<std::size_t> good;
-  for (std::size_t r : rows)
+  // Blocks cut by the step limit or gone off the terrain did not stop: where they would
+  // have stopped is unknown (their runout is a lower bound), so they are censored from the
+  // stop-position variables and counted. Their speeds, heights and energies so far are real
+  // and stay in.
+  std::vector<std::size_t> good, stopped;
+  for (std::size_t r : rows) {
     if (!dda::is_failure(records[r].end)) good.push_back(r);
-  const auto column = [&](auto member) {
+    if (records[r].end == dda::EndReason::rest) stopped.push_back(r);
+  }
+  const auto column = [&](auto member, const std::vector<std::size_t>& which) {
     std::vector<double> out;
-    for (std::size_t r : good) out.push_back(records[r].*member);
+    for (std::size_t r : which) out.push_back(records[r].*member);
     return out;
   };
-  s.variables.push_back(summarize("runout", "m", column(&mc::Record::runout), settings));
-  s.variables.push_back(summarize("lateral", "m", column(&mc::Record::lateral), settings));
-  s.variables.push_back(summarize("max_speed", "m/s", column(&mc::Record::max_speed), settings));
-  s.variables.push_back(summarize("max_jump_height", "m", column(&mc::Record::max_jump_height), settings));
-  s.variables.push_back(summarize("max_kinetic_energy", "J", column(&mc::Record::max_kinetic_energy), settings));
+  for (const auto& [name, member] : {std::pair{"runout", &mc::Record::runout}, std::pair{"lateral", &mc::Record::lateral}}) {
+    s.variables.push_back(summarize(name, "m", column(member, stopped), settings));
+    s.variables.back().censored = good.size() - stopped.size();
+  }
+  s.variables.push_back(summarize("max_speed", "m/s", column(&mc::Record::max_speed, good), settings));
+  s.variables.push_back(summarize("max_jump_height", "m", column(&mc::Record::max_jump_height, good), settings));
+  s.variables.push_back(summarize("max_kinetic_energy", "J", column(&mc::Record::max_kinetic_energy, good), settings));
 
   // Barriers: the first crossing of each realization (where a barrier would catch it).
   std::map<std::uint32_t, std::size_t> position_of;  // realization → index in `good`
@@ -182,10 +191,14 @@ Series make_series(const Run& run, std::size_t run_index, const std::string& blo
   const auto fraction = [&](std::string name, std::uint64_t count) {
     s.fractions.push_back({std::move(name), count, static_cast<double>(count) / n});
   };
+  // Stop classes hold the blocks that stopped there, and those that left the terrain
+  // ("out of domain"); a block cut by the step limit or failed stopped nowhere.
   for (std::size_t c = 0; c < info.stop_classes.size(); ++c)
     fraction("stop:" + info.stop_classes[c],
              static_cast<std::uint64_t>(std::count_if(rows.begin(), rows.end(), [&](std::size_t r) {
-               return records[r].stop_class == static_cast<std::int32_t>(c);
+               const dda::EndReason end = records[r].end;
+               return (end == dda::EndReason::rest || end == dda::EndReason::left_terrain) &&
+                      records[r].stop_class == static_cast<std::int32_t>(c);
              })));
   for (std::size_t b = 0; b < barriers; ++b)
     fraction("cross:" + info.barriers[b],
@@ -194,8 +207,14 @@ Series make_series(const Run& run, std::size_t run_index, const std::string& blo
     fraction("runout>=" + core::format_number(d),
              static_cast<std::uint64_t>(std::count_if(good.begin(), good.end(),
                                                       [&](std::size_t r) { return records[r].runout >= d; })));
+  for (int k = static_cast<int>(dda::EndReason::rest); k <= static_cast<int>(dda::EndReason::penetration); ++k) {
+    const auto reason = static_cast<dda::EndReason>(k);
+    fraction("end:" + std::string(dda::to_string(reason)),
+             static_cast<std::uint64_t>(
+                 std::count_if(rows.begin(), rows.end(), [&](std::size_t r) { return records[r].end == reason; })));
+  }
   fraction("numerical_failure", rows.size() - good.size());
-  for (std::size_t r : rows)
+  for (std::size_t r : stopped)
     s.stop_points.push_back({records[r].final_position.x() + shift[0], records[r].final_position.y() + shift[1]});
   return s;
 }

@@ -40,6 +40,9 @@ struct VariableSummary {
   std::vector<double> values;  ///< realization order
   std::optional<stats::Sample> sample;  ///< absent when there is no value
   std::size_t missing = 0;     ///< realizations without a value (no crossing, off the terrain)
+  /// Realizations left out because they did not stop (step limit, left the terrain): their
+  /// value is only a lower bound. Set for the stop-position variables (runout, lateral).
+  std::optional<std::size_t> censored;
   std::vector<double> quantiles;          ///< at Settings::quantiles
   std::vector<stats::Interval> intervals; ///< bootstrap intervals of the quantiles (may be empty)
   double dkw_epsilon = 1.0;               ///< half-width of the CDF band at Settings::confidence
@@ -48,7 +51,7 @@ struct VariableSummary {
 
 /// A fraction of the realizations of a series (stopping in a zone, crossing a barrier …).
 struct Fraction {
-  std::string name;  ///< "stop:bench 1", "cross:toe", "runout>=36", "numerical_failure"
+  std::string name;  ///< "stop:bench 1", "cross:toe", "runout>=36", "end:step_limit", "numerical_failure"
   std::uint64_t count = 0;
   double value = 0.0;  ///< count / realizations
 };
@@ -61,7 +64,8 @@ struct Series {
   std::uint64_t realizations = 0;  ///< records, numerical failures included
   std::vector<VariableSummary> variables;
   std::vector<Fraction> fractions;
-  std::vector<std::array<double, 2>> stop_points;  ///< final plan positions, terrain coordinates (m)
+  /// Final plan positions of the realizations that ended at rest, terrain coordinates (m).
+  std::vector<std::array<double, 2>> stop_points;
 };
 
 /// Two-sample Kolmogorov–Smirnov comparison of one variable between two series.

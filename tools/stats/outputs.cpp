@@ -55,6 +55,7 @@ struct Cell {
 std::vector<Cell> cells_of(const VariableSummary& v, const Settings& settings) {
   std::vector<Cell> out = {{"n", static_cast<double>(v.values.size()), ""},
                            {"missing", static_cast<double>(v.missing), ""}};
+  if (v.censored) out.push_back({"censored", static_cast<double>(*v.censored), ""});
   if (!v.sample) return out;
   const stats::Sample& s = *v.sample;
   out.insert(out.end(), {{"mean", s.mean(), v.unit}, {"sd", s.sd(), v.unit}, {"min", s.min(), v.unit},
@@ -140,6 +141,11 @@ std::vector<WideRow> wide_rows(const Analysis& a) {
     const Series& s = a.series[k];
     find_row("realizations", "n", "").values[k] = std::to_string(s.realizations);
     for (const auto& v : s.variables) {
+      // Which realizations a stop-position distribution holds, and how many it left out.
+      if (v.censored) {
+        find_row(v.name, "n", "").values[k] = std::to_string(v.values.size());
+        find_row(v.name, "censored", "").values[k] = std::to_string(*v.censored);
+      }
       if (!v.sample) continue;
       find_row(v.name, "mean", v.unit).values[k] = shown(v.sample->mean());
       find_row(v.name, "sd", v.unit).values[k] = shown(v.sample->sd());
@@ -211,6 +217,7 @@ void write_variable(const Group& parent, const VariableSummary& v, const Setting
   g.set_attr("unit", v.unit);
   g.set_attr("n", static_cast<std::int64_t>(v.values.size()));
   g.set_attr("missing", static_cast<std::int64_t>(v.missing));
+  if (v.censored) g.set_attr("censored", static_cast<std::int64_t>(*v.censored));
   if (!v.sample) return;
   const stats::Sample& s = *v.sample;
   g.set_attr("mean", s.mean());

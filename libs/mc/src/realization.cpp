@@ -7,6 +7,7 @@
 
 #include "talus/core/error.hpp"
 #include "talus/core/random.hpp"
+#include "talus/mc/clearance.hpp"
 
 namespace talus::mc {
 namespace {
@@ -168,6 +169,41 @@ class Observer {
   std::unordered_map<std::int64_t, std::pair<double, double>> cells_;
 };
 
+// Sets the release height of `block` (orientation already drawn) at plan point `xy`,
+// where the realized ground is at `ground_z` (docs/dda-run.md, "Release clearance").
+void place_block(const Scene& scene, const SceneBlock& block, const terrain::Surface& ground, std::uint32_t index,
+                 const Eigen::Vector2d& xy, double ground_z, dda::Release& rel) {
+  const ReleaseSettings& r = scene.settings().release;
+  using core::format_number;
+  const std::string where = "release of realization " + std::to_string(index) + " at (" + format_number(xy.x()) +
+                            ", " + format_number(xy.y()) + "): block '" + block.name + "'";
+  if (r.height_reference == "lowest_point") {
+    // Lowered from any height onto the ground, then raised by `height`: the clearance
+    // changes by exactly the vertical shift, so one evaluation suffices.
+    rel.position = Vec3(xy.x(), xy.y(), ground_z + block.model.radius);
+    const Clearance c = vertical_clearance(block.model, rel.position, rel.orientation, ground);
+    if (!std::isfinite(c.gap)) throw core::InputError(scene.source(), where + " has no ground under it");
+    rel.position.z() += r.height - c.gap;
+    return;
+  }
+  rel.position = Vec3(xy.x(), xy.y(), ground_z + r.height);
+  const Clearance c = vertical_clearance(block.model, rel.position, rel.orientation, ground);
+  if (!(c.gap < r.clearance_gap)) return;
+  const double raise = r.clearance_gap - c.gap;
+  if (r.clearance == "lift") {
+    rel.position.z() += raise;
+    return;
+  }
+  const std::string point = " (at x " + format_number(c.point.x()) + ", y " + format_number(c.point.y()) + ", z " +
+                            format_number(c.point.z()) + ")";
+  const std::string state = c.gap < 0.0 ? " reaches " + format_number(-c.gap) + " m into the ground" + point
+                                        : " is only " + format_number(c.gap) + " m above the ground" + point +
+                                              ", less than release.clearance_gap " +
+                                              format_number(r.clearance_gap) + " m";
+  throw core::InputError(scene.source(), where + state + ": raise release.height by at least " +
+                                             format_number(raise) + " m, or set release.clearance to lift");
+}
+
 }  // namespace
 
 ReleaseDraw draw_release(const Scene& scene, const terrain::Surface& ground, std::uint32_t index) {
@@ -196,11 +232,10 @@ ReleaseDraw draw_release(const Scene& scene, const terrain::Surface& ground, std
   const Eigen::Vector2d xy = release_point(r.kind, scene.release_zone(), rs);
   const auto hit = ground.height_at(xy.x(), xy.y());
   if (!hit)
-    throw core::InputError("release", "point (" + core::format_number(xy.x()) + ", " +
-                                          core::format_number(xy.y()) + ") of realization " +
-                                          std::to_string(index) + " is outside the terrain");
+    throw core::InputError(scene.source(), "release point (" + core::format_number(xy.x()) + ", " +
+                                               core::format_number(xy.y()) + ") of realization " +
+                                               std::to_string(index) + " is outside the realized terrain");
   dda::Release& rel = draw.release;
-  rel.position = Vec3(xy.x(), xy.y(), hit->z + r.height);
   if (r.orientation == "random") {
     // Uniform random rotation (Shoemake 1992) from three uniforms, with the
     // platform-independent sine and cosine of the random streams.
@@ -216,6 +251,7 @@ ReleaseDraw draw_release(const Scene& scene, const terrain::Surface& ground, std
                       Eigen::AngleAxisd(r.orientation_deg[1] * k, Vec3::UnitY()) *
                       Eigen::AngleAxisd(r.orientation_deg[2] * k, Vec3::UnitX());
   }
+  place_block(scene, scene.blocks()[static_cast<std::size_t>(draw.block)], ground, index, xy, hit->z, rel);
   rel.velocity = Vec3(r.velocity[0], r.velocity[1], r.velocity[2]);
   rel.angular_velocity = Vec3(r.angular_velocity[0], r.angular_velocity[1], r.angular_velocity[2]);
   rel.main_direction = scene.main_direction();

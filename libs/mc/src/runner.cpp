@@ -1,10 +1,13 @@
 #include "talus/mc/runner.hpp"
 
+#include <algorithm>
 #include <atomic>
 #include <condition_variable>
 #include <deque>
 #include <exception>
+#include <limits>
 #include <mutex>
+#include <optional>
 #include <thread>
 
 namespace talus::mc {
@@ -69,6 +72,51 @@ void run_realizations(const Scene& scene, const std::vector<std::uint32_t>& indi
     }
   }
   lock.unlock();
+  for (auto& t : pool) t.join();
+  if (failure) std::rethrow_exception(failure);
+}
+
+void check_releases(const Scene& scene, const std::vector<std::uint32_t>& indices, unsigned threads) {
+  if (indices.empty()) return;
+  if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
+  threads = static_cast<unsigned>(std::min<std::size_t>(threads, indices.size()));
+  const bool rough = scene.settings().stochastic.roughness;
+  std::atomic<std::size_t> next{0};
+  std::mutex mutex;
+  // The failure of the lowest realization index, whatever the thread count.
+  std::uint64_t lowest = std::numeric_limits<std::uint64_t>::max();
+  std::exception_ptr failure;
+
+  auto worker = [&] {
+    // Without roughness every realization stands on the smooth base: one Surface per thread.
+    std::optional<terrain::Surface> smooth;
+    while (true) {
+      const std::size_t k = next.fetch_add(1);
+      if (k >= indices.size()) break;
+      const std::uint32_t index = indices[k];
+      {
+        std::lock_guard lock(mutex);
+        if (index > lowest) continue;
+      }
+      try {
+        if (rough) {
+          draw_release(scene, scene.base_surface().realization(index), index);
+        } else {
+          if (!smooth) smooth.emplace(scene.base_surface().realization(std::nullopt));
+          draw_release(scene, *smooth, index);
+        }
+      } catch (...) {
+        std::lock_guard lock(mutex);
+        if (index < lowest) {
+          lowest = index;
+          failure = std::current_exception();
+        }
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  pool.reserve(threads);
+  for (unsigned t = 0; t < threads; ++t) pool.emplace_back(worker);
   for (auto& t : pool) t.join();
   if (failure) std::rethrow_exception(failure);
 }

@@ -27,7 +27,16 @@ void ReleaseSettings::visit(core::SettingsVisitor& v) {
   v.choice("kind", kind, {"point", "line", "polygon"},
            "release zone: one point, a polyline (uniform along it) or a polygon (uniform inside)");
   v.field("points", points, "m", "plan [x, y] of the point, the line's vertices or the polygon's");
-  v.field("height", height, "m", "centroid height above the realized ground at the release point");
+  v.field("height", height, "m",
+          "height above the realized ground: of the centroid at the release point (height_reference "
+          "centroid) or of the block's lowest point above the ground under it (lowest_point; 0 = touching)");
+  v.choice("height_reference", height_reference, {"centroid", "lowest_point"},
+           "what height measures: the centroid, or the gap under the block lowered vertically onto the ground");
+  v.choice("clearance", clearance, {"refuse", "lift"},
+           "a centroid-placed block in the ground (or nearer than clearance_gap): refuse the scene, "
+           "or lift the block vertically just enough");
+  v.field("clearance_gap", clearance_gap, "m",
+          "vertical gap required between a centroid-placed block and the ground (refused or lifted below it)");
   v.choice("orientation", orientation, {"random", "fixed"},
            "block orientation: uniform random rotation per realization, or orientation_deg");
   v.field("orientation_deg", orientation_deg, "deg",
@@ -145,6 +154,11 @@ void check_release(const SceneSettings& s, const terrain::Surface& base, const s
                                    format_number(b.lo.x()) + ", " + format_number(b.hi.x()) + "], y in [" +
                                    format_number(b.lo.y()) + ", " + format_number(b.hi.y()) + "])");
   if (!std::isfinite(r.height)) throw InputError(source, "release.height must be finite");
+  if (r.height_reference == "lowest_point" && r.height < 0.0)
+    throw InputError(source, "release.height " + format_number(r.height) +
+                                 " m is negative: with height_reference lowest_point it is the gap under the block");
+  if (!(r.clearance_gap >= 0.0) || !std::isfinite(r.clearance_gap))
+    throw InputError(source, "release.clearance_gap must be finite and >= 0, got " + format_number(r.clearance_gap));
   for (double c : r.velocity)
     if (!std::isfinite(c)) throw InputError(source, "release.velocity must be finite");
   for (double c : r.angular_velocity)
@@ -181,6 +195,7 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
                    const std::vector<block::Block>& library, const std::string& source) {
   Scene scene;
   scene.settings_ = settings;
+  scene.source_ = source;
   const SceneSettings& s = scene.settings_;
 
   {
@@ -225,10 +240,6 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
     SceneBlock sb{b->name, dda::Model::build(engine, b->polyhedron), b->weight};
     if (s.block_selection == "weighted" && !(sb.weight > 0.0 && std::isfinite(sb.weight)))
       throw InputError(source, "block '" + b->name + "' has a non-positive sampling weight");
-    if (!(s.release.height > sb.model.radius))
-      throw InputError(source, "release.height " + format_number(s.release.height) +
-                                   " m puts block '" + b->name + "' into the ground (its circumscribed radius is " +
-                                   format_number(sb.model.radius) + " m)");
     scene.blocks_.push_back(std::move(sb));
   }
 

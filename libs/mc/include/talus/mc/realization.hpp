@@ -80,10 +80,14 @@ struct RealizationResult {
 /// realization `index`, the release draws of Stream::release, the block of
 /// Stream::block_shape (weighted selection) and the impact draws of Stream::impact, all
 /// keyed by the scene seed (the terrain's own seed for roughness). Throws
-/// core::InputError if the release point falls outside the realized terrain.
+/// core::InputError as draw_release does.
 RealizationResult run_realization(const Scene& scene, std::uint32_t index);
 
-/// The release of realization `index` and its block (exposed for tests).
+/// The release of realization `index` and its block on its realized `ground`: plan point
+/// and orientation drawn, then the height set by release.height_reference, and a
+/// centroid-placed block within release.clearance_gap of the ground (or in it) lifted or
+/// refused by release.clearance. Throws core::InputError (the scene's source) naming the
+/// realization when the release point is off the realized terrain or the block is refused.
 struct ReleaseDraw {
   std::int32_t block = 0;
   dda::Release release;

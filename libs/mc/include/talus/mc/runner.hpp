@@ -16,4 +16,10 @@ namespace talus::mc {
 void run_realizations(const Scene& scene, const std::vector<std::uint32_t>& indices,
                       unsigned threads, const std::function<void(RealizationResult&&)>& on_done);
 
+/// Draws the release of every realization in `indices` on its realized terrain (on
+/// `threads` threads, 0 = one per hardware thread) and throws the core::InputError of the
+/// lowest failing index, if any: a release in the ground or off the terrain is refused
+/// before any realization runs.
+void check_releases(const Scene& scene, const std::vector<std::uint32_t>& indices, unsigned threads);
+
 }  // namespace talus::mc

@@ -37,7 +37,18 @@ struct MaterialOverride {
 struct ReleaseSettings {
   std::string kind = "point";  ///< "point" (1 point), "line" (polyline, ≥ 2), "polygon" (≥ 3)
   std::vector<std::array<double, 2>> points = {{1.0, 20.0}};  ///< plan coordinates (m)
-  double height = 2.5;          ///< centroid above the realized ground at the release point (m)
+  /// Height above the realized ground (m): of the centroid at the release point
+  /// (height_reference "centroid"), or of the block's lowest contact point above the
+  /// ground under it ("lowest_point").
+  double height = 2.5;
+  /// "centroid": `height` places the centroid; "lowest_point": the block is lowered
+  /// vertically until it touches the ground, then raised by `height` (0 = resting on it).
+  std::string height_reference = "centroid";
+  /// A centroid-placed block closer to the ground than clearance_gap (or in it):
+  /// "refuse" (an error naming the realization) or "lift" (raised vertically just enough).
+  std::string clearance = "refuse";
+  /// Vertical gap required between a centroid-placed block and the ground (m), ≥ 0.
+  double clearance_gap = 0.0;
   std::string orientation = "random";  ///< "random" (uniform over rotations) or "fixed"
   /// Fixed orientation as z-y-x Euler angles (yaw about z, then pitch about y, roll about x) (deg).
   std::array<double, 3> orientation_deg = {0.0, 0.0, 0.0};
@@ -136,12 +147,15 @@ class Scene {
   /// Validates `settings` against the loaded terrain and blocks and builds the scene.
   /// `source` names the scene in messages. Throws core::InputError with a one-line reason:
   /// wrong schema major, non-positive counts, unknown block or material names, release
-  /// points outside the terrain, a release height that puts a block into the ground,
-  /// degenerate lines, zones or polygons, bad engine settings.
+  /// points outside the terrain, a non-finite or (lowest_point) negative release height,
+  /// degenerate lines, zones or polygons, bad engine settings. Whether a block starts in
+  /// the ground depends on the realization: draw_release checks it.
   static Scene build(const SceneSettings& settings, terrain::Terrain terrain,
                      const std::vector<block::Block>& library, const std::string& source);
 
   const SceneSettings& settings() const { return settings_; }
+  /// The scene's name in messages (its file).
+  const std::string& source() const { return source_; }
   const terrain::Terrain& terrain() const { return *terrain_; }
   const std::vector<terrain::Material>& materials() const { return materials_; }
   const std::vector<SceneBlock>& blocks() const { return blocks_; }
@@ -162,6 +176,7 @@ class Scene {
 
  private:
   SceneSettings settings_;
+  std::string source_;
   std::unique_ptr<terrain::Terrain> terrain_;
   std::unique_ptr<terrain::Surface> base_;
   std::vector<terrain::Material> materials_;

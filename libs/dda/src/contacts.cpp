@@ -186,11 +186,18 @@ void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& wo
   // terrain edge from it must leave on the outer side of the face plane. A vertex of flat
   // or concave ground (a grid node under a sliding cube) is no spike: without this test
   // it would take a side face's horizontal normal and trip the block.
+  // A vertex of ground that is flat around it is no spike either: the block's own
+  // vertices on that plane carry the face, and a redundant spring inside the face only
+  // makes the contact states ambiguous.
   auto spike_towards = [&](const TerrainPatch::Vertex& tv, const Vec3& face_normal_body) {
     const Vec3 n = pose.rotation * face_normal_body;
-    for (std::int32_t k = tv.first; k < tv.first + tv.count; ++k)
-      if (patch.neighbours[static_cast<std::size_t>(k)].dot(n) < -1e-6) return false;
-    return true;
+    bool falls_away = false;
+    for (std::int32_t k = tv.first; k < tv.first + tv.count; ++k) {
+      const double along = patch.neighbours[static_cast<std::size_t>(k)].dot(n);
+      if (along < -1e-6) return false;
+      falls_away = falls_away || along > 1e-6;
+    }
+    return falls_away;
   };
   for (const TerrainPatch::Vertex& tv : patch.vertices) {
     if (prune && !contains(reach, tv.p)) continue;

@@ -348,9 +348,16 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
       Vec3 slip = c.slip_direction;
       bool restick = false;
       if (c.mode == ContactMode::open) {
-        if (g < 0.0)
+        // Without friction a closed contact only slides: no shear spring at all.
+        if (g < 0.0 && !(friction > 0.0)) {
+          next = ContactMode::sliding;
+          const Vec3 du = w.t * d;
+          const Vec3 ut = du - c.normal * c.normal.dot(du);
+          if (c.slip_direction.squaredNorm() == 0.0 && ut.norm() > 0.0) slip = ut.normalized();
+        } else if (g < 0.0) {
           next = c.resume == ContactMode::sliding && c.slip_direction.squaredNorm() > 0.0 ? ContactMode::sliding
                                                                                           : ContactMode::locked;
+        }
       } else if (g >= 0.0) {
         next = ContactMode::open;
       } else if (c.mode == ContactMode::locked) {
@@ -384,6 +391,7 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
             continue;
           }
           next = ContactMode::locked;  // the re-stick below pre-stretches it to the limit
+          if (!(friction > 0.0)) continue;  // nothing to stick with: it keeps sliding
         } else {
           // Cycling between open and closed: the contact carries almost no load (a closed
           // state in tension against an open one that penetrates). A contact touching at
@@ -425,7 +433,8 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
       }
       visited[i] |= bit(next);
       changed = true;
-      if (next == ContactMode::sliding && (c.mode != ContactMode::sliding)) c.slip_direction = slip;
+      if (next == ContactMode::sliding && (c.mode != ContactMode::sliding || c.slip_direction.squaredNorm() == 0.0))
+        c.slip_direction = slip;
       if (next == ContactMode::open) c.resume = c.mode;
       if (restick) {
         // The friction would reverse the slip: the contact sticks. Its shear spring

@@ -101,13 +101,14 @@ done
 
 # ------------------------------------------------------------------ realizations per mode
 # n_main: ordinary cases; n_analytic: each analytic configuration; n_costly: cases whose
-# realizations cost seconds (time step 1e-5 s, 12-DOF).
+# realizations cost about a second or more (the rocks of 1280 and 2880 triangles, time
+# step 1e-5 s, 12-DOF).
 case $mode in
   ci) n_main=4; n_analytic=2; n_costly=1 ;;
-  quick) n_main=24; n_analytic=3; n_costly=4 ;;
-  full) n_main=200; n_analytic=8; n_costly=20 ;;
+  quick) n_main=24; n_analytic=3; n_costly=6 ;;
+  full) n_main=200; n_analytic=8; n_costly=40 ;;
 esac
-if [ $sanitized = 1 ]; then n_main=1; n_analytic=1; n_costly=0; fi
+if [ $sanitized = 1 ]; then n_main=1; n_analytic=1; n_costly=1; fi
 
 # ------------------------------------------------------------------ inputs
 log_step() { echo "stress: $*" >&2; }
@@ -290,7 +291,8 @@ for b in "${shapes[@]}"; do
   for s in "${shape_levels[@]}"; do
     # The needle's circumscribed radius is 2.5 m: release it higher.
     h=2.5; [ "$b" = needle ] && h=3.5
-    queue shape "$b-$s" "$n_main" terrain="$I/bench-$s.h5" block_file="$I/shapes.h5" "blocks=[$b]" \
+    n=$n_main; [[ $b == rock-* ]] && n=$n_costly
+    queue shape "$b-$s" "$n" terrain="$I/bench-$s.h5" block_file="$I/shapes.h5" "blocks=[$b]" \
       release.kind=line "$line_bench" release.height=$h
   done
 done
@@ -355,9 +357,11 @@ if want_group landing; then
   done
 fi
 
-# --- numerics: contact stiffness and time step over their range, R1-R4 on the bench slope
-# S2. Each entry is a KEY=VALUE list for dda-run (comma-separated): edit these lists to
-# sweep another stiffness setting (e.g. a relative stiffness) the engine may offer.
+# --- numerics: contact stiffness and time step over their range, for R1-R4 (1 m^3) on the
+# bench slope S2, the 1e-3 m^3 cube on the same slope and (stiffness only) the 1000 m^3
+# cube on the big slope S2: a fixed stiffness in N/m means very different springs for
+# 2.8 kg and 2.8e6 kg. Each entry is a KEY=VALUE list for dda-run (comma-separated): edit
+# these lists to sweep another stiffness setting (e.g. a relative one) the engine may offer.
 stiffness_sweep=(engine.penalty_stiffness=1e9 engine.penalty_stiffness=1e10 engine.penalty_stiffness=1e11
                  engine.penalty_stiffness=1e12 engine.penalty_stiffness=1e13 engine.penalty_stiffness=1e14
                  engine.penalty_stiffness=1e15)
@@ -365,17 +369,29 @@ stiffness_sweep=(engine.penalty_stiffness=1e9 engine.penalty_stiffness=1e10 engi
 # step below 1 ms.
 time_step_sweep=(engine.time_step=1e-5,engine.max_steps=3500000 engine.time_step=1e-4,engine.max_steps=350000
                  engine.time_step=1e-3 engine.time_step=1e-2)
+numerics_subjects=(R1-R4 cube-0.001 cube-1000)
 if [ $mode = ci ]; then
   stiffness_sweep=(engine.penalty_stiffness=1e9 engine.penalty_stiffness=1e15)
   time_step_sweep=(engine.time_step=1e-2)
+  numerics_subjects=(R1-R4)
 fi
-for entry in "${stiffness_sweep[@]}" "${time_step_sweep[@]}"; do
-  IFS=, read -r -a kvs <<< "$entry"
-  name=$(printf '%s' "${kvs[0]#engine.}" | tr '=' '-')
-  n=$n_main
-  [[ $entry == *time_step=1e-5* ]] && n=$n_costly
-  queue numerics "$name" "$n" terrain="$I/bench-S2.h5" block_file="$I/platonic.h5" \
-    release.kind=line "$line_bench" "${kvs[@]}"
+for subject in "${numerics_subjects[@]}"; do
+  case $subject in
+    R1-R4) where=(terrain="$I/bench-S2.h5" block_file="$I/platonic.h5" release.kind=line "$line_bench") ;;
+    cube-0.001) where=(terrain="$I/bench-S2.h5" block_file="$I/cubes.h5" "blocks=[$subject]" release.kind=line
+                       "$line_bench") ;;
+    cube-1000) where=(terrain="$I/big-S2.h5" block_file="$I/cubes.h5" "blocks=[$subject]" release.kind=line
+                      'release.points=[[10,40],[10,360]]' release.height=25) ;;
+  esac
+  entries=("${stiffness_sweep[@]}")
+  [ "$subject" != cube-1000 ] && entries+=("${time_step_sweep[@]}")
+  for entry in "${entries[@]}"; do
+    IFS=, read -r -a kvs <<< "$entry"
+    name=$(printf '%s' "${kvs[0]#engine.}" | tr '=' '-')
+    n=$n_main
+    [[ $entry == *time_step=1e-5* ]] && n=$n_costly
+    queue numerics "$subject-$name" "$n" "${where[@]}" "${kvs[@]}"
+  done
 done
 # The 12-DOF path (strains) on the same slope.
 if [ $mode != ci ]; then
@@ -440,9 +456,10 @@ if want_group analytic; then
     done
   done
   # Landing and sticking: mu = 0.6 > tan 30 deg. Dropped face-down (centroid 1 cm above
-  # the circumscribed radius: 0.30 m above touching), run 10 s with the rest ending off
-  # (rest_kinetic_energy 0) and the centroid sampled every 10 ms; the drift is the largest
-  # distance from the final position over the last 5 s.
+  # the circumscribed radius: 0.30 m above touching), run 12 000 steps of at most 1 ms
+  # (about 10 s: steps are cut at impacts) with the rest ending off (rest_kinetic_energy 0)
+  # and the centroid sampled every 10 ms; the drift is the largest distance from the final
+  # position over the last 5 s.
   for terrain in alternating tin; do
     for yaw in "${stick_yaws[@]}"; do
       o=$(py orient slope-face --angle $theta --yaw "$yaw")
@@ -452,7 +469,7 @@ if want_group analytic; then
         "materials=[{name: ground, friction_angle_mean_deg: $(atan_deg 0.6)}]" \
         release.kind=line "$slide_line" release.height=0.8760254037844386 release.orientation=fixed \
         "release.orientation_deg=$o" stochastic.roughness=false stochastic.restitution=false \
-        stochastic.friction=false stochastic.lateral_tilt=false engine.time_step=1e-3 engine.max_steps=10000 \
+        stochastic.friction=false stochastic.lateral_tilt=false engine.time_step=1e-3 engine.max_steps=12000 \
         engine.rest_kinetic_energy=0 engine.trajectory_interval=0.01
     done
   done

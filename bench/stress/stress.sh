@@ -412,10 +412,11 @@ else
   rest_release=("release.height=$(awk -v a=$half_edge -v t=$theta 'BEGIN { printf "%.17g", a / cos(t * atan2(0, -1) / 180) + 1e-6 }')")
 fi
 case $mode in
-  ci) slide_yaws=(0 45); slide_cuts=(alternating); slide_mus=(0 0.2); stick_yaws=(0) ;;
-  quick) slide_yaws=(0 30 45 60 90); slide_cuts=(alternating random fixed); slide_mus=(0 0.2); stick_yaws=(0 45) ;;
+  ci) slide_yaws=(0 45); slide_cuts=(alternating); slide_mus=(0 0.2); stick_yaws=(0); analytic_dofs=(rigid6) ;;
+  quick) slide_yaws=(0 30 45 60 90); slide_cuts=(alternating random fixed); slide_mus=(0 0.2); stick_yaws=(0 45)
+         analytic_dofs=(rigid6) ;;
   full) slide_yaws=(0 15 30 45 60 75 90); slide_cuts=(alternating random fixed); slide_mus=(0 0.2)
-        stick_yaws=(0 20 45 70) ;;
+        stick_yaws=(0 20 45 70); analytic_dofs=(rigid6 full12) ;;
 esac
 # Release line across the plane at an angle to the lattice: each realization starts at
 # another offset from the node lines, and the cube slides across node lines (x) and
@@ -423,54 +424,59 @@ esac
 slide_line='release.points=[[10.3,2.2],[11.7,7.9]]'
 atan_deg() { awk -v m="$1" 'BEGIN { printf "%.17g", atan2(m, 1) * 180 / atan2(0, -1) }'; }
 if want_group analytic; then
-  for cut in "${slide_cuts[@]}"; do
-    for mu in "${slide_mus[@]}"; do
-      for yaw in "${slide_yaws[@]}"; do
-        o=$(py orient slope-face --angle $theta --yaw "$yaw")
-        queue analytic "slide-$cut-mu$mu-yaw$yaw" "$n_analytic" \
-          --analytic "{\"kind\": \"slide\", \"angle\": $theta, \"mu\": $mu, \"target\": 1e-3, \"from_rest\": true}" \
-          terrain="$I/analytic-$cut.h5" block_file="$I/cubes.h5" "blocks=[cube-1]" \
-          "materials=[{name: ground, friction_angle_mean_deg: $(atan_deg "$mu")}]" \
-          release.kind=line "$slide_line" "${rest_release[@]}" release.orientation=fixed \
-          "release.orientation_deg=$o" stochastic.roughness=false stochastic.restitution=false \
-          stochastic.friction=false stochastic.lateral_tilt=false engine.time_step=1e-3 engine.max_steps=1000
+  # Both DOF paths in --full: the 12-DOF path adds the block's strains.
+  for dof in "${analytic_dofs[@]}"; do
+    sfx=""; [ "$dof" = rigid6 ] || sfx="-$dof"
+    for cut in "${slide_cuts[@]}"; do
+      for mu in "${slide_mus[@]}"; do
+        for yaw in "${slide_yaws[@]}"; do
+          o=$(py orient slope-face --angle $theta --yaw "$yaw")
+          queue analytic "slide-$cut-mu$mu-yaw$yaw$sfx" "$n_analytic" \
+            --analytic "{\"kind\": \"slide\", \"angle\": $theta, \"mu\": $mu, \"target\": 1e-3, \"from_rest\": true}" \
+            terrain="$I/analytic-$cut.h5" block_file="$I/cubes.h5" "blocks=[cube-1]" \
+            "materials=[{name: ground, friction_angle_mean_deg: $(atan_deg "$mu")}]" \
+            release.kind=line "$slide_line" "${rest_release[@]}" release.orientation=fixed \
+            "release.orientation_deg=$o" stochastic.roughness=false stochastic.restitution=false \
+            stochastic.friction=false stochastic.lateral_tilt=false engine.time_step=1e-3 engine.max_steps=1000 \
+            engine.dof="$dof"
+        done
       done
     done
-  done
-  # Frictionless slide after the smallest drop dda-run accepts today (centroid 1 mm above
-  # the circumscribed radius), with the restitution law off: no force has a component
-  # along a frictionless plane, so the along-slope distance is g sin(theta) T^2 / 2 however
-  # the cube bounces; T is the simulated time of the 1000 steps (cut at each touch).
-  for cut in "${slide_cuts[@]}"; do
-    for yaw in "${slide_yaws[@]}"; do
-      [ $mode = ci ] && [ "$yaw" != 0 ] && continue
-      o=$(py orient slope-face --angle $theta --yaw "$yaw")
-      queue analytic "slide-drop-$cut-mu0-yaw$yaw" "$n_analytic" \
-        --analytic "{\"kind\": \"slide\", \"angle\": $theta, \"mu\": 0, \"target\": 1e-3}" \
-        terrain="$I/analytic-$cut.h5" block_file="$I/cubes.h5" "blocks=[cube-1]" \
-        "materials=[{name: ground, friction_angle_mean_deg: 0}]" \
-        release.kind=line "$slide_line" release.height=0.8670254037844386 release.orientation=fixed \
-        "release.orientation_deg=$o" stochastic.roughness=false stochastic.restitution=false \
-        stochastic.friction=false stochastic.lateral_tilt=false engine.restitution=off \
-        engine.time_step=1e-3 engine.max_steps=1000
+    # Frictionless slide after the smallest drop dda-run accepts today (centroid 1 mm above
+    # the circumscribed radius), with the restitution law off: no force has a component
+    # along a frictionless plane, so the along-slope distance is g sin(theta) T^2 / 2 however
+    # the cube bounces; T is the simulated time of the 1000 steps (cut at each touch).
+    for cut in "${slide_cuts[@]}"; do
+      for yaw in "${slide_yaws[@]}"; do
+        [ $mode = ci ] && [ "$yaw" != 0 ] && continue
+        o=$(py orient slope-face --angle $theta --yaw "$yaw")
+        queue analytic "slide-drop-$cut-mu0-yaw$yaw$sfx" "$n_analytic" \
+          --analytic "{\"kind\": \"slide\", \"angle\": $theta, \"mu\": 0, \"target\": 1e-3}" \
+          terrain="$I/analytic-$cut.h5" block_file="$I/cubes.h5" "blocks=[cube-1]" \
+          "materials=[{name: ground, friction_angle_mean_deg: 0}]" \
+          release.kind=line "$slide_line" release.height=0.8670254037844386 release.orientation=fixed \
+          "release.orientation_deg=$o" stochastic.roughness=false stochastic.restitution=false \
+          stochastic.friction=false stochastic.lateral_tilt=false engine.restitution=off \
+          engine.time_step=1e-3 engine.max_steps=1000 engine.dof="$dof"
+      done
     done
-  done
-  # Landing and sticking: mu = 0.6 > tan 30 deg. Dropped face-down (centroid 1 cm above
-  # the circumscribed radius: 0.30 m above touching), run 12 000 steps of at most 1 ms
-  # (about 10 s: steps are cut at impacts) with the rest ending off (rest_kinetic_energy 0)
-  # and the centroid sampled every 10 ms; the drift is the largest distance from the final
-  # position over the last 5 s.
-  for terrain in alternating tin; do
-    for yaw in "${stick_yaws[@]}"; do
-      o=$(py orient slope-face --angle $theta --yaw "$yaw")
-      queue analytic "stick-$terrain-yaw$yaw" "$n_analytic" \
-        --analytic '{"kind": "stick", "window": 5, "target": 1e-6}' \
-        terrain="$I/analytic-$terrain.h5" block_file="$I/cubes.h5" "blocks=[cube-1]" \
-        "materials=[{name: ground, friction_angle_mean_deg: $(atan_deg 0.6)}]" \
-        release.kind=line "$slide_line" release.height=0.8760254037844386 release.orientation=fixed \
-        "release.orientation_deg=$o" stochastic.roughness=false stochastic.restitution=false \
-        stochastic.friction=false stochastic.lateral_tilt=false engine.time_step=1e-3 engine.max_steps=12000 \
-        engine.rest_kinetic_energy=0 engine.trajectory_interval=0.01
+    # Landing and sticking: mu = 0.6 > tan 30 deg. Dropped face-down (centroid 1 cm above
+    # the circumscribed radius: 0.30 m above touching), run 12 000 steps of at most 1 ms
+    # (about 10 s: steps are cut at impacts) with the rest ending off (rest_kinetic_energy 0)
+    # and the centroid sampled every 10 ms; the drift is the largest distance from the final
+    # position over the last 5 s.
+    for terrain in alternating tin; do
+      for yaw in "${stick_yaws[@]}"; do
+        o=$(py orient slope-face --angle $theta --yaw "$yaw")
+        queue analytic "stick-$terrain-yaw$yaw$sfx" "$n_analytic" \
+          --analytic '{"kind": "stick", "window": 5, "target": 1e-6}' \
+          terrain="$I/analytic-$terrain.h5" block_file="$I/cubes.h5" "blocks=[cube-1]" \
+          "materials=[{name: ground, friction_angle_mean_deg: $(atan_deg 0.6)}]" \
+          release.kind=line "$slide_line" release.height=0.8760254037844386 release.orientation=fixed \
+          "release.orientation_deg=$o" stochastic.roughness=false stochastic.restitution=false \
+          stochastic.friction=false stochastic.lateral_tilt=false engine.time_step=1e-3 engine.max_steps=12000 \
+          engine.rest_kinetic_energy=0 engine.trajectory_interval=0.01 engine.dof="$dof"
+      done
     done
   done
 fi

@@ -366,6 +366,8 @@ def evaluate(c):
             if col == "invariant_violations":
                 failed |= vals > 0
     res["failures"] = int(failed.sum())
+    # The first failing realization indices, to rerun them.
+    res["failed_realizations"] = [int(i) for i in np.asarray(run["realization"])[failed][:4]]
     if rc != 0:
         res["status"] = "ERROR"
         res["note"] = "dda-run exit %d" % rc
@@ -374,6 +376,8 @@ def evaluate(c):
         res["note"] = "%d records for %d realizations" % (n, c["realizations"])
     elif res["failures"]:
         res["status"] = "FAIL"
+        res["note"] = "realizations " + ", ".join(map(str, res["failed_realizations"])) + \
+            (" …" if res["failures"] > len(res["failed_realizations"]) else "")
     meta = c.get("analytic")
     if meta:
         res["analytic"] = analytic_slide(meta, run) if meta["kind"] == "slide" else analytic_stick(meta, run)

@@ -207,7 +207,8 @@ blocks:
   - {name: slab, solid: box, dimensions: [2, 1, 0.5]}
   - {name: plate, solid: box, dimensions: [2, 2, 0.1]}
   - {name: rock-obj, mesh: rock.obj, volume: 1}
-  - {name: rock-ellipsoid, solid: ellipsoid, dimensions: [1.6, 1.2, 0.9], resolution: 12, roughness: 0.12, volume: 1, seed: 4}
+  - {name: rock-ellipsoid, solid: ellipsoid, dimensions: [1.6, 1.2, 0.9], resolution: 12, roughness: 0.12,
+     volume: 1, seed: 4}
   - {name: tetrahedron, solid: tetrahedron, volume: 1}
   - {name: cube, solid: cube, volume: 1}
   - {name: octahedron, solid: octahedron, volume: 1}
@@ -409,7 +410,8 @@ half_edge=0.5
 if "$bin/dda-run" --print-config | grep -q 'height_reference'; then
   rest_release=(release.height_reference=lowest_point release.height=1e-6)
 else
-  rest_release=("release.height=$(awk -v a=$half_edge -v t=$theta 'BEGIN { printf "%.17g", a / cos(t * atan2(0, -1) / 180) + 1e-6 }')")
+  h=$(awk -v a=$half_edge -v t=$theta 'BEGIN { printf "%.17g", a / cos(t * atan2(0, -1) / 180) + 1e-6 }')
+  rest_release=("release.height=$h")
 fi
 case $mode in
   ci) slide_yaws=(0 45); slide_cuts=(alternating); slide_mus=(0 0.2); stick_yaws=(0); analytic_dofs=(rigid6) ;;
@@ -521,7 +523,8 @@ elapsed=$(( $(date +%s) - start ))
 
 # ------------------------------------------------------------------ report
 version=$("$bin/dda-run" --version 2>&1 | head -1)
-heading="stress suite ($mode$([ $sanitized = 1 ] && echo ', sanitized'); $ncase cases): $version, $(date -u +%Y-%m-%d), nproc $(nproc), jobs $jobs, ${elapsed} s wall"
+label=$mode; [ $sanitized = 1 ] && label="$mode, sanitized"
+heading="stress suite ($label; $ncase cases): $version, $(date -u +%Y-%m-%d), nproc $(nproc), jobs $jobs, ${elapsed} s wall"
 status=0
 if [ $markdown = 1 ]; then
   echo "$heading"; echo

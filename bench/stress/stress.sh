@@ -15,6 +15,9 @@
 # on one core), --full (many realizations per case, tens of minutes). docs/benchmarks.md
 # ("Numerical stress suite") lists the cases.
 set -euo pipefail
+# The whole script is one compound command, read before any of it runs: editing this file
+# while a long run is going cannot change what that run does.
+{
 
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 repo=$(cd "$here/../.." && pwd)
@@ -30,12 +33,13 @@ markdown=0
 sanitized=0
 
 usage() {
-  sed -n '2,17p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'
+  # The header comment of this file, without the '#'.
+  awk 'NR > 1 && !/^#/ { exit } NR > 1 { sub(/^# ?/, ""); print }' "${BASH_SOURCE[0]}"
   cat <<'EOF'
 Options:
   --ci | --quick | --full   case set and realizations per case (default --quick)
-  --sanitized               with --ci: one realization per case and no costly case, for
-                            ASan/UBSan builds (about 10x slower)
+  --sanitized               one realization per case, for ASan/UBSan builds (about ten
+                            times slower); CTest adds it to --ci under TALUS_SANITIZE
   --bin DIR                 directory of terrain-gen, block-gen, dda-run (default build/bin)
   --out DIR                 work directory (default out/stress-MODE); its inputs/, cases/
                             and runs/ are rewritten
@@ -49,6 +53,10 @@ EOF
 }
 
 while [ $# -gt 0 ]; do
+  case $1 in
+    --bin|--out|--jobs|--groups)
+      [ $# -ge 2 ] || { echo "stress.sh: $1 needs a value (see --help)" >&2; exit 2; } ;;
+  esac
   case $1 in
     --ci) mode=ci ;;
     --quick) mode=quick ;;
@@ -534,3 +542,4 @@ else
   py report "$out/cases" | tee "$out/report.txt" || status=$?
 fi
 exit $status
+}

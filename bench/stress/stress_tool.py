@@ -18,6 +18,7 @@ import argparse
 import json
 import math
 import os
+import re
 import sys
 
 import numpy as np
@@ -254,6 +255,12 @@ def read_run(path):
         if "trajectories" in f:
             tr = f["trajectories"]
             out["_traj"] = {k: tr[k][:] for k in ("realization", "time", "position") if k in tr}
+        # The gravity the run used, from its effective settings (docs/formats.md, provenance).
+        settings = f["provenance"].attrs.get("settings_yaml", "") if "provenance" in f else ""
+        if isinstance(settings, bytes):
+            settings = settings.decode()
+        m = re.search(r"^\s*gravity:\s*([-+0-9.eE]+)", settings, re.MULTILINE)
+        out["_gravity"] = float(m.group(1)) if m else None
     return out
 
 
@@ -263,7 +270,9 @@ def analytic_slide(meta, run):
     Distance = (final - release) . downslope unit vector; also runout / cos t."""
     theta = math.radians(float(meta["angle"]))
     mu = float(meta["mu"])
-    g = float(meta.get("gravity", 9.81))
+    g = run["_gravity"]
+    if g is None:
+        sys.exit("report: %s: no engine gravity in the run file's settings" % meta.get("case", "analytic case"))
     down = np.array([math.cos(theta), 0.0, -math.sin(theta)])
     rows = []
     for k in range(len(run["end_reason"])):

@@ -428,6 +428,11 @@ def combine(acc, col, v):
         acc[col] = acc[col] + v if how == "sum" else max(acc[col], v)
 
 
+def analytic_family(name):
+    """Analytic cases grouped for the summary: the name without its yaw (and friction)."""
+    return re.sub(r"-yaw[0-9.]+", "", name)
+
+
 def cmd_report(args):
     results = [evaluate(c) for c in load_cases(args.cases)]
     opt_cols = [col for col, _ in OPTIONAL_COLUMNS if any(col in r["optional"] for r in results)]
@@ -449,42 +454,22 @@ def cmd_report(args):
     table(["group", "case", "realizations"] + END_REASONS + opt_cols + ["failures", "seconds", "status"], rows,
           ["l", "l"] + ["r"] * (1 + len(END_REASONS) + len(opt_cols) + 2) + ["l"])
 
-    # Per group, and the totals.
-    groups = []
-    for res in results:
-        if res["case"]["group"] not in groups:
-            groups.append(res["case"]["group"])
-    rows = []
-    total = {"cases": 0, "records": 0, "failures": 0, "errors": 0, "counts": {r: 0 for r in END_REASONS}, "opt": {}}
-    for g in groups + [None]:
-        sel = [r for r in results if g is None or r["case"]["group"] == g]
-        acc = {"counts": {r: sum(x["counts"][r] for x in sel) for r in END_REASONS}, "opt": {}}
-        for x in sel:
-            for col, v in x["optional"].items():
-                combine(acc["opt"], col, v)
-        cells = [g if g else "total", str(len(sel)), str(sum(x["records"] for x in sel))]
-        cells += [str(acc["counts"][r]) for r in END_REASONS]
-        cells += [fmt_g(acc["opt"].get(col)) for col in opt_cols]
-        cells += [str(sum(x["failures"] for x in sel)), str(sum(x["status"] == "ERROR" for x in sel))]
-        rows.append(cells)
-        if g is None:
-            total = {"cases": len(sel), "records": sum(x["records"] for x in sel),
-                     "failures": sum(x["failures"] for x in sel),
-                     "errors": sum(x["status"] == "ERROR" for x in sel), "counts": acc["counts"], "opt": acc["opt"]}
-    title("Per group:")
-    table(["group", "cases", "realizations"] + END_REASONS + opt_cols + ["failures", "case errors"], rows,
-          ["l"] + ["r"] * (2 + len(END_REASONS) + len(opt_cols) + 2))
-
     # Analytic cases, one row per realization; a case that did not run is one miss.
     misses = 0
     slide_rows, stick_rows = [], []
+    families = {}
     for res in results:
         c = res["case"]
         meta = c.get("analytic")
         if not meta:
             continue
+        fam = families.setdefault(analytic_family(c["name"]), {
+            "kind": meta["kind"], "target": float(meta["target"]), "cases": 0, "realizations": 0, "ok": 0,
+            "miss": 0, "not_run": 0, "values": [], "ends": {}})
+        fam["cases"] += 1
         if res["status"] == "ERROR" and not res.get("analytic"):
             misses += 1
+            fam["not_run"] += 1
             if meta["kind"] == "slide":
                 slide_rows.append([c["name"], "-", "did not run"] + ["-"] * 6 + ["%g" % float(meta["target"]), "MISS"])
             else:
@@ -501,12 +486,17 @@ def cmd_report(args):
                                    "%.9g" % a["measured"], "%.9g" % a["expected"], "%.2e" % a["rel_error"],
                                    "-" if math.isnan(rr) else "%.2e" % rr, "%.1e" % a["lateral"], "%g" % target,
                                    "ok" if ok else "MISS"])
+                fam["values"].append(a["rel_error"])
             else:
                 ok = (a["end"] in ("step_limit", "rest") and not math.isnan(a["drift"]) and a["drift"] <= target)
                 stick_rows.append([c["name"], str(a["realization"]), a["end"], "%.6g" % a["time"],
                                    "%.4g" % a["travel"], "%.2e" % a["drift"], "%.2e" % a["last_second"],
                                    "%g" % target, "ok" if ok else "MISS"])
+                fam["values"].append(a["drift"])
             misses += not ok
+            fam["realizations"] += 1
+            fam["ok" if ok else "miss"] += 1
+            fam["ends"][a["end"]] = fam["ends"].get(a["end"], 0) + 1
     if slide_rows:
         title("Analytic slide: distance along the slope after T s (the record's simulated time) against "
               "g (sin θ − μ cos θ) T²/2; also from runout / cos θ:")
@@ -518,6 +508,46 @@ def cmd_report(args):
               "last 5 s of the run (trajectory samples), and over the last 1 s; moved = release to end:")
         table(["case", "realization", "end", "T (s)", "moved (m)", "drift (m)", "last 1 s (m)", "target",
                "verdict"], stick_rows, ["l", "r", "l", "r", "r", "r", "r", "r", "l"])
+
+    # The summary tables (those docs/benchmarks.md shows): per group, and the analytic
+    # cases per family (all yaws together).
+    groups = []
+    for res in results:
+        if res["case"]["group"] not in groups:
+            groups.append(res["case"]["group"])
+    rows = []
+    for g in groups + [None]:
+        sel = [r for r in results if g is None or r["case"]["group"] == g]
+        counts = {r: sum(x["counts"][r] for x in sel) for r in END_REASONS}
+        opt = {}
+        for x in sel:
+            for col, v in x["optional"].items():
+                combine(opt, col, v)
+        cells = [g if g else "total", str(len(sel)), str(sum(x["records"] for x in sel))]
+        cells += [str(counts[r]) for r in END_REASONS]
+        cells += [fmt_g(opt.get(col)) for col in opt_cols]
+        cells += [str(sum(x["failures"] for x in sel)), str(sum(x["status"] == "ERROR" for x in sel))]
+        rows.append(cells)
+        if g is None:
+            total = {"cases": len(sel), "records": sum(x["records"] for x in sel), "counts": counts, "opt": opt,
+                     "failures": sum(x["failures"] for x in sel),
+                     "errors": sum(x["status"] == "ERROR" for x in sel)}
+    title("Per group:")
+    table(["group", "cases", "realizations"] + END_REASONS + opt_cols + ["failures", "case errors"], rows,
+          ["l"] + ["r"] * (2 + len(END_REASONS) + len(opt_cols) + 2))
+    if families:
+        rows = []
+        for name, f in families.items():
+            vals = [v for v in f["values"] if not math.isnan(v)]
+            measure = "rel. error" if f["kind"] == "slide" else "drift (m)"
+            rows.append([name, str(f["cases"]), str(f["realizations"]),
+                         ", ".join("%s %d" % kv for kv in sorted(f["ends"].items())) or "-",
+                         str(f["ok"]), str(f["miss"]), str(f["not_run"]), measure,
+                         "%.2e" % float(np.median(vals)) if vals else "-", "%.2e" % max(vals) if vals else "-",
+                         "%g" % f["target"]])
+        title("Analytic cases by family (every yaw together; 'not run': cases without a run file):")
+        table(["family", "cases", "realizations", "ends", "ok", "miss", "not run", "measure", "median",
+               "worst", "target"], rows, ["l", "r", "r", "l", "r", "r", "r", "l", "r", "r", "r"])
 
     summary = "total: %d cases, %d realizations: %s" % (
         total["cases"], total["records"], ", ".join("%s %d" % (r, total["counts"][r]) for r in END_REASONS))

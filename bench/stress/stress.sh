@@ -112,7 +112,7 @@ done
 # realizations cost about a second or more (the rocks of 1280 and 2880 triangles, time
 # step 1e-5 s, 12-DOF).
 case $mode in
-  ci) n_main=4; n_analytic=2; n_costly=1 ;;
+  ci) n_main=8; n_analytic=2; n_costly=1 ;;
   quick) n_main=24; n_analytic=3; n_costly=6 ;;
   full) n_main=200; n_analytic=8; n_costly=40 ;;
 esac
@@ -272,7 +272,7 @@ line_bench='release.points=[[1,4],[1,36]]'
 
 # --- size: cubes of 1e-3 ... 10 m^3 on the bench slope, 1000 m^3 on the big one, S1-S3.
 case $mode in
-  ci) size_volumes=(0.001 1 1000); size_levels=(S2) ;;
+  ci) size_volumes=("${cube_volumes[@]}"); size_levels=(S2) ;;
   *) size_volumes=("${cube_volumes[@]}"); size_levels=(S1 S2 S3) ;;
 esac
 for v in "${size_volumes[@]}"; do
@@ -290,7 +290,7 @@ done
 
 # --- shape: elongated, flat, concave and Platonic blocks on the bench slope.
 case $mode in
-  ci) shapes=(needle plate rock-obj); shape_levels=(S2) ;;
+  ci) shapes=(needle plate rock-obj dodecahedron); shape_levels=(S2) ;;
   quick) shapes=(needle slab plate rock-obj rock-ellipsoid tetrahedron octahedron dodecahedron icosahedron)
          shape_levels=(S2) ;;
   full) shapes=(needle slab plate rock-obj rock-ellipsoid tetrahedron octahedron dodecahedron icosahedron)
@@ -308,7 +308,7 @@ done
 
 # --- terrain: R1-R4 on planes, a cliff, a spiky DEM, a stepped DEM.
 case $mode in
-  ci) terrain_planes=(60-rough); terrain_others=(cliff-rough spikes steps) ;;
+  ci) terrain_planes=(30-smooth 60-rough); terrain_others=(cliff-rough spikes steps) ;;
   *) terrain_planes=(); for a in "${plane_angles[@]}"; do terrain_planes+=("$a-smooth" "$a-rough"); done
      terrain_others=(cliff-smooth cliff-rough spikes steps) ;;
 esac
@@ -345,7 +345,7 @@ fi
 # (against its normal), dropped 5 m on the smooth flat plane and on the smooth 30 deg plane.
 # The yaw turns the block about the ground normal, keeping the feature down.
 case $mode in
-  ci) landing_blocks=(cube); landing_angles=(30); landing_yaws=(20) ;;
+  ci) landing_blocks=(cube dodecahedron); landing_angles=(30); landing_yaws=(20) ;;
   quick) landing_blocks=(tetrahedron cube octahedron dodecahedron icosahedron); landing_angles=(0 30)
          landing_yaws=(20) ;;
   full) landing_blocks=(tetrahedron cube octahedron dodecahedron icosahedron); landing_angles=(0 30)
@@ -382,7 +382,7 @@ numerics_subjects=(R1-R4 cube-0.001 cube-1000)
 if [ $mode = ci ]; then
   stiffness_sweep=(engine.penalty_stiffness=1e9 engine.penalty_stiffness=1e15)
   time_step_sweep=(engine.time_step=1e-2)
-  numerics_subjects=(R1-R4)
+  numerics_subjects=(R1-R4 cube-0.001)
 fi
 for subject in "${numerics_subjects[@]}"; do
   case $subject in

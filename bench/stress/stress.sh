@@ -1,0 +1,545 @@
+#!/usr/bin/env bash
+# Numerical stress suite of the DDA engine, driven only through the public tools
+# (terrain-gen -> block-gen -> dda-run), so it measures what a user sees. It writes every
+# input itself (synthetic slopes, ESRI ASCII DEMs, OBJ meshes, block libraries), runs
+# dda-run on each case with a fixed seed and prints, per case, the realizations by end
+# reason. Numerical failures (end reasons non_finite, no_convergence, penetration, and
+# realizations with invariant_violations > 0 when the run file has that column), cases
+# that leave no complete run file and analytic cases off their target all make the exit
+# status 1. Nothing is hidden: step_limit ends are shown but are not failures.
+#
+#   bench/stress/stress.sh [--ci|--quick|--full] [--bin DIR] [--out DIR] [--jobs N]
+#                          [--groups g1,g2] [--markdown]
+#
+# Modes: --ci (a subset for CTest, under a minute in Release), --quick (default, 2-3 min
+# on one core), --full (many realizations per case, tens of minutes). docs/benchmarks.md
+# ("Numerical stress suite") lists the cases.
+set -euo pipefail
+# The whole script is one compound command, read before any of it runs: editing this file
+# while a long run is going cannot change what that run does.
+{
+
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+repo=$(cd "$here/../.." && pwd)
+tool="$here/stress_tool.py"
+python=${TALUS_PYTHON:-/usr/bin/python3}
+
+mode=quick
+bin="$repo/build/bin"
+out=""
+jobs=$(nproc)
+groups=""
+markdown=0
+sanitized=0
+
+usage() {
+  # The header comment of this file, without the '#'.
+  awk 'NR > 1 && !/^#/ { exit } NR > 1 { sub(/^# ?/, ""); print }' "${BASH_SOURCE[0]}"
+  cat <<'EOF'
+Options:
+  --ci | --quick | --full   case set and realizations per case (default --quick)
+  --sanitized               one realization per case, for ASan/UBSan builds (about ten
+                            times slower); CTest adds it to --ci under TALUS_SANITIZE
+  --bin DIR                 directory of terrain-gen, block-gen, dda-run (default build/bin)
+  --out DIR                 work directory (default out/stress-MODE); its inputs/, cases/
+                            and runs/ are rewritten
+  --jobs N                  dda-run processes at once, one thread each (default nproc)
+  --groups LIST             only these case groups (comma-separated): size, shape,
+                            terrain, impact, landing, numerics, analytic
+  --markdown                print the tables as Markdown (for docs/benchmarks.md)
+Environment: TALUS_PYTHON (default /usr/bin/python3, needs numpy and h5py);
+TALUS_SKIP_STRESS=1 makes the script exit 77 at once (CTest reports the test skipped).
+EOF
+}
+
+while [ $# -gt 0 ]; do
+  case $1 in
+    --bin|--out|--jobs|--groups)
+      [ $# -ge 2 ] || { echo "stress.sh: $1 needs a value (see --help)" >&2; exit 2; } ;;
+  esac
+  case $1 in
+    --ci) mode=ci ;;
+    --quick) mode=quick ;;
+    --full) mode=full ;;
+    --sanitized) sanitized=1 ;;
+    --bin) bin=$2; shift ;;
+    --out) out=$2; shift ;;
+    --jobs) jobs=$2; shift ;;
+    --groups) groups=$2; shift ;;
+    --markdown) markdown=1 ;;
+    -h|--help) usage; exit 0 ;;
+    *) echo "stress.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
+  esac
+  shift
+done
+
+if [ "${TALUS_SKIP_STRESS:-0}" = 1 ]; then
+  echo "stress.sh: skipped (TALUS_SKIP_STRESS=1)"
+  exit 77
+fi
+[ -n "$out" ] || out="$repo/out/stress-$mode"
+[[ $jobs =~ ^[1-9][0-9]*$ ]] || { echo "stress.sh: --jobs needs a positive integer" >&2; exit 2; }
+for t in terrain-gen block-gen dda-run; do
+  [ -x "$bin/$t" ] || { echo "stress.sh: $bin/$t not found (build it, or give --bin DIR)" >&2; exit 2; }
+done
+"$python" -c 'import h5py, numpy' 2>/dev/null ||
+  { echo "stress.sh: $python cannot import h5py and numpy (scripts/install-deps.sh installs them)" >&2; exit 2; }
+
+bin=$(cd "$bin" && pwd)
+out=$(realpath -m "$out")
+# Paths go into YAML values (--set KEY=VALUE) and JSON strings unquoted.
+if [[ $out == *[\"\'\\\[\]\{\},#:]* ]]; then
+  echo "stress.sh: --out '$out' has a character YAML values cannot take unquoted; pick another directory" >&2
+  exit 2
+fi
+mkdir -p "$out"
+inputs="$out/inputs"
+# Only what this script writes is removed: a stale run file or journal would be read as
+# this run's result, or make dda-run refuse to start.
+rm -rf "$inputs" "$out/cases" "$out/runs"
+mkdir -p "$inputs" "$out/cases" "$out/runs"
+
+want_group() { [ -z "$groups" ] || [[ ",$groups," == *",$1,"* ]]; }
+for g in ${groups//,/ }; do
+  case $g in
+    size|shape|terrain|impact|landing|numerics|analytic) ;;
+    *) echo "stress.sh: unknown group '$g' in --groups (see --help)" >&2; exit 2 ;;
+  esac
+done
+
+# ------------------------------------------------------------------ realizations per mode
+# n_main: ordinary cases; n_analytic: each analytic configuration; n_costly: cases whose
+# realizations cost about a second or more (the rocks of 1280 and 2880 triangles, time
+# step 1e-5 s, 12-DOF).
+case $mode in
+  ci) n_main=8; n_analytic=2; n_costly=1 ;;
+  quick) n_main=24; n_analytic=3; n_costly=6 ;;
+  full) n_main=200; n_analytic=8; n_costly=40 ;;
+esac
+if [ $sanitized = 1 ]; then n_main=1; n_analytic=1; n_costly=1; fi
+
+# ------------------------------------------------------------------ inputs
+log_step() { echo "stress: $*" >&2; }
+tg() { "$bin/terrain-gen" -q "$@"; }
+bg() { "$bin/block-gen" -q "$@"; }
+py() { "$python" "$tool" "$@"; }
+
+# The reference ground of SPEC §4 (as samples/bench-slope/terrain.yaml), for every
+# terrain of the stress cases.
+cat > "$inputs/ground.yaml" <<'EOF'
+materials:
+  - name: ground
+    restitution_mean: 0.95
+    restitution_sd: 0.05
+    restitution_scale: 12
+    friction_angle_mean_deg: 10
+    friction_coefficient_sd: 0.05
+    lateral_tilt_sd_deg: 0
+EOF
+# The analytic cases' ground: deterministic draws (sd 0, no tilt). The friction angle is
+# set per case by a scene override of material 'ground'.
+cat > "$inputs/analytic-ground.yaml" <<'EOF'
+materials:
+  - name: ground
+    restitution_mean: 0.9
+    restitution_sd: 0
+    restitution_scale: 12
+    friction_angle_mean_deg: 0
+    friction_coefficient_sd: 0
+    lateral_tilt_sd_deg: 0
+EOF
+
+log_step "terrains"
+# Bench slope of SPEC §6 at roughness S1-S3 (R = 1/8, 1/4, 1/2: sigma 0.1, 0.2, 0.4 m).
+for level in S1:0.125 S2:0.25 S3:0.5; do
+  tg -c "$repo/samples/bench-slope/terrain.yaml" --set roughness.roughness_index="${level#*:}" \
+    -o "$inputs/bench-${level%%:*}.h5"
+done
+# The bench slope ten times larger (20 m cells, 300 m high, 400 m wide) for the 10 m
+# wide 1000 m^3 block, with sigma ten times S1-S3.
+for level in S1:1 S2:2 S3:4; do
+  tg -c "$inputs/ground.yaml" --set name=big-bench --set synthetic.kind=profile \
+    --set synthetic.cell_size=20 --set synthetic.width=400 \
+    --set 'synthetic.profile=[[0,300],[60,240],[80,240],[140,180],[160,180],[220,120],[240,120],[360,0],[600,0]]' \
+    --set roughness.sigma="${level#*:}" -o "$inputs/big-${level%%:*}.h5"
+done
+# Planes 60 m long, 40 m wide, 2 m cells: smooth, and rough at S2.
+plane_angles=(10 20 30 45 60)
+for a in "${plane_angles[@]}" 0; do
+  tg -c "$inputs/ground.yaml" --set name="plane-$a" --set synthetic.kind=plane \
+    --set synthetic.slope_angle_deg="$a" --set synthetic.length=60 -o "$inputs/plane-$a-smooth.h5"
+  tg -c "$inputs/ground.yaml" --set name="plane-$a" --set synthetic.kind=plane \
+    --set synthetic.slope_angle_deg="$a" --set synthetic.length=60 --set roughness.roughness_index=0.25 \
+    -o "$inputs/plane-$a-rough.h5"
+done
+# A cliff: 20 m wall over 0.5 m (87 deg between the 1 m grid points) below a plateau,
+# above a talus slope and a flat run-out.
+for r in smooth:~ rough:0.2; do
+  tg -c "$inputs/ground.yaml" --set name=cliff --set synthetic.kind=profile --set synthetic.cell_size=1 \
+    --set synthetic.width=30 --set 'synthetic.profile=[[0,40],[8,40],[8.5,20],[40,0],[70,0]]' \
+    --set roughness.sigma="${r#*:}" -o "$inputs/cliff-${r%%:*}.h5"
+done
+# DEMs written as ESRI ASCII: a 35 deg slope with 3 % of its points raised by 1-3 m
+# (one-cell spikes), and terraces with 1-2 m steps dropping within one 0.25 m cell.
+py dem-spikes "$inputs/spikes.asc"
+tg -c "$inputs/ground.yaml" "$inputs/spikes.asc" -o "$inputs/dem-spikes.h5"
+py dem-steps "$inputs/steps.asc"
+tg -c "$inputs/ground.yaml" "$inputs/steps.asc" -o "$inputs/dem-steps.h5"
+# Analytic planes: 30 deg, 1 m cells, 40 x 10 m (configs/terrain/plane.yaml), each cell
+# cut, and a TIN of the same plane with irregular triangles (the OBJ is named after the
+# material it takes).
+for cut in alternating random fixed; do
+  tg -c "$inputs/analytic-ground.yaml" --set name=analytic-plane --set triangulation=$cut \
+    --set synthetic.kind=plane --set synthetic.cell_size=1 --set synthetic.width=10 \
+    --set synthetic.length=40 --set synthetic.slope_angle_deg=30 -o "$inputs/analytic-$cut.h5"
+done
+mkdir -p "$inputs/tin"
+py tin-plane-obj "$inputs/tin/ground.obj" --angle 30 --length 40 --width 10 --cell 1
+tg -c "$inputs/analytic-ground.yaml" --set source=tin --set tin.mode=keep "$inputs/tin/ground.obj" \
+  -o "$inputs/analytic-tin.h5"
+
+log_step "blocks"
+# Cubes of 1e-3 ... 1000 m^3 (edges 0.1 ... 10 m).
+cube_volumes=(0.001 0.01 0.1 1 10 1000)
+{
+  echo "blocks:"
+  for v in "${cube_volumes[@]}"; do echo "  - {name: cube-$v, solid: cube, volume: $v}"; done
+} > "$inputs/cubes.yaml"
+bg -c "$inputs/cubes.yaml" -o "$inputs/cubes.h5"
+# Elongated, flat and concave shapes and the Platonic solids, about 1 m^3 each
+# (rock.obj: a noisy, dented icosphere written by stress_tool.py).
+py rock-obj "$inputs/rock.obj"
+cat > "$inputs/shapes.yaml" <<'EOF'
+blocks:
+  - {name: needle, solid: box, dimensions: [5, 0.1, 0.1]}
+  - {name: slab, solid: box, dimensions: [2, 1, 0.5]}
+  - {name: plate, solid: box, dimensions: [2, 2, 0.1]}
+  - {name: rock-obj, mesh: rock.obj, volume: 1}
+  - {name: rock-ellipsoid, solid: ellipsoid, dimensions: [1.6, 1.2, 0.9], resolution: 12, roughness: 0.12,
+     volume: 1, seed: 4}
+  - {name: tetrahedron, solid: tetrahedron, volume: 1}
+  - {name: cube, solid: cube, volume: 1}
+  - {name: octahedron, solid: octahedron, volume: 1}
+  - {name: dodecahedron, solid: dodecahedron, volume: 1}
+  - {name: icosahedron, solid: icosahedron, volume: 1}
+EOF
+# block-gen reads mesh paths relative to its working directory.
+(cd "$inputs" && bg -c shapes.yaml -o shapes.h5)
+# R1-R4 of SPEC §6: the library every terrain and numerics case cycles through.
+bg -c "$repo/samples/blocks/platonic.yaml" -o "$inputs/platonic.h5"
+
+# The base scene; each case overrides it with --set.
+cat > "$inputs/scene.yaml" <<'EOF'
+schema_version: "1.0"
+terrain: none
+block_file: none
+release:
+  kind: point
+  points: [[1, 20]]
+  height: 2.5
+  orientation: random
+realizations: 1
+seed: 1
+EOF
+
+# ------------------------------------------------------------------ cases
+ncase=0
+# queue GROUP NAME REALIZATIONS [--analytic JSON] KEY=VALUE...: one dda-run of the base
+# scene with these settings. The seed is a hash of GROUP/NAME, so adding or removing a
+# case changes no other case's draws.
+queue() {
+  local group=$1 name=$2 n=$3
+  shift 3
+  local analytic=null
+  if [ "${1:-}" = --analytic ]; then analytic=$2; shift 2; fi
+  want_group "$group" || return 0
+  [ "$n" -gt 0 ] || return 0
+  ncase=$((ncase + 1))
+  local id seed
+  id=$(printf '%03d' "$ncase")
+  seed=$(printf '%s' "$group/$name" | cksum | cut -d' ' -f1)
+  mkdir -p "$out/runs/$group"
+  {
+    for kv in "$@" "realizations=$n" "seed=$seed"; do printf -- '--set\n%s\n' "$kv"; done
+  } > "$out/cases/$id.args"
+  local run="$out/runs/$group/$name.h5"
+  printf '{"id": "%s", "group": "%s", "name": "%s", "realizations": %d, "seed": %s, "run": "%s", "analytic": %s}\n' \
+    "$id" "$group" "$name" "$n" "$seed" "$run" "$analytic" > "$out/cases/$id.json"
+  echo "$run" > "$out/cases/$id.run"
+}
+I="$inputs"
+line_bench='release.points=[[1,4],[1,36]]'
+
+# --- size: cubes of 1e-3 ... 10 m^3 on the bench slope, 1000 m^3 on the big one, S1-S3.
+case $mode in
+  ci) size_volumes=("${cube_volumes[@]}"); size_levels=(S2) ;;
+  *) size_volumes=("${cube_volumes[@]}"); size_levels=(S1 S2 S3) ;;
+esac
+for v in "${size_volumes[@]}"; do
+  for s in "${size_levels[@]}"; do
+    case $v in
+      1000) queue size "cube-$v-$s" "$n_main" terrain="$I/big-$s.h5" block_file="$I/cubes.h5" "blocks=[cube-$v]" \
+              release.kind=line 'release.points=[[10,40],[10,360]]' release.height=25 ;;
+      10) queue size "cube-$v-$s" "$n_main" terrain="$I/bench-$s.h5" block_file="$I/cubes.h5" "blocks=[cube-$v]" \
+            release.kind=line "$line_bench" release.height=5 ;;
+      *) queue size "cube-$v-$s" "$n_main" terrain="$I/bench-$s.h5" block_file="$I/cubes.h5" "blocks=[cube-$v]" \
+           release.kind=line "$line_bench" release.height=2.5 ;;
+    esac
+  done
+done
+
+# --- shape: elongated, flat, concave and Platonic blocks on the bench slope.
+case $mode in
+  ci) shapes=(needle plate rock-obj dodecahedron); shape_levels=(S2) ;;
+  quick) shapes=(needle slab plate rock-obj rock-ellipsoid tetrahedron octahedron dodecahedron icosahedron)
+         shape_levels=(S2) ;;
+  full) shapes=(needle slab plate rock-obj rock-ellipsoid tetrahedron octahedron dodecahedron icosahedron)
+        shape_levels=(S1 S2 S3) ;;
+esac
+for b in "${shapes[@]}"; do
+  for s in "${shape_levels[@]}"; do
+    # The needle's circumscribed radius is 2.5 m: release it higher.
+    h=2.5; [ "$b" = needle ] && h=3.5
+    n=$n_main; [[ $b == rock-* ]] && n=$n_costly
+    queue shape "$b-$s" "$n" terrain="$I/bench-$s.h5" block_file="$I/shapes.h5" "blocks=[$b]" \
+      release.kind=line "$line_bench" release.height=$h
+  done
+done
+
+# --- terrain: R1-R4 on planes, a cliff, a spiky DEM, a stepped DEM.
+case $mode in
+  ci) terrain_planes=(30-smooth 60-rough); terrain_others=(cliff-rough spikes steps) ;;
+  *) terrain_planes=(); for a in "${plane_angles[@]}"; do terrain_planes+=("$a-smooth" "$a-rough"); done
+     terrain_others=(cliff-smooth cliff-rough spikes steps) ;;
+esac
+for p in "${terrain_planes[@]}"; do
+  queue terrain "plane-$p" "$n_main" terrain="$I/plane-$p.h5" block_file="$I/platonic.h5" \
+    release.kind=line 'release.points=[[3,4],[3,36]]'
+done
+for t in "${terrain_others[@]}"; do
+  case $t in
+    # Released over the plateau, 1 m before its edge, thrown at 5 m/s towards the wall.
+    cliff-*) queue terrain "$t" "$n_main" terrain="$I/$t.h5" block_file="$I/platonic.h5" \
+               release.kind=line 'release.points=[[7,3],[7,27]]' 'release.velocity=[5,0,0]' ;;
+    spikes) queue terrain dem-spikes "$n_main" terrain="$I/dem-spikes.h5" block_file="$I/platonic.h5" \
+              release.kind=line 'release.points=[[2,3],[2,27]]' ;;
+    steps) queue terrain dem-steps "$n_main" terrain="$I/dem-steps.h5" block_file="$I/platonic.h5" \
+             release.kind=line 'release.points=[[1,3],[1,17]]' 'release.velocity=[3,0,0]' ;;
+  esac
+done
+
+# --- impact: 50 m/s onto the 60 deg plane, falling vertically and along the normal.
+impact_point='release.points=[[20,10],[20,30]]'
+queue impact impact50-vertical "$n_main" terrain="$I/plane-60-rough.h5" block_file="$I/platonic.h5" \
+  release.kind=line "$impact_point" 'release.velocity=[0,0,-50]'
+if [ $mode != ci ]; then
+  queue impact impact50-normal "$n_main" terrain="$I/plane-60-rough.h5" block_file="$I/platonic.h5" \
+    release.kind=line "$impact_point" 'release.velocity=[-43.30127018922193,0,-25]'
+  queue impact impact50-smooth "$n_main" terrain="$I/plane-60-smooth.h5" block_file="$I/platonic.h5" \
+    release.kind=line "$impact_point" 'release.velocity=[0,0,-50]'
+  queue impact impact50-shapes "$n_main" terrain="$I/plane-60-rough.h5" block_file="$I/shapes.h5" \
+    'blocks=[needle,plate,rock-obj]' release.kind=line "$impact_point" 'release.velocity=[0,0,-50]' release.height=3.5
+fi
+
+# --- landing: fixed orientations with a vertex or an edge pointing into the ground
+# (against its normal), dropped 5 m on the smooth flat plane and on the smooth 30 deg plane.
+# The yaw turns the block about the ground normal, keeping the feature down.
+case $mode in
+  ci) landing_blocks=(cube dodecahedron); landing_angles=(30); landing_yaws=(20) ;;
+  quick) landing_blocks=(tetrahedron cube octahedron dodecahedron icosahedron); landing_angles=(0 30)
+         landing_yaws=(20) ;;
+  full) landing_blocks=(tetrahedron cube octahedron dodecahedron icosahedron); landing_angles=(0 30)
+        landing_yaws=(0 20 45) ;;
+esac
+if want_group landing; then
+  for b in "${landing_blocks[@]}"; do
+    for feature in vertex edge; do
+      for a in "${landing_angles[@]}"; do
+        for yaw in "${landing_yaws[@]}"; do
+          o=$(py orient $feature --angle "$a" --yaw "$yaw" --block-file "$I/shapes.h5" --block "$b")
+          queue landing "$b-$feature-$a-yaw$yaw" "$n_main" terrain="$I/plane-$a-smooth.h5" \
+            block_file="$I/shapes.h5" "blocks=[$b]" release.kind=line 'release.points=[[20,10],[20,30]]' \
+            release.height=5 release.orientation=fixed "release.orientation_deg=$o"
+        done
+      done
+    done
+  done
+fi
+
+# --- numerics: contact stiffness and time step over their range, for R1-R4 (1 m^3) on the
+# bench slope S2, the 1e-3 m^3 cube on the same slope and (stiffness only) the 1000 m^3
+# cube on the big slope S2: a fixed stiffness in N/m means very different springs for
+# 2.8 kg and 2.8e6 kg. Each entry is a KEY=VALUE list for dda-run (comma-separated): edit
+# these lists to sweep another stiffness setting (e.g. a relative one) the engine may offer.
+stiffness_sweep=(engine.penalty_stiffness=1e9 engine.penalty_stiffness=1e10 engine.penalty_stiffness=1e11
+                 engine.penalty_stiffness=1e12 engine.penalty_stiffness=1e13 engine.penalty_stiffness=1e14
+                 engine.penalty_stiffness=1e15)
+# The step limit keeps 35 s of simulated time (the default 35 000 steps of 1 ms) at every
+# step below 1 ms.
+time_step_sweep=(engine.time_step=1e-5,engine.max_steps=3500000 engine.time_step=1e-4,engine.max_steps=350000
+                 engine.time_step=1e-3 engine.time_step=1e-2)
+numerics_subjects=(R1-R4 cube-0.001 cube-1000)
+if [ $mode = ci ]; then
+  stiffness_sweep=(engine.penalty_stiffness=1e9 engine.penalty_stiffness=1e15)
+  time_step_sweep=(engine.time_step=1e-2)
+  numerics_subjects=(R1-R4 cube-0.001)
+fi
+for subject in "${numerics_subjects[@]}"; do
+  case $subject in
+    R1-R4) where=(terrain="$I/bench-S2.h5" block_file="$I/platonic.h5" release.kind=line "$line_bench") ;;
+    cube-0.001) where=(terrain="$I/bench-S2.h5" block_file="$I/cubes.h5" "blocks=[$subject]" release.kind=line
+                       "$line_bench") ;;
+    cube-1000) where=(terrain="$I/big-S2.h5" block_file="$I/cubes.h5" "blocks=[$subject]" release.kind=line
+                      'release.points=[[10,40],[10,360]]' release.height=25) ;;
+  esac
+  entries=("${stiffness_sweep[@]}")
+  [ "$subject" != cube-1000 ] && entries+=("${time_step_sweep[@]}")
+  for entry in "${entries[@]}"; do
+    IFS=, read -r -a kvs <<< "$entry"
+    name=$(printf '%s' "${kvs[0]#engine.}" | tr '=' '-')
+    n=$n_main
+    [[ $entry == *time_step=1e-5* ]] && n=$n_costly
+    queue numerics "$subject-$name" "$n" "${where[@]}" "${kvs[@]}"
+  done
+done
+# The 12-DOF path (strains) on the same slope.
+if [ $mode != ci ]; then
+  queue numerics dof-full12 "$n_costly" terrain="$I/bench-S2.h5" block_file="$I/platonic.h5" \
+    release.kind=line "$line_bench" engine.dof=full12
+fi
+
+# --- analytic: the 1 m^3 cube on the smooth 30 deg plane (docs/dda.md, SPEC §7).
+# Releasing a block at rest: a dda-run that has release.height_reference measures the
+# height from the block's lowest point (0 = touching); otherwise the centroid is put
+# (a/2)/cos(theta) + 1e-6 m above the ground, which touches the plane when the cube lies
+# flat on it (dda-run may refuse that height: the case then reports the refusal).
+theta=30
+half_edge=0.5
+if "$bin/dda-run" --print-config | grep -q 'height_reference'; then
+  rest_release=(release.height_reference=lowest_point release.height=1e-6)
+else
+  h=$(awk -v a=$half_edge -v t=$theta 'BEGIN { printf "%.17g", a / cos(t * atan2(0, -1) / 180) + 1e-6 }')
+  rest_release=("release.height=$h")
+fi
+case $mode in
+  ci) slide_yaws=(0 45); slide_cuts=(alternating); slide_mus=(0 0.2); stick_yaws=(0); analytic_dofs=(rigid6) ;;
+  quick) slide_yaws=(0 30 45 60 90); slide_cuts=(alternating random fixed); slide_mus=(0 0.2); stick_yaws=(0 45)
+         analytic_dofs=(rigid6) ;;
+  full) slide_yaws=(0 15 30 45 60 75 90); slide_cuts=(alternating random fixed); slide_mus=(0 0.2)
+        stick_yaws=(0 20 45 70); analytic_dofs=(rigid6 full12) ;;
+esac
+# Release line across the plane at an angle to the lattice: each realization starts at
+# another offset from the node lines, and the cube slides across node lines (x) and
+# straddles them (y).
+slide_line='release.points=[[10.3,2.2],[11.7,7.9]]'
+atan_deg() { awk -v m="$1" 'BEGIN { printf "%.17g", atan2(m, 1) * 180 / atan2(0, -1) }'; }
+if want_group analytic; then
+  # Both DOF paths in --full: the 12-DOF path adds the block's strains.
+  for dof in "${analytic_dofs[@]}"; do
+    sfx=""; [ "$dof" = rigid6 ] || sfx="-$dof"
+    for cut in "${slide_cuts[@]}"; do
+      for mu in "${slide_mus[@]}"; do
+        for yaw in "${slide_yaws[@]}"; do
+          o=$(py orient slope-face --angle $theta --yaw "$yaw")
+          queue analytic "slide-$cut-mu$mu-yaw$yaw$sfx" "$n_analytic" \
+            --analytic "{\"kind\": \"slide\", \"angle\": $theta, \"mu\": $mu, \"target\": 1e-3, \"from_rest\": true}" \
+            terrain="$I/analytic-$cut.h5" block_file="$I/cubes.h5" "blocks=[cube-1]" \
+            "materials=[{name: ground, friction_angle_mean_deg: $(atan_deg "$mu")}]" \
+            release.kind=line "$slide_line" "${rest_release[@]}" release.orientation=fixed \
+            "release.orientation_deg=$o" stochastic.roughness=false stochastic.restitution=false \
+            stochastic.friction=false stochastic.lateral_tilt=false engine.time_step=1e-3 engine.max_steps=1000 \
+            engine.dof="$dof"
+        done
+      done
+    done
+    # Frictionless slide after the smallest drop dda-run accepts today (centroid 1 mm above
+    # the circumscribed radius), with the restitution law off: no force has a component
+    # along a frictionless plane, so the along-slope distance is g sin(theta) T^2 / 2 however
+    # the cube bounces; T is the simulated time of the 1000 steps (cut at each touch).
+    for cut in "${slide_cuts[@]}"; do
+      for yaw in "${slide_yaws[@]}"; do
+        [ $mode = ci ] && [ "$yaw" != 0 ] && continue
+        o=$(py orient slope-face --angle $theta --yaw "$yaw")
+        queue analytic "slide-drop-$cut-mu0-yaw$yaw$sfx" "$n_analytic" \
+          --analytic "{\"kind\": \"slide\", \"angle\": $theta, \"mu\": 0, \"target\": 1e-3}" \
+          terrain="$I/analytic-$cut.h5" block_file="$I/cubes.h5" "blocks=[cube-1]" \
+          "materials=[{name: ground, friction_angle_mean_deg: 0}]" \
+          release.kind=line "$slide_line" release.height=0.8670254037844386 release.orientation=fixed \
+          "release.orientation_deg=$o" stochastic.roughness=false stochastic.restitution=false \
+          stochastic.friction=false stochastic.lateral_tilt=false engine.restitution=off \
+          engine.time_step=1e-3 engine.max_steps=1000 engine.dof="$dof"
+      done
+    done
+    # Landing and sticking: mu = 0.6 > tan 30 deg. Dropped face-down (centroid 1 cm above
+    # the circumscribed radius: 0.30 m above touching), run 12 000 steps of at most 1 ms
+    # (about 10 s: steps are cut at impacts) with the rest ending off (rest_kinetic_energy 0)
+    # and the centroid sampled every 10 ms; the drift is the largest distance from the final
+    # position over the last 5 s.
+    for terrain in alternating tin; do
+      for yaw in "${stick_yaws[@]}"; do
+        o=$(py orient slope-face --angle $theta --yaw "$yaw")
+        queue analytic "stick-$terrain-yaw$yaw$sfx" "$n_analytic" \
+          --analytic '{"kind": "stick", "window": 5, "target": 1e-6}' \
+          terrain="$I/analytic-$terrain.h5" block_file="$I/cubes.h5" "blocks=[cube-1]" \
+          "materials=[{name: ground, friction_angle_mean_deg: $(atan_deg 0.6)}]" \
+          release.kind=line "$slide_line" release.height=0.8760254037844386 release.orientation=fixed \
+          "release.orientation_deg=$o" stochastic.roughness=false stochastic.restitution=false \
+          stochastic.friction=false stochastic.lateral_tilt=false engine.time_step=1e-3 engine.max_steps=12000 \
+          engine.rest_kinetic_energy=0 engine.trajectory_interval=0.01 engine.dof="$dof"
+      done
+    done
+  done
+fi
+
+[ $ncase -gt 0 ] || { echo "stress.sh: no case selected (--groups '$groups')" >&2; exit 2; }
+
+# ------------------------------------------------------------------ run
+# One dda-run process per case (one thread each), --jobs at a time. A case's exit status
+# and wall time go next to its settings; a failed or refused run leaves no run file,
+# which the report counts as a case error.
+run_case() {
+  local id=$1 run group name
+  run=$(cat "$out/cases/$id.run")
+  local args=()
+  mapfile -t args < "$out/cases/$id.args"
+  local t0 t1 rc=0
+  t0=$(date +%s.%N)
+  "$bin/dda-run" -c "$inputs/scene.yaml" "${args[@]}" --threads 1 -o "$run" > "$out/cases/$id.log" 2>&1 || rc=$?
+  t1=$(date +%s.%N)
+  echo "$rc" > "$out/cases/$id.rc"
+  awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.2f\n", b - a }' > "$out/cases/$id.seconds"
+  group=${run%/*}; group=${group##*/}; name=${run##*/}; name=${name%.h5}
+  echo "stress: [$id/$ncase] $group/$name: exit $rc, $(cat "$out/cases/$id.seconds") s" >&2
+}
+
+log_step "$ncase cases ($mode), $jobs at a time, output in $out"
+# On an interrupt, stop the cases this script started.
+trap 'kill $(jobs -p) 2>/dev/null; exit 130' INT TERM
+start=$(date +%s)
+running=0
+for json in "$out"/cases/*.json; do
+  id=$(basename "$json" .json)
+  run_case "$id" &
+  running=$((running + 1))
+  if [ $running -ge "$jobs" ]; then
+    wait -n
+    running=$((running - 1))
+  fi
+done
+wait
+elapsed=$(( $(date +%s) - start ))
+
+# ------------------------------------------------------------------ report
+version=$("$bin/dda-run" --version 2>&1 | head -1)
+label=$mode; [ $sanitized = 1 ] && label="$mode, sanitized"
+heading="stress suite ($label; $ncase cases): $version, $(date -u +%Y-%m-%d), nproc $(nproc), jobs $jobs, ${elapsed} s wall"
+status=0
+if [ $markdown = 1 ]; then
+  echo "$heading"; echo
+  py report "$out/cases" --markdown | tee "$out/report.md" || status=$?
+else
+  echo "$heading"
+  py report "$out/cases" | tee "$out/report.txt" || status=$?
+fi
+exit $status
+}

@@ -298,11 +298,14 @@ case $mode in
 esac
 for b in "${shapes[@]}"; do
   for s in "${shape_levels[@]}"; do
-    # The needle's circumscribed radius is 2.5 m: release it higher.
-    h=2.5; [ "$b" = needle ] && h=3.5
+    # The needle's circumscribed radius is 2.5 m: release it higher, and 3 m inside the
+    # terrain's open upper edge (x = 0): a terrain has no side walls, and a 5 m needle
+    # released 1 m from that edge can swing below the surface from outside the domain.
+    h=2.5; where=$line_bench
+    [ "$b" = needle ] && { h=3.5; where='release.points=[[3,4],[3,36]]'; }
     n=$n_main; [[ $b == rock-* ]] && n=$n_costly
     queue shape "$b-$s" "$n" terrain="$I/bench-$s.h5" block_file="$I/shapes.h5" "blocks=[$b]" \
-      release.kind=line "$line_bench" release.height=$h
+      release.kind=line "$where" release.height=$h
   done
 done
 
@@ -371,7 +374,8 @@ fi
 # cube on the big slope S2: a fixed stiffness in N/m means very different springs for
 # 2.8 kg and 2.8e6 kg. Each entry is a KEY=VALUE list for dda-run (comma-separated): edit
 # these lists to sweep another stiffness setting (e.g. a relative one) the engine may offer.
-stiffness_sweep=(engine.penalty_stiffness=1e9 engine.penalty_stiffness=1e10 engine.penalty_stiffness=1e11
+stiffness_sweep=(engine.penalty_omega=2 engine.penalty_omega=5 engine.penalty_omega=80 engine.penalty_omega=200
+                 engine.penalty_stiffness=1e9 engine.penalty_stiffness=1e10 engine.penalty_stiffness=1e11
                  engine.penalty_stiffness=1e12 engine.penalty_stiffness=1e13 engine.penalty_stiffness=1e14
                  engine.penalty_stiffness=1e15)
 # The step limit keeps 35 s of simulated time (the default 35 000 steps of 1 ms) at every
@@ -380,7 +384,7 @@ time_step_sweep=(engine.time_step=1e-5,engine.max_steps=3500000 engine.time_step
                  engine.time_step=1e-3 engine.time_step=1e-2)
 numerics_subjects=(R1-R4 cube-0.001 cube-1000)
 if [ $mode = ci ]; then
-  stiffness_sweep=(engine.penalty_stiffness=1e9 engine.penalty_stiffness=1e15)
+  stiffness_sweep=(engine.penalty_omega=200 engine.penalty_stiffness=1e9 engine.penalty_stiffness=1e15)
   time_step_sweep=(engine.time_step=1e-2)
   numerics_subjects=(R1-R4 cube-0.001)
 fi
@@ -502,6 +506,12 @@ run_case() {
   run=$(cat "$out/cases/$id.run")
   local args=()
   mapfile -t args < "$out/cases/$id.args"
+  # Every step of every case is checked against the physical invariants (run-file column
+  # invariant_violations).
+  args+=(--set engine.check_invariants=true)
+  # Random orientations can put a block into rough ground at its release: such a release
+  # is lifted clear of it (a case may still set release.clearance itself, later wins).
+  args=(--set release.clearance=lift "${args[@]}")
   local t0 t1 rc=0
   t0=$(date +%s.%N)
   "$bin/dda-run" -c "$inputs/scene.yaml" "${args[@]}" --threads 1 -o "$run" > "$out/cases/$id.log" 2>&1 || rc=$?

@@ -252,6 +252,10 @@ void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& wo
       Vec3 n = (p1 - p0).cross(te->pb - te->pa).normalized();
       if (n.dot(te->normal_sum) < 0.0) n = -n;
       const Vec3 pc = p0 + s * (p1 - p0);
+      // The normal points out of the terrain and, at a convex edge of the block, into
+      // the block: a pair for which the two disagree (a ridge seen edge-on, e₁ × e₂ nearly
+      // across the ground) has no way out along it and is left to the other contacts.
+      if (n.dot(pose.centre - pc) <= 0.0) continue;
       const Vec3 qc = te->pa + t * (te->pb - te->pa);
       const double gap = (pc - qc).dot(n);
       if (gap >= ds || gap <= -depth) continue;

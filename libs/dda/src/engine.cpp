@@ -679,10 +679,24 @@ void limit_energy(const Model& model, State& s, double energy_start) {
   const double kinetic = kinetic_energy(model, s);
   const double scale = std::abs(energy_start) + std::abs(potential) + model.mass * model.settings.gravity * model.radius;
   const double excess = kinetic + potential + s.stored_energy - energy_start;
-  if (!(excess > 1e-10 * scale) || !(kinetic > 0.0)) return;
-  s.velocity *= std::sqrt(std::max(0.0, kinetic - excess) / kinetic);
+  if (!(excess > 1e-10 * scale)) return;
   ++s.counters.energy_limited;
-  s.energy_removed += std::min(excess, kinetic);
+  const double from_motion = std::min(excess, kinetic);
+  if (kinetic > 0.0) s.velocity *= std::sqrt((kinetic - from_motion) / kinetic);
+  s.energy_removed += from_motion;
+  // A gain larger than the motion holds sits in the normal springs: their compression is
+  // relaxed (the accepted penetration grows) until they hold no more than was there.
+  const double rest = excess - from_motion;
+  if (!(rest > 0.0)) return;
+  const double p = model.stiffness;
+  double normal_energy = 0.0;
+  for (const Contact& c : s.contacts) normal_energy += 0.5 * p * c.spring_gap * c.spring_gap;
+  if (!(normal_energy > 0.0)) return;
+  const double keep = std::sqrt(std::max(0.0, normal_energy - rest) / normal_energy);
+  for (Contact& c : s.contacts) c.spring_gap *= keep;
+  const double removed = normal_energy * (1.0 - keep * keep);
+  s.stored_energy -= removed;
+  s.energy_removed += removed;
 }
 
 // Contacts that stay closed through a step have no normal relative velocity in the

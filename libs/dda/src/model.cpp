@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "talus/dda/model.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <cmath>
 #include <map>
@@ -175,6 +176,8 @@ Model Model::build(const Settings& settings, const geometry::Polyhedron& block) 
     m.radius = std::max(m.radius, m.vertices.back().norm());
   }
   const double tol = 1e-9 * m.radius;
+  const double thinnest = Eigen::SelfAdjointEigenSolver<Mat3>(m.second_moments).eigenvalues().minCoeff();
+  m.size = std::min(2.0 * m.radius, 2.0 * std::sqrt(12.0 * std::max(0.0, thinnest) / m.volume));
 
   for (const auto& face : block.faces) {
     BlockFace f;

@@ -50,6 +50,11 @@ struct Model {
   Mat3 second_moments = Mat3::Zero();  ///< ρ-free ∫ r rᵀ dV about the centroid, body frame (m⁵)
   Mat3 inertia = Mat3::Zero();  ///< inertia tensor about the centroid, body frame (kg m²)
   double radius = 0.0;          ///< circumscribed radius about the centroid (m)
+  /// Length that scales the step control (m): the circumscribed diameter, but never more
+  /// than twice the block's thickness (the width along its thinnest principal axis,
+  /// √(12·λ_min/V), the edge of a box), so a needle or a plate cannot move by its own
+  /// thickness in one step.
+  double size = 0.0;
   /// Elastic matrix (Pa) mapping (εx εy εz γyz γzx γxy) to (σx σy σz τyz τzx τxy).
   Mat6 elasticity = Mat6::Zero();
   /// Normal contact spring stiffness in use (N/m): Settings::penalty_stiffness, or from
@@ -62,7 +67,7 @@ struct Model {
   static Model build(const Settings& settings, const geometry::Polyhedron& block);
 
   /// Largest vertex displacement allowed in one contact step (m).
-  double max_step_displacement() const { return settings.max_displacement_ratio * 2.0 * radius; }
+  double max_step_displacement() const { return settings.max_displacement_ratio * size; }
   /// Deepest closed-contact penetration before the run fails (m).
   double penetration_limit() const { return settings.penetration_limit_ratio * 2.0 * radius; }
 };

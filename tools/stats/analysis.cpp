@@ -164,6 +164,8 @@ Series make_series(const Run& run, std::size_t run_index, const std::string& blo
   }
   s.variables.push_back(summarize("max_speed", "m/s", column(&mc::Record::max_speed, good), settings));
   s.variables.push_back(summarize("max_jump_height", "m", column(&mc::Record::max_jump_height, good), settings));
+  s.variables.push_back(
+      summarize("max_normal_jump_height", "m", column(&mc::Record::max_normal_jump_height, good), settings));
   s.variables.push_back(summarize("max_kinetic_energy", "J", column(&mc::Record::max_kinetic_energy, good), settings));
 
   // Barriers: the first crossing of each realization (where a barrier would catch it).

@@ -772,8 +772,15 @@ void finish_step(const Model& model, const Ground& ground, State& s, double dt) 
   double height = std::numeric_limits<double>::quiet_NaN();
   if (const auto hit = surf.height_at(s.position.x(), s.position.y())) {
     height = s.position.z() - hit->z;
-    // Jumps count from the first terrain contact on: the release drop is no jump.
-    if (s.counters.contact_steps > 0) s.max_jump_height = std::max(s.max_jump_height, height);
+    // Jumps count from the first real touch of the terrain (a closed contact) on: the
+    // release drop is no jump, nor is a step that only searched for contacts. Beside the
+    // vertical height, the distance to the plane of the triangle below, along its normal
+    // (on a slope the vertical height overstates a jump by 1/cos of the slope).
+    if (s.touched) {
+      s.max_jump_height = std::max(s.max_jump_height, height);
+      const double normal_height = height * surf.normal(static_cast<std::size_t>(hit->triangle)).z();
+      s.max_normal_jump_height = std::max(s.max_normal_jump_height, normal_height);
+    }
   }
   if (model.settings.trajectory_interval > 0.0 && s.time + 1e-12 >= s.next_sample_time) {
     s.trajectory.push_back(TrajectorySample{s.time, s.position, s.velocity.head<3>(), height,
@@ -1063,6 +1070,7 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   }
   ++s.counters.contact_steps;
   s.last_step_contact = true;
+  s.touched = s.touched || any_closed;
   if (any_closed && !s.episode.active) start_episode(model, ground, s, v_start, kinetic_start);
   else if (!any_closed && s.episode.active) end_episode(model, s);
   else if (s.episode.active && s.episode.impact && rebound_complete(model, s, spring_energy)) finish_impact(model, s);
@@ -1151,6 +1159,7 @@ Summary summarize(const State& s) {
   out.lateral = dir.x() * delta.y() - dir.y() * delta.x();
   out.max_speed = s.max_speed;
   out.max_jump_height = s.max_jump_height;
+  out.max_normal_jump_height = s.max_normal_jump_height;
   out.impacts = s.impacts;
   out.max_energy_gain = s.max_energy_gain;
   out.max_depth = s.max_depth;

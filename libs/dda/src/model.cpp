@@ -56,6 +56,12 @@ void Settings::visit(core::SettingsVisitor& v) {
 namespace {
 
 const char* const kSettings = "dda settings";
+// The range of Ω = √(k/m)·Δt of one contact spring in which contacts are well posed
+// (docs/dda.md): softer lets a fast small block sink deeper than the penetration limit in
+// one impact, stiffer leaves springs whose energy round-off exceeds the invariant
+// tolerances.
+constexpr double kMinOmega = 1.0;
+constexpr double kMaxOmega = 300.0;
 
 void require_range(bool ok, const char* key, double value, const char* what) {
   if (!ok || !std::isfinite(value))
@@ -72,7 +78,8 @@ void validate(const Settings& s) {
                 s.dynamic_coefficient, "must be in [0, 1]");
   require_range(s.penalty_stiffness >= 0.0, "penalty_stiffness", s.penalty_stiffness,
                 "must be >= 0 (0 = from the block)");
-  require_range(s.penalty_omega > 0.0, "penalty_omega", s.penalty_omega, "must be > 0");
+  require_range(s.penalty_omega >= kMinOmega && s.penalty_omega <= kMaxOmega, "penalty_omega", s.penalty_omega,
+                "must be in [1, 300]");
   require_range(s.shear_stiffness_ratio > 0.0, "shear_stiffness_ratio", s.shear_stiffness_ratio,
                 "must be > 0");
   require_range(s.max_open_close_iterations >= 1 && s.max_open_close_iterations <= 1000,
@@ -208,6 +215,13 @@ Model Model::build(const Settings& settings, const geometry::Polyhedron& block) 
   m.stiffness = settings.penalty_stiffness > 0.0
                     ? settings.penalty_stiffness
                     : m.mass * (settings.penalty_omega / settings.time_step) * (settings.penalty_omega / settings.time_step);
+  const double omega = std::sqrt(m.stiffness / m.mass) * settings.time_step;
+  if (!(omega >= kMinOmega && omega <= kMaxOmega))
+    throw core::InputError(kSettings, "penalty_stiffness = " + core::format_number(settings.penalty_stiffness) +
+                                          " N/m gives this block (mass " + core::format_number(m.mass) +
+                                          " kg) a contact spring with sqrt(k/m)*time_step = " + core::format_number(omega) +
+                                          ", outside the well-posed range [1, 300]: set penalty_stiffness to 0 (from the block, "
+                                          "penalty_omega) or to a value in that range");
   return m;
 }
 

@@ -54,6 +54,7 @@ Table record_table(const std::vector<mc::Record>& records) {
   auto& lateral = col(t, "lateral", Element::f64, 0, "m").f64;
   auto& speed = col(t, "max_speed", Element::f64, 0, "m/s").f64;
   auto& jump = col(t, "max_jump_height", Element::f64, 0, "m").f64;
+  auto& normal_jump = col(t, "max_normal_jump_height", Element::f64, 0, "m").f64;
   auto& energy = col(t, "max_kinetic_energy", Element::f64, 0, "J").f64;
   auto& violations = col(t, "invariant_violations", Element::i64).i64;
   auto& gain = col(t, "max_energy_gain", Element::f64, 0, "J").f64;
@@ -73,6 +74,7 @@ Table record_table(const std::vector<mc::Record>& records) {
     lateral.push_back(r.lateral);
     speed.push_back(r.max_speed);
     jump.push_back(r.max_jump_height);
+    normal_jump.push_back(r.max_normal_jump_height);
     energy.push_back(r.max_kinetic_energy);
     violations.push_back(static_cast<std::int64_t>(r.invariant_violations));
     gain.push_back(r.max_energy_gain);
@@ -244,6 +246,7 @@ std::vector<mc::Record> decode_records(const h5::Group& g, const RunInfo& info, 
     r.lateral = t["lateral"].f64[k];
     r.max_speed = t["max_speed"].f64[k];
     r.max_jump_height = t["max_jump_height"].f64[k];
+    r.max_normal_jump_height = t["max_normal_jump_height"].f64[k];
     r.max_kinetic_energy = t["max_kinetic_energy"].f64[k];
     r.invariant_violations = static_cast<std::uint64_t>(t["invariant_violations"].i64[k]);
     r.max_energy_gain = t["max_energy_gain"].f64[k];

@@ -300,6 +300,7 @@ RealizationResult run_realization(const Scene& scene, std::uint32_t index) {
   rec.lateral = summary.lateral;
   rec.max_speed = summary.max_speed;
   rec.max_jump_height = summary.max_jump_height;
+  rec.max_normal_jump_height = summary.max_normal_jump_height;
   rec.max_kinetic_energy = max_kinetic;
   rec.invariant_violations = summary.counters.energy_violations + summary.counters.depth_violations;
   rec.max_energy_gain = summary.max_energy_gain;

@@ -39,7 +39,10 @@ struct Summary {
   double runout = 0.0;     ///< along the main direction from the release point (m)
   double lateral = 0.0;    ///< across it, positive to the left of the main direction (m)
   double max_speed = 0.0;  ///< centroid (m/s)
-  double max_jump_height = 0.0;  ///< centroid above the terrain surface, from the first contact on (m)
+  double max_jump_height = 0.0;  ///< centroid above the terrain surface, vertically, from the first touch on (m)
+  /// Centroid distance to the plane of the triangle below it, along that triangle's
+  /// normal, from the first touch on (m): the jump measured normal to the slope.
+  double max_normal_jump_height = 0.0;
   std::uint64_t impacts = 0;
   /// With Settings::check_invariants: the largest one-step rise of the total energy
   /// (kinetic + potential + contact springs) (J) and the deepest overlap of terrain and

@@ -186,7 +186,9 @@ struct State {
   Release release;
   std::uint64_t impacts = 0;
   double max_speed = 0.0;             ///< centroid (m/s)
-  double max_jump_height = 0.0;       ///< centroid above the terrain after the first contact (m)
+  bool touched = false;               ///< a contact has closed (the block has touched the terrain)
+  double max_jump_height = 0.0;       ///< centroid above the terrain, vertically, after the first touch (m)
+  double max_normal_jump_height = 0.0;  ///< centroid above the triangle below, along its normal, after the first touch (m)
   double rest_time = 0.0;             ///< time spent below the rest threshold (s)
   /// Energy held by the contact springs at the end of the last step (J).
   double stored_energy = 0.0;

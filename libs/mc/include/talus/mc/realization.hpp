@@ -26,7 +26,8 @@ struct Record {
   double runout = 0.0;                  ///< m, along the main direction
   double lateral = 0.0;                 ///< m, left of the main direction positive
   double max_speed = 0.0;               ///< m/s, centroid
-  double max_jump_height = 0.0;         ///< m, centroid above the terrain
+  double max_jump_height = 0.0;         ///< m, centroid above the terrain (vertical), after the first touch
+  double max_normal_jump_height = 0.0;  ///< m, centroid above the ground along its normal, after the first touch
   double max_kinetic_energy = 0.0;      ///< J, translational + rotational
   /// Invariant checks (engine.check_invariants; zero when off): steps that broke one,
   /// the largest one-step rise of the total energy (J), the deepest overlap of terrain

@@ -1,0 +1,531 @@
+// SPDX-License-Identifier: MIT
+// The contact law of the DDA step: the block's matrices, Shi's implicit solve with the
+// open–close iteration over Mohr–Coulomb penalty contacts, the carrying of contact states
+// from step to step and the settling of persistent contacts. Included by engine.cpp only
+// (templates on the number of unknowns, 6 or 12).
+#pragma once
+#include <Eigen/Cholesky>
+#include <Eigen/LU>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <utility>
+#include <vector>
+
+#include "contacts.hpp"
+#include "talus/dda/engine.hpp"
+
+namespace talus::dda::detail {
+
+// Adds the wall time of a scope to a phase total when timing is on.
+class PhaseTimer {
+ public:
+  PhaseTimer(bool on, double& total) : total_(on ? &total : nullptr) {
+    if (total_) start_ = std::chrono::steady_clock::now();
+  }
+  ~PhaseTimer() {
+    if (total_) *total_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  }
+  PhaseTimer(const PhaseTimer&) = delete;
+  PhaseTimer& operator=(const PhaseTimer&) = delete;
+
+ private:
+  double* total_;
+  std::chrono::steady_clock::time_point start_;
+};
+
+inline Pose pose_of(const Model& model, const State& s) {
+  Pose p;
+  p.centre = s.position;
+  p.rotation = s.orientation.toRotationMatrix();
+  if (model.dof == DofPath::rigid6) {
+    p.map = p.rotation;
+    p.inverse_map = p.rotation.transpose();
+  } else {
+    p.map = p.rotation * s.stretch;
+    p.inverse_map = s.stretch.inverse() * p.rotation.transpose();
+  }
+  return p;
+}
+
+inline Vec3 gravity_vector(const Model& model) { return Vec3(0.0, 0.0, -model.settings.gravity); }
+
+// Voigt (εx εy εz γyz γzx γxy) of a symmetric strain tensor.
+inline Eigen::Matrix<double, 6, 1> voigt(const Mat3& e) {
+  Eigen::Matrix<double, 6, 1> v;
+  v << e(0, 0), e(1, 1), e(2, 2), 2.0 * e(1, 2), 2.0 * e(2, 0), 2.0 * e(0, 1);
+  return v;
+}
+
+inline Mat3 strain_tensor(const Eigen::Matrix<double, 6, 1>& v) {
+  Mat3 e;
+  e << v(0), v(5) / 2, v(4) / 2,  //
+      v(5) / 2, v(1), v(3) / 2,     //
+      v(4) / 2, v(3) / 2, v(2);
+  return e;
+}
+
+template <int N>
+using MatN = Eigen::Matrix<double, N, N>;
+template <int N>
+using VecN = Eigen::Matrix<double, N, 1>;
+
+// T(r) restricted to the N unknowns of the path (3×6 rigid or 3×12 full).
+template <int N>
+Eigen::Matrix<double, 3, N> dof_matrix(const Vec3& r) {
+  if constexpr (N == 6) {
+    Eigen::Matrix<double, 3, 6> t;
+    t << 1, 0, 0, 0, r.z(), -r.y(),  //
+        0, 1, 0, -r.z(), 0, r.x(),   //
+        0, 0, 1, r.y(), -r.x(), 0;
+    return t;
+  } else {
+    return displacement_matrix(r);
+  }
+}
+
+// TᵀT of a displacement matrix: in closed form for the rigid 3×6 map [I | −[r]×].
+template <int N>
+MatN<N> gram(const Eigen::Matrix<double, 3, N>& t) {
+  if constexpr (N == 6) {
+    MatN<6> g;
+    const Mat3 a = t.template rightCols<3>();
+    g.template topLeftCorner<3, 3>().setIdentity();
+    g.template topRightCorner<3, 3>() = a;
+    g.template bottomLeftCorner<3, 3>() = a.transpose();
+    // Aᵀ A = |r|² I − r rᵀ with r read back from A = −[r]×.
+    const Vec3 r(a(2, 1) * -1.0, a(0, 2) * -1.0, a(1, 0) * -1.0);
+    g.template bottomRightCorner<3, 3>() = r.squaredNorm() * Mat3::Identity() - r * r.transpose();
+    return g;
+  } else {
+    return t.transpose() * t;
+  }
+}
+
+// Displacement of the point r (relative to the centroid) for the step displacement d.
+template <int N>
+Vec3 point_displacement(const Vec3& r, const VecN<N>& d) {
+  if constexpr (N == 6) {
+    return d.template head<3>() + d.template tail<3>().cross(r);
+  } else {
+    return displacement_matrix(r) * d;
+  }
+}
+
+template <int N>
+MatN<N> current_mass(const Model& model, const Pose& pose) {
+  if constexpr (N == 6) {
+    MatN<6> m = MatN<6>::Zero();
+    m.template topLeftCorner<3, 3>() = model.mass * Mat3::Identity();
+    m.template bottomRightCorner<3, 3>() = pose.rotation * model.inertia * pose.rotation.transpose();
+    return m;
+  } else {
+    const Mat3 s = pose.map * model.second_moments * pose.map.transpose();
+    return mass_matrix(model.settings.density, model.volume, s);
+  }
+}
+
+// Per-contact terms of one step, computed once and reused by the open–close iterations.
+template <int N>
+struct Work {
+  Eigen::Matrix<double, 3, N> t;        // T(r) at the contact point
+  VecN<N> gn;                           // Tᵀn: the gap's gradient
+  Eigen::Matrix<double, 3, N> ta;       // T(r) at the shear anchor
+  Vec3 s0;                              // shear spring stretch at the step start
+  double g0 = 0.0;                      // gap − offset at the step start
+};
+
+struct StepOutcome {
+  bool converged = false;
+  int iterations = 0;
+  int held = 0;  // contacts held in their state before the iteration settled
+};
+
+// Shi's implicit step: assemble, iterate on the contact states, solve. On return `d`
+// holds the step displacement and each contact's mode its converged state.
+template <int N>
+StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, double dt, double friction,
+                       std::vector<Contact>& contacts, VecN<N>& d, PhaseTimes& times, bool freeze_strain = false,
+                       bool impact_phase = false) {
+  const Settings& set = model.settings;
+  const bool timing = set.time_phases;
+  MatN<N> k0;
+  VecN<N> f0;
+  thread_local std::vector<Work<N>> work;
+  {
+    PhaseTimer timer(timing, times.assemble);
+    const MatN<N> m = current_mass<N>(model, pose);
+    const VecN<N> v0 = s.velocity.template head<N>();
+    k0 = (2.0 / (dt * dt)) * m;
+    f0 = (2.0 / dt) * (m * v0);
+    f0.template head<3>() += model.mass * gravity_vector(model);
+    if constexpr (N == 12) {
+      // Accumulated strain (body frame, from the stretch U) acts as an initial stress.
+      const Mat3 e_body = 0.5 * (s.stretch + s.stretch.transpose()) - Mat3::Identity();
+      const Mat3 e_world = pose.rotation * e_body * pose.rotation.transpose();
+      const Eigen::Matrix<double, 6, 1> sigma = model.elasticity * voigt(e_world);
+      k0.template bottomRightCorner<6, 6>() += model.volume * model.elasticity;
+      f0.template tail<6>() -= model.volume * sigma;
+    }
+    work.resize(contacts.size());
+    for (std::size_t i = 0; i < contacts.size(); ++i) {
+      Contact& c = contacts[i];
+      Work<N>& w = work[i];
+      w.t = dof_matrix<N>(c.point - pose.centre);
+      w.gn = w.t.transpose() * c.normal;
+      // A slip direction carried from an earlier step (an edge–edge normal turns with
+      // the block) is made tangent again: friction must have no normal part.
+      const Vec3 slip = c.slip_direction - c.normal * c.normal.dot(c.slip_direction);
+      c.slip_direction = slip.norm() > 1e-9 ? Vec3(slip.normalized()) : Vec3::Zero();
+      w.g0 = c.gap - c.gap_offset;
+      if (c.anchored) {
+        const Vec3 xa = pose.centre + pose.map * c.body_anchor;
+        w.ta = dof_matrix<N>(xa - pose.centre);
+        const Vec3 s_raw = xa - c.ground_anchor;
+        w.s0 = s_raw - c.normal * c.normal.dot(s_raw);
+      }
+    }
+  }
+  const double p = model.stiffness;
+  const double ps = p / set.shear_stiffness_ratio;
+  // Each contact may visit each of its three modes once per step; a contact whose
+  // re-judgement would take it back to a mode it already had in this step (open -> locked
+  // -> open, locked -> sliding -> locked, ...) is held closed -- sliding if it slid -- for
+  // the rest of the step, and so is every contact that changes state after
+  // `max_open_close_iterations`. The iteration therefore always ends, after at most
+  // max_open_close_iterations + 3·(contacts) + 1 solves; a held contact carries at most
+  // the small tension or slip error of one state flip (counted in Counters::held_contacts).
+  thread_local std::vector<std::uint8_t> visited;
+  thread_local std::vector<std::uint8_t> held;
+  visited.assign(contacts.size(), 0);
+  held.assign(contacts.size(), 0);
+  auto bit = [](ContactMode m) { return static_cast<std::uint8_t>(1u << static_cast<unsigned>(m)); };
+  for (std::size_t i = 0; i < contacts.size(); ++i) visited[i] = bit(contacts[i].mode);
+  StepOutcome out;
+  const int free_iterations = static_cast<int>(set.max_open_close_iterations);
+  const int max_iter = free_iterations + 4 * static_cast<int>(contacts.size()) + 1;
+  for (int iter = 0; iter < max_iter; ++iter) {
+    ++out.iterations;
+    MatN<N> k = k0;
+    VecN<N> f = f0;
+    {
+      PhaseTimer timer(timing, times.open_close);
+      for (std::size_t i = 0; i < contacts.size(); ++i) {
+        Contact& c = contacts[i];
+        Work<N>& w = work[i];
+        if (c.mode == ContactMode::open) continue;
+        k.noalias() += p * w.gn * w.gn.transpose();
+        f -= p * w.g0 * w.gn;
+        if (c.mode == ContactMode::locked) {
+          if (!c.anchored) {
+            // A contact closing now is anchored where it touches at the step start.
+            c.anchored = true;
+            c.body_anchor = pose.inverse_map * (c.point - pose.centre);
+            c.ground_anchor = c.point - c.gap * c.normal;
+            w.ta = w.t;
+            w.s0.setZero();
+          }
+          // ps·(P T)ᵀ(P T) with P = I − nnᵀ equals ps·(TᵀT − (Tᵀn)(Tᵀn)ᵀ).
+          const VecN<N> gt = w.ta.transpose() * c.normal;
+          k.noalias() += ps * (gram<N>(w.ta) - gt * gt.transpose());
+          f -= ps * (w.ta.transpose() * w.s0);
+        } else {
+          // Sliding: Coulomb force μ·F_n against the slip, with F_n implicit in d so the
+          // friction matches the normal force of this very step.
+          const VecN<N> ts = w.t.transpose() * c.slip_direction;
+          k.noalias() -= friction * p * ts * w.gn.transpose();
+          f += friction * p * w.g0 * ts;
+        }
+      }
+    }
+    {
+      PhaseTimer timer(timing, times.solve);
+      // Symmetric positive definite unless a contact slides (implicit friction).
+      bool sliding = false;
+      for (const Contact& c : contacts) sliding = sliding || c.mode == ContactMode::sliding;
+      if constexpr (N == 12) {
+        if (freeze_strain) {
+          // Strain increments held at zero: the rigid block of the system.
+          const Mat6 k6 = k.template topLeftCorner<6, 6>();
+          const Eigen::Matrix<double, 6, 1> f6 = f.template head<6>();
+          d.setZero();
+          if (sliding) d.template head<6>() = Eigen::PartialPivLU<Mat6>(k6).solve(f6);
+          else d.template head<6>() = Eigen::LLT<Mat6>(k6).solve(f6);
+        }
+      }
+      if (!(N == 12 && freeze_strain)) {
+        if (sliding) d = Eigen::PartialPivLU<MatN<N>>(k).solve(f);
+        else d = Eigen::LLT<MatN<N>>(k).solve(f);
+      }
+    }
+    PhaseTimer timer(timing, times.open_close);
+    if (!d.allFinite()) return out;
+    bool changed = false;
+    bool shifted = false;
+    // A contact that re-sticks after slipping gets its shear spring stretched to the
+    // friction force it carried, so the force is continuous and the load does not jump
+    // to the other contacts (which would make a block ratchet down a slope it should
+    // stick to). That stretch stores ½(μF_n)²/k_s that no force stored, negligible at
+    // rest but not under an impact's forces: there the anchor starts unstretched.
+    auto restick_stretch = [&](double g) { return impact_phase ? 0.0 : friction * (-p * g) / ps; };
+    // Return mapping: moves a locked contact's anchor so that its shear spring carries at
+    // most μ·F_n of this solution (F_n = −p·g, nothing in tension) once it carries more
+    // than `slack` times that. True if it moved.
+    auto cap_at_friction = [&](Contact& c, Work<N>& w, double g, double slack) {
+      const Vec3 sv = w.s0 + w.ta * d;
+      const Vec3 st = sv - c.normal * c.normal.dot(sv);
+      const double limit = friction * std::max(0.0, -p * g) / ps;
+      const double stretch = st.norm();
+      if (stretch <= slack * limit * (1.0 + 1e-9) + 1e-15 * model.radius) return false;
+      const Vec3 shift = st * (limit / stretch - 1.0);
+      w.s0 += shift;
+      c.ground_anchor -= shift;
+      return true;
+    };
+    for (std::size_t i = 0; i < contacts.size(); ++i) {
+      Contact& c = contacts[i];
+      Work<N>& w = work[i];
+      const double g = w.g0 + w.gn.dot(d);
+      if (held[i]) {
+        // A held contact keeps its mode but not a force friction cannot carry: a locked
+        // one has its anchor moved to the friction limit of this solution (none in
+        // tension), and a sliding one may still stick once, since Coulomb friction must
+        // never push along the slip.
+        if (c.mode == ContactMode::locked) {
+          shifted = cap_at_friction(c, w, g, 2.0) || shifted;
+        } else if (held[i] == 1 && c.mode == ContactMode::sliding && g < 0.0) {
+          const Vec3 du = w.t * d;
+          if ((du - c.normal * c.normal.dot(du)).dot(c.slip_direction) < 0.0) {
+            c.mode = ContactMode::locked;
+            c.anchored = true;
+            w.s0 = restick_stretch(g) * c.slip_direction;
+            c.body_anchor = pose.inverse_map * (c.point - pose.centre);
+            c.ground_anchor = c.point - c.gap * c.normal - w.s0;
+            w.ta = w.t;
+            held[i] = 2;
+            changed = true;
+          }
+        }
+        continue;
+      }
+      // The state the solution asks for, and the slip direction or re-stick it implies.
+      ContactMode next = c.mode;
+      Vec3 slip = c.slip_direction;
+      bool restick = false;
+      if (c.mode == ContactMode::open) {
+        // Without friction a closed contact only slides: no shear spring at all.
+        if (g < 0.0 && !(friction > 0.0)) {
+          next = ContactMode::sliding;
+          const Vec3 du = w.t * d;
+          const Vec3 ut = du - c.normal * c.normal.dot(du);
+          if (c.slip_direction.squaredNorm() == 0.0 && ut.norm() > 0.0) slip = ut.normalized();
+        } else if (g < 0.0) {
+          next = c.resume == ContactMode::sliding && c.slip_direction.squaredNorm() > 0.0 ? ContactMode::sliding
+                                                                                          : ContactMode::locked;
+        }
+      } else if (g >= 0.0) {
+        next = ContactMode::open;
+      } else if (c.mode == ContactMode::locked) {
+        const Vec3 sv = w.s0 + w.ta * d;
+        const Vec3 st = sv - c.normal * c.normal.dot(sv);
+        const double fs = ps * st.norm();
+        if (fs > friction * (-p * g) * (1.0 + 1e-12) && st.norm() > 0.0) {
+          next = ContactMode::sliding;
+          slip = st.normalized();
+        }
+      } else {
+        const Vec3 du = w.t * d;
+        const Vec3 dt_slip = du - c.normal * c.normal.dot(du);
+        if (dt_slip.dot(c.slip_direction) < 0.0) {
+          next = ContactMode::locked;
+          restick = true;
+        }
+      }
+      if (next == c.mode) continue;
+      const bool revisit = (visited[i] & bit(next)) != 0;
+      if (revisit || iter >= free_iterations) held[i] = 1;
+      if (revisit) {
+        const bool touched_open = ((visited[i] | bit(next)) & bit(ContactMode::open)) != 0;
+        if (!touched_open) {
+          // Cycling between sticking and slipping: the contact is at the friction limit.
+          // It is held locked with its anchor moved so that the shear spring carries
+          // exactly μ·F_n along the stretch of this solution (a return mapping): a
+          // sticking block that just stopped keeps its load shared, without more slip.
+          if (c.mode == ContactMode::locked) {
+            shifted = cap_at_friction(c, w, g, 1.0) || shifted;
+            continue;
+          }
+          next = ContactMode::locked;  // the re-stick below pre-stretches it to the limit
+          if (!(friction > 0.0)) continue;  // nothing to stick with: it keeps sliding
+        } else {
+          // Cycling between open and closed: the contact carries almost no load (a closed
+          // state in tension against an open one that penetrates). A contact touching at
+          // the step start is held closed and sliding along its tangential motion in this
+          // solution, so it bears the bounded Coulomb force; locked only if it does not
+          // move tangentially at all.
+          // A contact that starts the step with a gap is held open instead: closed, its
+          // spring would pull with the whole gap as tension.
+          if (w.g0 > 0.0) {
+            if (c.mode == ContactMode::open) continue;
+            next = ContactMode::open;
+            restick = false;
+            visited[i] |= bit(next);
+            changed = true;
+            c.resume = c.mode;
+            c.mode = next;
+            continue;
+          }
+          const Vec3 du = w.t * d;
+          const Vec3 tangential = du - c.normal * c.normal.dot(du);
+          if (c.mode == ContactMode::sliding) {
+            // It stays sliding, against its motion in this solution.
+            if (tangential.norm() > 0.0 && c.slip_direction.dot(tangential.normalized()) < 1.0 - 1e-9) {
+              c.slip_direction = tangential.normalized();
+              changed = true;
+            }
+            continue;
+          }
+          if (tangential.norm() > 0.0) {
+            next = ContactMode::sliding;
+            slip = tangential.normalized();
+          } else if (c.mode == ContactMode::locked) {
+            continue;
+          } else {
+            next = ContactMode::locked;
+          }
+          restick = false;
+        }
+      }
+      visited[i] |= bit(next);
+      changed = true;
+      if (next == ContactMode::sliding && (c.mode != ContactMode::sliding || c.slip_direction.squaredNorm() == 0.0))
+        c.slip_direction = slip;
+      if (next == ContactMode::open) c.resume = c.mode;
+      if (restick) {
+        // The friction would reverse the slip: the contact sticks. Its shear spring
+        // starts stretched to the friction force it carried, so the force is
+        // continuous; a zero-stretch anchor would let the load jump to the other
+        // contacts and make the block ratchet down a slope it should stick to.
+        c.anchored = true;
+        w.s0 = restick_stretch(g) * c.slip_direction;
+        c.body_anchor = pose.inverse_map * (c.point - pose.centre);
+        c.ground_anchor = c.point - c.gap * c.normal - w.s0;
+        w.ta = w.t;
+      }
+      c.mode = next;
+    }
+    // Anchor moves of held contacts converge geometrically; the last iteration accepts
+    // what is left of them.
+    if (!changed && (!shifted || iter + 1 >= max_iter)) {
+      out.converged = true;
+      for (const std::uint8_t h : held) out.held += h > 0 ? 1 : 0;
+      return out;
+    }
+  }
+  return out;
+}
+
+// Carries modes and anchors of contacts that persist from the previous step: the same
+// kind and features, or -- for a block vertex -- a coplanar neighbour triangle of the one
+// it was on (a vertex sliding across a flat grid keeps its state). An anchor never holds
+// more shear stretch than the friction force the contact last carried allows
+// (μ·F_n/k_s): an anchor left behind while the contact was open or slid on would
+// otherwise pull the block back with a spring force friction cannot have stored, which
+// both creates energy and makes the contact flip open and closed without end.
+//
+// An edge–edge pair that was not in contact in the previous step and is found already
+// deeper than `fresh_depth` (the search distance: how far features can approach in one
+// step) is dropped: a real crossing is found while it approaches, and the normal e₁ × e₂
+// of a pair found deep inside says nothing about the way out.
+inline void carry_contacts(const std::vector<Contact>& previous, std::vector<Contact>& now, const Pose& pose,
+                    double friction, double shear_stiffness, double fresh_depth, double radius) {
+  std::erase_if(now, [&](const Contact& c) {
+    if (c.kind != ContactKind::edge_edge || c.gap >= -fresh_depth) return false;
+    return std::none_of(previous.begin(), previous.end(), [&](const Contact& old) {
+      return old.kind == c.kind && old.block_feature == c.block_feature && old.terrain_feature == c.terrain_feature;
+    });
+  });
+  for (Contact& c : now) {
+    c.gap_offset = std::min(c.gap, 0.0);
+    const Contact* match = nullptr;
+    for (const Contact& old : previous) {
+      if (old.kind != c.kind || old.block_feature != c.block_feature) continue;
+      if (old.terrain_feature == c.terrain_feature) {
+        match = &old;
+        break;
+      }
+      if (c.kind == ContactKind::vertex_face && old.normal.dot(c.normal) > 1.0 - 1e-12) match = &old;
+    }
+    if (match == nullptr) continue;
+    const Contact& old = *match;
+    c.mode = old.mode;
+    c.resume = old.resume;
+    c.anchored = old.anchored;
+    c.body_anchor = old.body_anchor;
+    c.ground_anchor = old.ground_anchor;
+    c.slip_direction = old.slip_direction;
+    c.normal_force = old.normal_force;
+    c.anchor_force = old.anchor_force;
+    // The springs resume where the last solve left them: the exact rotation of the
+    // geometry update puts a rotating block's points up to |θ|²·r/2 deeper than the
+    // linearised step predicted, and a spring compressed by that extra depth would push
+    // it out with energy no force stored. So the compression never exceeds the predicted
+    // one, and the accepted penetration follows the block out, never in.
+    double offset = old.gap_offset;
+    const double extra = old.spring_gap - (c.gap - offset);
+    if (extra > 1e-3 * -old.spring_gap && extra > 1e-9 * radius) offset = c.gap - old.spring_gap;
+    c.gap_offset = c.gap > offset ? std::min(0.0, c.gap) : offset;
+    if (c.anchored) {
+      const Vec3 xa = pose.centre + pose.map * c.body_anchor;
+      const Vec3 s_raw = xa - c.ground_anchor;
+      const Vec3 st = s_raw - c.normal * c.normal.dot(s_raw);
+      const double allowed = std::min(friction * c.anchor_force, old.spring_shear) / shear_stiffness;
+      const double stretch = st.norm();
+      if (stretch > allowed) c.ground_anchor += st * (1.0 - allowed / stretch);
+    }
+  }
+}
+
+// Contacts that stay closed through a step have no normal relative velocity in the
+// physics: a penalty spring at Ω = √(k/m)·Δt ≫ 1 keeps a barely damped vibration instead,
+// which rocks a resting block and turns its friction forces from side to side until it
+// creeps down a slope it should stick to. Outside impacts the approaching normal velocity
+// of such contacts is therefore removed by non-negative impulses at the contact points
+// (projected Gauss–Seidel on the block's mass metric): each impulse only removes kinetic
+// energy, and a contact that separates is left to separate.
+template <int N>
+void settle_contacts(const Model& model, State& s, const std::vector<std::pair<Vec3, Vec3>>& persistent) {
+  if (persistent.empty()) return;
+  const MatN<N> m = current_mass<N>(model, pose_of(model, s));
+  const Eigen::LLT<MatN<N>> llt(m);
+  thread_local std::vector<VecN<N>> g, minv_g;
+  thread_local std::vector<double> weight, impulse;
+  const std::size_t n = persistent.size();
+  g.resize(n);
+  minv_g.resize(n);
+  weight.assign(n, 0.0);
+  impulse.assign(n, 0.0);
+  for (std::size_t i = 0; i < n; ++i) {
+    g[i] = dof_matrix<N>(persistent[i].first - s.position).transpose() * persistent[i].second;
+    minv_g[i] = llt.solve(g[i]);
+    weight[i] = g[i].dot(minv_g[i]);
+  }
+  VecN<N> v = s.velocity.template head<N>();
+  for (int sweep = 0; sweep < 16; ++sweep) {
+    double largest = 0.0;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!(weight[i] > 0.0)) continue;
+      const double next = std::max(0.0, impulse[i] - g[i].dot(v) / weight[i]);
+      const double change = next - impulse[i];
+      v += change * minv_g[i];
+      impulse[i] = next;
+      largest = std::max(largest, std::abs(change) * std::sqrt(weight[i]));
+    }
+    if (largest <= 1e-12 * (1.0 + v.norm())) break;
+  }
+  s.velocity.template head<N>() = v;
+}
+
+}  // namespace talus::dda::detail

@@ -1,0 +1,161 @@
+// SPDX-License-Identifier: MIT
+// Contact episodes and the impact–rebound law (SPEC §4): what an impact draws, when it
+// ends, how the rebound is limited and scattered.
+#include "episodes.hpp"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "talus/core/error.hpp"
+
+namespace talus::dda::detail {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+Vec3 rotate_about(const Vec3& v, const Vec3& axis, double angle_rad) {
+  return Eigen::AngleAxisd(angle_rad, axis) * v;
+}
+
+// Horizontal unit direction of travel for the lateral tilt axis.
+Vec3 travel_axis(const Vec3& v_in, const Release& release) {
+  Vec3 h(v_in.x(), v_in.y(), 0.0);
+  if (h.norm() < 1e-9) h = Vec3(release.main_direction.x(), release.main_direction.y(), 0.0);
+  return h.normalized();
+}
+
+}  // namespace
+
+const terrain::Material& material_of(const Ground& ground, std::int32_t triangle) {
+  const std::int32_t m = ground.surface->material(static_cast<std::size_t>(triangle));
+  if (m < 0 || static_cast<std::size_t>(m) >= ground.materials.size())
+    throw core::InputError("terrain", "triangle " + std::to_string(triangle) + " names material " +
+                                          std::to_string(m) + " but only " +
+                                          std::to_string(ground.materials.size()) + " are defined");
+  return ground.materials[static_cast<std::size_t>(m)];
+}
+
+double mean_friction(const terrain::Material& mat) {
+  return std::tan(mat.friction_angle_mean_deg * kPi / 180.0);
+}
+
+void start_episode(const Model& model, const Ground& ground, State& s, const Vec3& v_in, double kinetic_in) {
+  Episode& e = s.episode;
+  e = Episode{};
+  e.active = true;
+  e.velocity_in = v_in;
+  e.kinetic_in = kinetic_in;
+  Vec3 n = Vec3::Zero();
+  std::int32_t triangle = -1;
+  double strongest = -1.0;
+  for (const Contact& c : s.contacts) {
+    if (c.mode == ContactMode::open) continue;
+    const double w = std::max(c.normal_force, 1e-300);
+    n += w * c.normal;
+    if (w > strongest) {
+      strongest = w;
+      triangle = c.triangle;
+    }
+  }
+  e.normal = n.norm() > 0.0 ? Vec3(n.normalized()) : Vec3::UnitZ();
+  const double approach = -v_in.dot(e.normal);
+  if (approach < model.settings.impact_min_normal_speed) return;
+  const terrain::Material& mat = material_of(ground, triangle);
+  // Three draws per impact, always in this order, so a setting never shifts later draws.
+  const double z_r = s.impacts_rng.normal();
+  const double z_f = s.impacts_rng.normal();
+  const double z_t = s.impacts_rng.normal();
+  e.impact = true;
+  e.restitution = std::clamp(mat.restitution_mean + mat.restitution_sd * z_r, 0.0, 1.0);
+  s.friction = std::max(0.0, mean_friction(mat) + mat.friction_coefficient_sd * z_f);
+  s.friction_drawn = true;
+  e.tilt_deg = mat.lateral_tilt_sd_deg * z_t;
+  e.normal = rotate_about(e.normal, travel_axis(v_in, s.release), e.tilt_deg * kPi / 180.0);
+  e.restitution_scale = mat.restitution_scale;
+  ++s.impacts;
+}
+
+// Applies the restitution law to the rebound of the impact in progress; the episode
+// goes on as a rolling/sliding one if contacts stay closed.
+void finish_impact(const Model& model, State& s) {
+  Episode& e = s.episode;
+  const bool impact = e.impact;
+  e.impact = false;
+  if (!impact || model.restitution == RestitutionLaw::off) return;
+  Vec3 v = s.velocity.head<3>();
+  Vec3 w = s.velocity.segment<3>(3);
+  const auto rotational = [&](const Vec3& omega) {
+    const Vec3 wb = s.orientation.conjugate() * omega;
+    return 0.5 * wb.dot(model.inertia * wb);
+  };
+  const double kinetic_out = 0.5 * model.mass * v.squaredNorm() + rotational(w);
+  // The rebound's whole kinetic energy (spin included) is bounded too: a contact step
+  // can turn translation into spin, which a cap on the speed alone would let through.
+  double energy_ratio = 1.0;  // allowed kinetic energy over the impact's
+  if (model.restitution == RestitutionLaw::scaled) {
+    const double vin = e.velocity_in.norm();
+    const double sf = 1.0 / (1.0 + (vin / e.restitution_scale) * (vin / e.restitution_scale));
+    const double cap = e.restitution * sf * vin;
+    energy_ratio = (e.restitution * sf) * (e.restitution * sf);
+    const double vout = v.norm();
+    double factor = vout > cap ? cap / vout : 1.0;
+    if (kinetic_out * factor * factor > energy_ratio * e.kinetic_in)
+      factor = std::sqrt(energy_ratio * e.kinetic_in / kinetic_out);
+    if (factor < 1.0) {
+      // The whole rigid velocity is scaled: rebound direction and spin-to-speed ratio
+      // of the DDA rebound are kept, its kinetic energy scaled by factor².
+      v *= factor;
+      w *= factor;
+      ++s.counters.impacts_rescaled;
+    }
+    // The lateral scatter turns the rebound about the horizontal travel direction. The
+    // spin turns with it and keeps its energy (½ωᵀJω changes under a rotation of ω
+    // unless the inertia is isotropic).
+    const Vec3 axis = travel_axis(e.velocity_in, s.release);
+    const double tilt = e.tilt_deg * kPi / 180.0;
+    v = rotate_about(v, axis, tilt);
+    const double spin_energy = rotational(w);
+    w = rotate_about(w, axis, tilt);
+    const double turned = rotational(w);
+    if (turned > 0.0) w *= std::sqrt(spin_energy / turned);
+  } else if (model.restitution == RestitutionLaw::normal_component) {
+    const double vin_n = std::abs(e.velocity_in.dot(e.normal));
+    const double sf = 1.0 / (1.0 + (vin_n / e.restitution_scale) * (vin_n / e.restitution_scale));
+    const double cap = e.restitution * sf * vin_n;
+    const double vn = v.dot(e.normal);
+    if (vn > cap) {
+      v -= (vn - cap) * e.normal;
+      ++s.counters.impacts_rescaled;
+    }
+    // The tangential velocity and spin are kept, but never with more kinetic energy
+    // than the block brought into the impact.
+    const double now = 0.5 * model.mass * v.squaredNorm() + rotational(w);
+    if (now > e.kinetic_in && now > 0.0) {
+      const double factor = std::sqrt(e.kinetic_in / now);
+      v *= factor;
+      w *= factor;
+    }
+  }
+  s.velocity.head<3>() = v;
+  s.velocity.segment<3>(3) = w;
+}
+
+void end_episode(const Model& model, State& s) {
+  finish_impact(model, s);
+  s.episode.active = false;
+}
+
+// An impact whose block stays in contact (it lands and slides or rolls on) has rebounded
+// once the block no longer approaches the ground along the impact normal and its
+// contact springs hold less than 1 % of the impact's kinetic energy: the law applies then
+// rather than never.
+bool rebound_complete(const Model& model, const State& s, double spring_energy) {
+  const Episode& e = s.episode;
+  if (s.velocity.head<3>().dot(e.normal) < 0.0) return false;
+  return spring_energy <= 0.01 * 0.5 * model.mass * e.velocity_in.squaredNorm();
+}
+
+}  // namespace talus::dda::detail

@@ -1,0 +1,27 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+#include <cstdint>
+
+#include "talus/dda/engine.hpp"
+
+namespace talus::dda::detail {
+
+/// The material of a terrain triangle; throws core::InputError ("terrain") if the
+/// triangle names a material `ground` lacks.
+const terrain::Material& material_of(const Ground& ground, std::int32_t triangle);
+/// tan of the material's mean friction angle (-).
+double mean_friction(const terrain::Material& mat);
+
+/// Starts a contact episode with the centroid velocity `v_in` (m/s) and rigid kinetic
+/// energy `kinetic_in` (J) of the step start; an impact when the normal approach speed is
+/// at least impact_min_normal_speed (draws R_v, μ and the lateral tilt).
+void start_episode(const Model& model, const Ground& ground, State& s, const Vec3& v_in, double kinetic_in);
+/// Applies the restitution law to the rebound of the impact in progress; the episode
+/// goes on as a rolling/sliding one if contacts stay closed.
+void finish_impact(const Model& model, State& s);
+/// Ends the episode (applying the law if it is an impact).
+void end_episode(const Model& model, State& s);
+/// True once an impact whose block stays in contact has rebounded (docs/dda.md).
+bool rebound_complete(const Model& model, const State& s, double spring_energy);
+
+}  // namespace talus::dda::detail

@@ -104,3 +104,40 @@ TEST(DdaModel, BadBlocksAreOneLineErrors) {
 
 }  // namespace
 }  // namespace talus::dda
+
+namespace talus::dda {
+namespace {
+
+// The default stiffness is relative to the block: every block of a library gets the same
+// Ω = √(k/m)·Δt, and an absolute stiffness outside Ω ∈ [1, 300] is refused for that block.
+TEST(DdaModel, StiffnessIsRelativeToTheBlock) {
+  Settings set;
+  for (const double volume : {1e-3, 1.0, 1000.0}) {
+    const Model m = Model::build(set, testing::cube(std::cbrt(volume)));
+    EXPECT_NEAR(std::sqrt(m.stiffness / m.mass) * set.time_step, set.penalty_omega, 1e-12 * set.penalty_omega)
+        << "volume " << volume;
+  }
+  set.penalty_stiffness = 1e12;  // N/m: Ω = 19 for 1 m³ (2800 kg), 598 for 1e-3 m³
+  EXPECT_NO_THROW(Model::build(set, testing::cube(1.0)));
+  const std::string error = build_error(set, testing::cube(0.1));
+  EXPECT_NE(error.find("outside the well-posed range [1, 300]"), std::string::npos) << error;
+  set.penalty_stiffness = 0.0;
+  set.penalty_omega = 0.5;
+  EXPECT_EQ(build_error(set, testing::cube(1.0)), "dda settings: penalty_omega = 0.5: must be in [1, 300]");
+}
+
+// The step control is scaled by the block's thickness as well as its diameter: a needle
+// may not move by its own thickness in one step, a cube keeps its diameter.
+TEST(DdaModel, StepControlScaleFollowsTheThinnestAxis) {
+  const Settings set;
+  const Model cube = Model::build(set, testing::cube(1.0));
+  EXPECT_NEAR(cube.size, 2.0 * cube.radius, 1e-12);
+  geometry::Polyhedron needle = testing::cube(1.0);
+  for (Vec3& p : needle.vertices) p = Vec3(5.0 * p.x(), 0.1 * p.y(), 0.1 * p.z());
+  const Model m = Model::build(set, needle);
+  EXPECT_NEAR(m.size, 0.2, 1e-9);  // twice the 0.1 m thickness
+  EXPECT_NEAR(m.max_step_displacement(), set.max_displacement_ratio * 0.2, 1e-12);
+}
+
+}  // namespace
+}  // namespace talus::dda

@@ -197,3 +197,29 @@ TEST(DdaRealization, EndReasons) {
 
 }  // namespace
 }  // namespace talus::dda
+
+namespace talus::dda {
+namespace {
+
+// The physical invariants hold at every step of bench-slope realizations on the
+// roughest level: no step gains energy beyond round-off, terrain and block never overlap
+// beyond the penetration limit, and no realization ends in a numerical failure.
+TEST(DdaRealization, InvariantsHoldAtEveryStep) {
+  const terrain::Terrain t = bench_slope(0.4);
+  Settings set;
+  set.max_time = 3.0;
+  set.check_invariants = true;
+  for (const double volume : {1e-3, 1.0}) {
+    const Model m = Model::build(set, testing::cube(std::cbrt(volume)));
+    for (std::uint32_t i = 0; i < 6; ++i) {
+      const Summary s = realization(t, m, i);
+      EXPECT_FALSE(is_failure(s.end)) << to_string(s.end) << " volume " << volume << " realization " << i;
+      EXPECT_EQ(s.counters.energy_violations, 0u) << "gain " << s.max_energy_gain << " J, realization " << i;
+      EXPECT_EQ(s.counters.depth_violations, 0u) << "overlap " << s.max_depth << " m, realization " << i;
+      EXPECT_GT(s.counters.contact_steps, 0u);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace talus::dda

@@ -37,7 +37,6 @@ bool is_failure(EndReason reason) {
 namespace {
 
 using namespace detail;
-constexpr double kPi = 3.14159265358979323846;
 
 void update_world_vertices(const Model& model, State& s) {
   const Pose p = pose_of(model, s);

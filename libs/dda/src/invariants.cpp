@@ -12,19 +12,30 @@ namespace talus::dda::detail {
 
 namespace {
 
-// Squared distance from q to the polygon of `face` (all in the body frame).
-double face_distance2(const BlockFace& face, const Vec3& q) {
-  const double h = face.normal.dot(q) - face.offset;
-  const Eigen::Vector2d uv(face.u.dot(q), face.v.dot(q));
-  const std::size_t n = face.polygon.size();
+// Point in polygon (crossing number) in the face's (u, v) coordinates.
+bool inside_face(const BlockFace& face, const Eigen::Vector2d& uv) {
   bool inside = false;
-  double edge2 = std::numeric_limits<double>::infinity();
+  const std::size_t n = face.polygon.size();
   for (std::size_t i = 0, j = n - 1; i < n; j = i++) {
     const Eigen::Vector2d& a = face.polygon[i];
     const Eigen::Vector2d& b = face.polygon[j];
     if ((a.y() > uv.y()) != (b.y() > uv.y()) &&
         uv.x() < a.x() + (uv.y() - a.y()) / (b.y() - a.y()) * (b.x() - a.x()))
       inside = !inside;
+  }
+  return inside;
+}
+
+// Squared distance from q to the polygon of `face` (all in the body frame).
+double face_distance2(const BlockFace& face, const Vec3& q) {
+  const double h = face.normal.dot(q) - face.offset;
+  const Eigen::Vector2d uv(face.u.dot(q), face.v.dot(q));
+  const std::size_t n = face.polygon.size();
+  const bool inside = inside_face(face, uv);
+  double edge2 = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0, j = n - 1; i < n; j = i++) {
+    const Eigen::Vector2d& a = face.polygon[i];
+    const Eigen::Vector2d& b = face.polygon[j];
     const Eigen::Vector2d ab = b - a;
     const double t = std::clamp((uv - a).dot(ab) / std::max(ab.squaredNorm(), 1e-300), 0.0, 1.0);
     edge2 = std::min(edge2, (uv - (a + t * ab)).squaredNorm());
@@ -43,17 +54,7 @@ bool inside_block(const Model& model, const Vec3& q) {
     const double t = (face.offset - face.normal.dot(q)) / denom;
     if (t <= 0.0) continue;
     const Vec3 x = q + t * dir;
-    const Eigen::Vector2d uv(face.u.dot(x), face.v.dot(x));
-    bool inside = false;
-    const std::size_t n = face.polygon.size();
-    for (std::size_t i = 0, j = n - 1; i < n; j = i++) {
-      const Eigen::Vector2d& a = face.polygon[i];
-      const Eigen::Vector2d& b = face.polygon[j];
-      if ((a.y() > uv.y()) != (b.y() > uv.y()) &&
-          uv.x() < a.x() + (uv.y() - a.y()) / (b.y() - a.y()) * (b.x() - a.x()))
-        inside = !inside;
-    }
-    if (inside) ++crossings;
+    if (inside_face(face, Eigen::Vector2d(face.u.dot(x), face.v.dot(x)))) ++crossings;
   }
   return crossings % 2 == 1;
 }

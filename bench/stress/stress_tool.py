@@ -27,7 +27,7 @@ import numpy as np
 END_REASONS = ["rest", "left_terrain", "step_limit", "non_finite", "no_convergence", "penetration"]
 FAILURE_REASONS = {"non_finite", "no_convergence", "penetration"}
 # Per-realization diagnostics the engine may write; shown when the run file has them.
-OPTIONAL_COLUMNS = [("invariant_violations", "sum"), ("max_energy_gain", "max"), ("max_terrain_depth", "max")]
+OPTIONAL_COLUMNS = [("invariant_violations", "sum"), ("max_energy_gain", "max"), ("max_overlap", "max"), ("energy_removed", "sum")]
 
 
 # ----------------------------------------------------------------------------- geometry

@@ -61,16 +61,24 @@ double predicted_reach(const Model& model, const State& s, double dt) {
   return (v + (w + strain) * model.radius) * dt + 0.5 * model.settings.gravity * dt * dt;
 }
 
+// Kinetic, potential (z = 0 reference) and contact-spring energy of the state (J).
+double total_energy(const Model& model, const State& s) { return mechanical_energy(model, s) + s.stored_energy; }
+
+// The size of the energy terms whose round-off bounds a step's energy balance (J).
+double energy_scale(const Model& model, const State& s, double total) {
+  const double weight = model.mass * model.settings.gravity;
+  return std::abs(total) + std::abs(weight * s.position.z()) + weight * model.radius;
+}
+
 // Nothing in the model is a source of energy, but a contact step can still gain some: a
 // friction direction that a held contact could not revise, a feature pair found deep
 // inside at a fast impact. Whatever the step gained beyond round-off is taken back
 // from the kinetic energy (the velocity is scaled, its direction kept), and counted, so
 // that a realization can never gain energy it had no source for.
 void limit_energy(const Model& model, State& s, double energy_start) {
-  const double potential = model.mass * model.settings.gravity * s.position.z();
   const double kinetic = kinetic_energy(model, s);
-  const double scale = std::abs(energy_start) + std::abs(potential) + model.mass * model.settings.gravity * model.radius;
-  const double excess = kinetic + potential + s.stored_energy - energy_start;
+  const double excess = total_energy(model, s) - energy_start;
+  const double scale = energy_scale(model, s, energy_start);
   if (!(excess > 1e-10 * scale)) return;
   ++s.counters.energy_limited;
   const double from_motion = std::min(excess, kinetic);
@@ -98,13 +106,11 @@ void end_with(State& s, EndReason reason) {
 // The total energy -- kinetic, potential and held by the contact springs -- never rises
 // beyond round-off of its terms: nothing in the model is a source.
 void check_energy(const Model& model, State& s) {
-  const double potential = model.mass * model.settings.gravity * s.position.z();
-  const double total = kinetic_energy(model, s) + potential + s.stored_energy;
+  const double total = total_energy(model, s);
   if (std::isfinite(s.checked_energy)) {
     const double gain = total - s.checked_energy;
-    const double scale = std::abs(total) + std::abs(potential) + model.mass * model.settings.gravity * model.radius;
     s.max_energy_gain = std::max(s.max_energy_gain, gain);
-    if (gain > 1e-9 * scale) ++s.counters.energy_violations;
+    if (gain > 1e-9 * energy_scale(model, s, total)) ++s.counters.energy_violations;
   }
   s.checked_energy = total;
 }
@@ -287,7 +293,7 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   const double depth = model.penetration_limit();
   const Vec3 v_start = s.velocity.head<3>();
   const double kinetic_start = rigid_kinetic_energy(model, s);
-  const double energy_start = kinetic_energy(model, s) + model.mass * set.gravity * s.position.z() + s.stored_energy;
+  const double energy_start = total_energy(model, s);
   double dt = s.dt;
   std::vector<Contact>& contacts = s.scratch_contacts;
   const Pose pose = pose_of(model, s);
@@ -410,15 +416,12 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
     s.contacts.push_back(c);
   }
   apply_displacement<N>(model, s, d, dt, freeze_strain);
-  {
-    const Pose now = pose_of(model, s);
-    s.stored_energy = spring_energy;
-    if (set.check_invariants) {
-      const double overlap = std::max(detail::terrain_depth_in_block(model, now, s.patch),
-                                      detail::block_depth_below_terrain(s.world_vertices, s.patch, model.radius));
-      s.max_depth = std::max(s.max_depth, overlap);
-      if (overlap > depth) ++s.counters.depth_violations;
-    }
+  s.stored_energy = spring_energy;
+  if (set.check_invariants) {
+    const double overlap = std::max(terrain_depth_in_block(model, pose_of(model, s), s.patch),
+                                    block_depth_below_terrain(s.world_vertices, s.patch, model.radius));
+    s.max_depth = std::max(s.max_depth, overlap);
+    if (overlap > depth) ++s.counters.depth_violations;
   }
   ++s.counters.contact_steps;
   s.last_step_contact = true;

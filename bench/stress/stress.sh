@@ -193,6 +193,11 @@ for cut in alternating random fixed; do
     --set synthetic.kind=plane --set synthetic.cell_size=1 --set synthetic.width=10 \
     --set synthetic.length=40 --set synthetic.slope_angle_deg=30 -o "$inputs/analytic-$cut.h5"
 done
+# The rolling and facet-impact cases' plane: 20 deg, 1 m cells, 40 x 24 m (blocks start
+# near y = 12, far from the open side edges).
+tg -c "$inputs/analytic-ground.yaml" --set name=analytic-plane20 --set synthetic.kind=plane \
+  --set synthetic.cell_size=1 --set synthetic.width=24 --set synthetic.length=40 \
+  --set synthetic.slope_angle_deg=20 -o "$inputs/analytic-plane20.h5"
 mkdir -p "$inputs/tin"
 py tin-plane-obj "$inputs/tin/ground.obj" --angle 30 --length 40 --width 10 --cell 1
 tg -c "$inputs/analytic-ground.yaml" --set source=tin --set tin.mode=keep "$inputs/tin/ground.obj" \
@@ -225,6 +230,17 @@ blocks:
 EOF
 # block-gen reads mesh paths relative to its working directory.
 (cd "$inputs" && bg -c shapes.yaml -o shapes.h5)
+# Sphere-like blocks (icospheres of 5120 and 1280 triangles) and the icosahedron, 1 m^3,
+# for the rolling and facet-impact cases.
+py sphere-obj "$inputs/sphere5120.obj" --levels 4
+py sphere-obj "$inputs/sphere1280.obj" --levels 3
+cat > "$inputs/spheres.yaml" <<'EOF'
+blocks:
+  - {name: sphere5120, mesh: sphere5120.obj, volume: 1}
+  - {name: sphere1280, mesh: sphere1280.obj, volume: 1}
+  - {name: icosahedron, solid: icosahedron, volume: 1}
+EOF
+(cd "$inputs" && bg -c spheres.yaml -o spheres.h5)
 # R1-R4 of SPEC §6: the library every terrain and numerics case cycles through.
 bg -c "$repo/samples/blocks/platonic.yaml" -o "$inputs/platonic.h5"
 
@@ -375,19 +391,19 @@ fi
 # 2.8 kg and 2.8e6 kg. Each entry is a KEY=VALUE list for dda-run (comma-separated): edit
 # these lists to sweep another stiffness setting (e.g. a relative one) the engine may offer.
 # The contact stiffness is set relative to the block (penalty_omega, docs/dda.md: its
-# range is [1, 300]); an absolute penalty_stiffness is accepted only where it gives the
+# range is [3, 300]); an absolute penalty_stiffness is accepted only where it gives the
 # block an Ω in that range, so the absolute values are swept for the 1 m^3 blocks only.
-stiffness_sweep=(engine.penalty_omega=1 engine.penalty_omega=5 engine.penalty_omega=80 engine.penalty_omega=300)
-absolute_sweep=(engine.penalty_stiffness=1e10 engine.penalty_stiffness=1e11 engine.penalty_stiffness=1e12
-                engine.penalty_stiffness=1e13)
+stiffness_sweep=(engine.penalty_omega=3 engine.penalty_omega=5 engine.penalty_omega=80 engine.penalty_omega=300)
+absolute_sweep=(engine.penalty_stiffness=1e11 engine.penalty_stiffness=1e12 engine.penalty_stiffness=1e13
+                engine.penalty_stiffness=1e14)
 # The step limit keeps 35 s of simulated time (the default 35 000 steps of 1 ms) at every
 # step below 1 ms.
 time_step_sweep=(engine.time_step=1e-5,engine.max_steps=3500000 engine.time_step=1e-4,engine.max_steps=350000
                  engine.time_step=1e-3 engine.time_step=1e-2)
 numerics_subjects=(R1-R4 cube-0.001 cube-1000)
 if [ $mode = ci ]; then
-  stiffness_sweep=(engine.penalty_omega=1 engine.penalty_omega=300)
-  absolute_sweep=(engine.penalty_stiffness=1e10)
+  stiffness_sweep=(engine.penalty_omega=3 engine.penalty_omega=300)
+  absolute_sweep=(engine.penalty_stiffness=1e11)
   time_step_sweep=(engine.time_step=1e-2)
   numerics_subjects=(R1-R4 cube-0.001)
 fi
@@ -430,11 +446,13 @@ else
   rest_release=("release.height=$h")
 fi
 case $mode in
-  ci) slide_yaws=(0 45); slide_cuts=(alternating); slide_mus=(0 0.2); stick_yaws=(); analytic_dofs=(rigid6) ;;
+  ci) slide_yaws=(0 45); slide_cuts=(alternating); slide_mus=(0 0.2); stick_yaws=(); analytic_dofs=(rigid6)
+      roll_spheres=(); roll_yaws=() ;;
   quick) slide_yaws=(0 30 45 60 90); slide_cuts=(alternating random fixed); slide_mus=(0 0.2); stick_yaws=(0 45)
-         analytic_dofs=(rigid6) ;;
+         analytic_dofs=(rigid6); roll_spheres=(sphere5120 sphere1280); roll_yaws=(0 45) ;;
   full) slide_yaws=(0 15 30 45 60 75 90); slide_cuts=(alternating random fixed); slide_mus=(0 0.2)
-        stick_yaws=(0 20 45 70); analytic_dofs=(rigid6 full12) ;;
+        stick_yaws=(0 20 45 70); analytic_dofs=(rigid6 full12); roll_spheres=(sphere5120 sphere1280)
+        roll_yaws=(0 30 60) ;;
 esac
 # Release line across the plane at an angle to the lattice: each realization starts at
 # another offset from the node lines, and the cube slides across node lines (x) and
@@ -479,9 +497,11 @@ if want_group analytic; then
       done
     done
     # Landing and sticking: mu = 0.6 > tan 30 deg. Dropped face-down (centroid 1 cm above
-    # the circumscribed radius: 0.30 m above touching), run 12 000 steps of at most 1 ms
-    # (about 10 s: steps are cut at impacts) with the rest ending off (rest_kinetic_energy 0)
-    # and the centroid sampled every 10 ms; the drift is the largest distance from the final
+    # the circumscribed radius: 0.30 m above touching; it lands at 2.4 m/s, 1.2 m/s of it
+    # along the slope, and may slide or tip before it stops: sliding decelerates at only
+    # g (mu cos 30 - sin 30) = 0.19 m/s^2), run 20 000 steps of at most 1 ms (about 20 s:
+    # steps are cut at impacts) with the rest ending off (rest_kinetic_energy 0) and the
+    # centroid sampled every 10 ms; the drift is the largest distance from the final
     # position over the last 5 s.
     for terrain in alternating tin; do
       for yaw in "${stick_yaws[@]}"; do
@@ -492,11 +512,44 @@ if want_group analytic; then
           "materials=[{name: ground, friction_angle_mean_deg: $(atan_deg 0.6)}]" \
           release.kind=line "$slide_line" release.height=0.8760254037844386 release.orientation=fixed \
           "release.orientation_deg=$o" stochastic.roughness=false stochastic.restitution=false \
-          stochastic.friction=false stochastic.lateral_tilt=false engine.time_step=1e-3 engine.max_steps=12000 \
+          stochastic.friction=false stochastic.lateral_tilt=false engine.time_step=1e-3 engine.max_steps=20000 \
           engine.rest_kinetic_energy=0 engine.trajectory_interval=0.01 engine.dof="$dof"
       done
     done
   done
+  # Rolling: a sphere-like block (icosphere of 5120 and 1280 triangles, 1 m^3) released at
+  # rest on a 20 deg plane with friction enough to roll (mu = 0.4 > 2/7 tan 20 deg), the
+  # restitution law on (R_v = 0.9): distance after T s against the sphere's
+  # a = (5/7) g sin(theta). A polyhedron pivots from facet to facet and loses energy at
+  # each pivot, more for coarser facets (docs/dda.md): the 5120-triangle block must roll
+  # within 5 %, the 1280-triangle one (facets 4-8 deg apart) within 15 %.
+  for sphere in "${roll_spheres[@]}"; do
+    case $sphere in sphere5120) roll_target=0.05 ;; *) roll_target=0.15 ;; esac
+    for yaw in "${roll_yaws[@]}"; do
+      queue analytic "roll-$sphere-yaw$yaw" "$n_analytic" \
+        --analytic "{\"kind\": \"slide\", \"angle\": 20, \"mu\": 0, \"rolling\": 0.7142857142857143, \"target\": $roll_target}" \
+        terrain="$I/analytic-plane20.h5" block_file="$I/spheres.h5" "blocks=[$sphere]" \
+        "materials=[{name: ground, friction_angle_mean_deg: $(atan_deg 0.4)}]" \
+        release.kind=line 'release.points=[[10.3,10.2],[11.7,13.8]]' release.height_reference=lowest_point \
+        release.height=1e-6 release.orientation=fixed "release.orientation_deg=[$yaw,17,5]" stochastic.roughness=false \
+        stochastic.restitution=false stochastic.friction=false stochastic.lateral_tilt=false \
+        engine.time_step=1e-3 engine.max_steps=3000
+    done
+  done
+  # Facet impacts: an icosahedron launched down the 20 deg plane at 3.2 m/s tumbles from
+  # face to face; the share of kinetic energy each facet impact takes (from the mechanical
+  # energy sampled every 1 ms) against the perfectly plastic pivot of a rigid icosahedron,
+  # 1 - ((J + m r^2 cos b) / (J + m r^2))^2 = 0.331 (b = 41.8 deg between face normals,
+  # r the midradius): within 0.1 of it.
+  if [ ${#roll_spheres[@]} -gt 0 ]; then
+    queue analytic "facet-icosahedron" "$n_analytic" \
+      --analytic '{"kind": "facet", "plastic_pivot_loss": 0.331, "target": 0.1}' \
+      terrain="$I/analytic-plane20.h5" block_file="$I/spheres.h5" "blocks=[icosahedron]" \
+      "materials=[{name: ground, friction_angle_mean_deg: 31}]" release.kind=line \
+      'release.points=[[5.3,10.2],[6.7,13.8]]' release.height_reference=lowest_point release.height=0.02 \
+      'release.velocity=[3,0,-1.09]' stochastic.roughness=false stochastic.restitution=false \
+      stochastic.friction=false stochastic.lateral_tilt=false engine.trajectory_interval=0.001
+  fi
 fi
 
 [ $ncase -gt 0 ] || { echo "stress.sh: no case selected (--groups '$groups')" >&2; exit 2; }

@@ -109,7 +109,7 @@ namespace talus::dda {
 namespace {
 
 // The default stiffness is relative to the block: every block of a library gets the same
-// Ω = √(k/m)·Δt, and an absolute stiffness outside Ω ∈ [1, 300] is refused for that block.
+// Ω = √(k/m)·Δt, and an absolute stiffness outside Ω ∈ [3, 300] is refused for that block.
 TEST(DdaModel, StiffnessIsRelativeToTheBlock) {
   Settings set;
   for (const double volume : {1e-3, 1.0, 1000.0}) {
@@ -120,10 +120,10 @@ TEST(DdaModel, StiffnessIsRelativeToTheBlock) {
   set.penalty_stiffness = 1e12;  // N/m: Ω = 19 for 1 m³ (2800 kg), 598 for 1e-3 m³
   EXPECT_NO_THROW(Model::build(set, testing::cube(1.0)));
   const std::string error = build_error(set, testing::cube(0.1));
-  EXPECT_NE(error.find("outside the well-posed range [1, 300]"), std::string::npos) << error;
+  EXPECT_NE(error.find("outside the well-posed range [3, 300]"), std::string::npos) << error;
   set.penalty_stiffness = 0.0;
   set.penalty_omega = 0.5;
-  EXPECT_EQ(build_error(set, testing::cube(1.0)), "dda settings: penalty_omega = 0.5: must be in [1, 300]");
+  EXPECT_EQ(build_error(set, testing::cube(1.0)), "dda settings: penalty_omega = 0.5: must be in [3, 300]");
 }
 
 // The step control is scaled by the block's thickness as well as its diameter: a needle

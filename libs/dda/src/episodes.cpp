@@ -62,6 +62,7 @@ void start_episode(const Model& model, const Ground& ground, State& s, const Vec
   }
   e.normal = n.norm() > 0.0 ? Vec3(n.normalized()) : Vec3::UnitZ();
   const double approach = -v_in.dot(e.normal);
+  e.approach_speed = std::max(0.0, approach);
   if (approach < model.settings.impact_min_normal_speed) return;
   const terrain::Material& mat = material_of(ground, triangle);
   // Three draws per impact, always in this order, so a setting never shifts later draws.
@@ -104,6 +105,17 @@ void finish_impact(const Model& model, State& s) {
     double factor = vout > cap ? cap / vout : 1.0;
     if (kinetic_out * factor * factor > energy_ratio * e.kinetic_in)
       factor = std::sqrt(energy_ratio * e.kinetic_in / kinetic_out);
+    // The law supplies the inelasticity the stiff penalty contact lacks in the normal
+    // direction; friction during the impact is already in the DDA rebound. So it removes
+    // at most the kinetic energy of the normal approach (a perfectly plastic impact): a
+    // normal impact follows the law exactly, a grazing hop (a tumbling block's facet
+    // landing, a small bounce) loses little, and a chain of ever smaller bounces loses a
+    // finite amount however many of them count as impacts (docs/dda.md).
+    if (model.bound_by_normal_approach && factor < 1.0 && kinetic_out > 0.0) {
+      const double normal_energy = 0.5 * model.mass * e.approach_speed * e.approach_speed;
+      if (kinetic_out * (1.0 - factor * factor) > normal_energy)
+        factor = std::sqrt(std::max(0.0, 1.0 - normal_energy / kinetic_out));
+    }
     if (factor < 1.0) {
       // The whole rigid velocity is scaled: rebound direction and spin-to-speed ratio
       // of the DDA rebound are kept, its kinetic energy scaled by factor².

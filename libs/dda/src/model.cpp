@@ -36,6 +36,8 @@ void Settings::visit(core::SettingsVisitor& v) {
            "impact-rebound law applied when a contact episode ends");
   v.field("impact_min_normal_speed", impact_min_normal_speed, "m/s",
           "normal approach speed below which a contact episode is rolling/sliding, not an impact");
+  v.choice("restitution_bound", restitution_bound, {"normal_approach", "none"},
+           "scaled law: remove at most the kinetic energy of the impact's normal approach, or no bound");
   v.field("impact_strains", impact_strains,
           "full12: strains respond during impact episodes (else held during impacts)");
   v.field("rest_kinetic_energy", rest_kinetic_energy, "J/kg",
@@ -60,7 +62,7 @@ const char* const kSettings = "dda settings";
 // (docs/dda.md): softer lets a fast small block sink deeper than the penetration limit in
 // one impact, stiffer leaves springs whose energy round-off exceeds the invariant
 // tolerances.
-constexpr double kMinOmega = 1.0;
+constexpr double kMinOmega = 3.0;
 constexpr double kMaxOmega = 300.0;
 
 void require_range(bool ok, const char* key, double value, const char* what) {
@@ -79,7 +81,7 @@ void validate(const Settings& s) {
   require_range(s.penalty_stiffness >= 0.0, "penalty_stiffness", s.penalty_stiffness,
                 "must be >= 0 (0 = from the block)");
   require_range(s.penalty_omega >= kMinOmega && s.penalty_omega <= kMaxOmega, "penalty_omega", s.penalty_omega,
-                "must be in [1, 300]");
+                "must be in [3, 300]");
   require_range(s.shear_stiffness_ratio > 0.0, "shear_stiffness_ratio", s.shear_stiffness_ratio,
                 "must be > 0");
   require_range(s.max_open_close_iterations >= 1 && s.max_open_close_iterations <= 1000,
@@ -157,6 +159,10 @@ Model Model::build(const Settings& settings, const geometry::Polyhedron& block) 
   m.settings = settings;
   m.dof = parse_dof(settings.dof);
   m.restitution = parse_restitution(settings.restitution);
+  if (settings.restitution_bound != "normal_approach" && settings.restitution_bound != "none")
+    throw core::InputError(kSettings, "restitution_bound = '" + settings.restitution_bound +
+                                          "': expected normal_approach or none");
+  m.bound_by_normal_approach = settings.restitution_bound == "normal_approach";
 
   if (block.vertices.size() < 4 || block.faces.size() < 4)
     throw core::InputError("block", "a block needs at least 4 vertices and 4 faces");
@@ -216,11 +222,12 @@ Model Model::build(const Settings& settings, const geometry::Polyhedron& block) 
                     ? settings.penalty_stiffness
                     : m.mass * (settings.penalty_omega / settings.time_step) * (settings.penalty_omega / settings.time_step);
   const double omega = std::sqrt(m.stiffness / m.mass) * settings.time_step;
-  if (!(omega >= kMinOmega && omega <= kMaxOmega))
+  // The relative rule gives penalty_omega itself up to round-off of the square root.
+  if (!(omega >= kMinOmega * (1.0 - 1e-12) && omega <= kMaxOmega * (1.0 + 1e-12)))
     throw core::InputError(kSettings, "penalty_stiffness = " + core::format_number(settings.penalty_stiffness) +
                                           " N/m gives this block (mass " + core::format_number(m.mass) +
                                           " kg) a contact spring with sqrt(k/m)*time_step = " + core::format_number(omega) +
-                                          ", outside the well-posed range [1, 300]: set penalty_stiffness to 0 (from the block, "
+                                          ", outside the well-posed range [3, 300]: set penalty_stiffness to 0 (from the block, "
                                           "penalty_omega) or to a value in that range");
   return m;
 }

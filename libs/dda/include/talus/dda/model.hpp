@@ -41,6 +41,8 @@ struct Model {
   Settings settings;
   DofPath dof = DofPath::rigid6;
   RestitutionLaw restitution = RestitutionLaw::scaled;
+  /// The scaled law removes at most the kinetic energy of an impact's normal approach.
+  bool bound_by_normal_approach = true;
 
   std::vector<Vec3> vertices;   ///< body frame: polyhedron vertices minus the centroid (m)
   std::vector<BlockFace> faces;

@@ -49,6 +49,9 @@ struct Settings {
   /// An episode whose normal approach speed is below this is rolling/sliding, not an
   /// impact: no restitution limit, no draws, no 12-DOF strain hold (m/s).
   double impact_min_normal_speed = 0.5;
+  /// "normal_approach": the scaled law removes at most the kinetic energy of the
+  /// impact's normal approach, ½·m·(V_in·n)² (docs/dda.md); "none": no bound.
+  std::string restitution_bound = "normal_approach";
   /// full12 only: let the strains respond during impact episodes (the reference model's
   /// behaviour; the strain mode then keeps most of the impact energy, docs/dda.md).
   bool impact_strains = false;

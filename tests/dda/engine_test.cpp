@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "dda_cases.hpp"
+#include "episodes.hpp"
 #include "talus/core/error.hpp"
 #include "talus/dda/engine.hpp"
 
@@ -125,6 +126,55 @@ TEST(DdaImpact, NormalImpactFollowsTheLaw) {
     EXPECT_GT(raw.v_out / raw.v_in, 0.92) << "v_in " << v_in;
     EXPECT_LE(raw.v_out / raw.v_in, 1.0 + 1e-9) << "v_in " << v_in;
     EXPECT_GT(raw.v_out, expected) << "v_in " << v_in;
+  }
+}
+
+// The scaled law removes at most the kinetic energy of the impact's normal approach: a
+// normal impact is scaled by R_v·SF exactly, a grazing one (a facet hop) loses no more
+// than ½·m·v_n², and without the bound (restitution_bound: none) the grazing impact is cut
+// like a normal one.
+TEST(DdaImpact, LawRemovesAtMostTheNormalApproachEnergy) {
+  for (const char* bound : {"normal_approach", "none"}) {
+    SCOPED_TRACE(bound);
+    Settings set;
+    set.restitution_bound = bound;
+    const Model m = Model::build(set, cube(1.0));
+    const double r_v = 0.95, k = 12.0;
+    struct Case {
+      Vec3 v_in, v_raw;  // centroid velocity at the start of the impact, DDA rebound (m/s)
+    };
+    for (const Case& c : {Case{Vec3(0, 0, -7), Vec3(0, 0, 7)}, Case{Vec3(5, 0, -0.4), Vec3(5, 0, 0.4)},
+                          Case{Vec3(3, 2, -1.5), Vec3(3, 2, 1.2)}}) {
+      State s = start(m, Release{}, impacts());
+      s.episode.active = true;
+      s.episode.impact = true;
+      s.episode.velocity_in = c.v_in;
+      s.episode.kinetic_in = 0.5 * m.mass * c.v_in.squaredNorm();
+      s.episode.normal = Vec3::UnitZ();
+      s.episode.approach_speed = -c.v_in.z();
+      s.episode.restitution = r_v;
+      s.episode.restitution_scale = k;
+      s.velocity.setZero();
+      s.velocity.head<3>() = c.v_raw;
+      detail::finish_impact(m, s);
+      const double speed_in = c.v_in.norm();
+      const double cap = r_v / (1.0 + (speed_in / k) * (speed_in / k));
+      const double raw = 0.5 * m.mass * c.v_raw.squaredNorm();
+      const double removed = raw - 0.5 * m.mass * s.velocity.head<3>().squaredNorm();
+      const double normal = 0.5 * m.mass * c.v_in.z() * c.v_in.z();
+      const double by_law = raw - std::pow(cap * speed_in, 2) * 0.5 * m.mass;
+      SCOPED_TRACE(c.v_in.transpose());
+      // Round-off of a velocity scaling: 1e-12 of the energies involved.
+      if (std::string(bound) == "normal_approach") {
+        EXPECT_LE(removed, normal * (1.0 + 1e-12) + 1e-12 * raw);
+        EXPECT_NEAR(removed, std::min(by_law, normal), 1e-9 * raw);
+      } else {
+        EXPECT_NEAR(removed, by_law, 1e-9 * raw);
+      }
+      EXPECT_GE(removed, -1e-12 * raw);  // never adds energy
+      // The rebound direction is kept (no tilt drawn here).
+      EXPECT_NEAR(s.velocity.head<3>().normalized().dot(c.v_raw.normalized()), 1.0, 1e-12);
+    }
   }
 }
 

@@ -48,12 +48,17 @@ void start_episode(const Model& model, const Ground& ground, State& s, const Vec
   e.active = true;
   e.velocity_in = v_in;
   e.kinetic_in = kinetic_in;
+  // The normal-force-weighted mean normal of the closed contacts; equal weights when no
+  // contact carries force yet (an impact's first step ends at the moment of touch).
+  double total_force = 0.0;
+  for (const Contact& c : s.contacts)
+    if (c.mode != ContactMode::open) total_force += std::max(0.0, c.normal_force);
   Vec3 n = Vec3::Zero();
   std::int32_t triangle = -1;
   double strongest = -1.0;
   for (const Contact& c : s.contacts) {
     if (c.mode == ContactMode::open) continue;
-    const double w = std::max(c.normal_force, 1e-300);
+    const double w = total_force > 0.0 ? std::max(0.0, c.normal_force) : 1.0;
     n += w * c.normal;
     if (w > strongest) {
       strongest = w;

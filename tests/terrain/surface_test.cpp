@@ -451,6 +451,35 @@ TEST(GridSurface, RealizationEqualsRealize) {
   for (std::size_t v = 0; v < t.mesh.vertex_count(); ++v) ASSERT_EQ(a.vertex(v), b.vertex(v));
 }
 
+// The bounds of every realization are one object, computed once from the base terrain,
+// and equal to those of a surface realized on its own: a realization never re-scans the
+// points for them.
+TEST(GridSurface, RealizationsShareTheBounds) {
+  const Terrain t = rough_grid(Diagonal::random, 0.2, 8, 40, 36);
+  const Surface base = Surface::realize(t, std::nullopt);
+  const Surface a = base.realization(4u);
+  const Surface b = base.realization(5u);
+  EXPECT_EQ(&a.bounds(), &b.bounds());
+  EXPECT_EQ(&a.bounds(), &base.bounds());
+  const Surface alone = Surface::realize(t, 4u);
+  EXPECT_NE(&alone.bounds(), &a.bounds());
+  EXPECT_EQ(alone.bounds().lo, a.bounds().lo);
+  EXPECT_EQ(alone.bounds().hi, a.bounds().hi);
+  EXPECT_EQ(a.tiles_realized(), 0u);  // bounds need no realized tile
+}
+
+TEST(TinSurface, RealizationsShareTheBounds) {
+  Terrain t;
+  t.mesh = general_tin();
+  t.roughness = Roughness{0.15, 3};
+  const Surface base = Surface::realize(t, std::nullopt);
+  const Surface a = base.realization(2u);
+  EXPECT_EQ(&a.bounds(), &base.bounds());
+  const Surface alone = Surface::realize(t, 2u);
+  EXPECT_EQ(alone.bounds().lo, a.bounds().lo);
+  EXPECT_EQ(alone.bounds().hi, a.bounds().hi);
+}
+
 TEST(TinSurface, BadIndexIsAnInputError) {
   geometry::TriangleMesh m;
   m.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};

@@ -1,6 +1,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
+#include <mutex>
 #include <string>
 
 #include "bvh.hpp"
@@ -30,12 +32,24 @@ struct Surface::Impl {
   bool grid_mode = false;
   std::shared_ptr<const Terrain> owned;  // from_mesh keeps its own terrain (shared by realization())
   const Terrain* terrain = nullptr;
-  // Grid: computed on first use, a pass over every point a realization need not pay for.
-  mutable Aabb bounds;
-  mutable bool bounds_known = false;
+  // Bounds depend on the terrain only (base geometry and σ), not on the realization:
+  // computed on first use, once for every realization that realization() makes, so a
+  // realization never pays for a pass over every point of the terrain.
+  struct SharedBounds {
+    std::once_flag once;
+    Aabb box;
+  };
+  std::shared_ptr<SharedBounds> bounds;
+  mutable const Aabb* bounds_ready = nullptr;  // this Surface's shortcut past the once-flag
 
-  const Aabb& grid_bounds() const {
-    if (bounds_known) return bounds;
+  const Aabb& shared_bounds() const {
+    if (bounds_ready) return *bounds_ready;
+    std::call_once(bounds->once, [this] { bounds->box = grid_mode ? grid_bounds() : tin_bounds(); });
+    bounds_ready = &bounds->box;
+    return bounds->box;
+  }
+
+  Aabb grid_bounds() const {
     Aabb box;
     for (const Vec3& p : terrain->mesh.vertices) {
       box.lo.z() = std::min(box.lo.z(), p.z());
@@ -47,9 +61,16 @@ struct Surface::Impl {
     box.hi.y() = spec.y0 + (spec.ny - 1) * spec.dy;
     box.lo.z() -= kMaxNormal * sigma;
     box.hi.z() += kMaxNormal * sigma;
-    bounds = box;
-    bounds_known = true;
-    return bounds;
+    return box;
+  }
+
+  Aabb tin_bounds() const {
+    Aabb box = terrain->mesh.bounds();
+    if (!box.empty()) {
+      box.lo.z() -= kMaxNormal * terrain->roughness.sigma;
+      box.hi.z() += kMaxNormal * terrain->roughness.sigma;
+    }
+    return box;
   }
 
   // --- grid ---
@@ -330,12 +351,6 @@ std::unique_ptr<Surface::Impl> Surface::make_impl(const Terrain& terrain, std::o
     for (std::size_t k = 0; k < n.size(); ++k) impl->vertices[k].z() += sigma * n[k];
   }
   const double widen = kMaxNormal * sigma;
-  Aabb box = terrain.mesh.bounds();
-  if (!box.empty()) {
-    box.lo.z() -= widen;
-    box.hi.z() += widen;
-  }
-  impl->bounds = box;
   if (!shared_bvh) {
     std::vector<Aabb> boxes(terrain.mesh.triangles.size());
     for (std::size_t t = 0; t < boxes.size(); ++t) {
@@ -353,12 +368,15 @@ std::unique_ptr<Surface::Impl> Surface::make_impl(const Terrain& terrain, std::o
 
 Surface Surface::realize(const Terrain& terrain, std::optional<std::uint32_t> index) {
   check_terrain(terrain);
-  return Surface(make_impl(terrain, index, nullptr));
+  auto impl = make_impl(terrain, index, nullptr);
+  impl->bounds = std::make_shared<Impl::SharedBounds>();
+  return Surface(std::move(impl));
 }
 
 Surface Surface::realization(std::optional<std::uint32_t> index) const {
   auto impl = make_impl(*impl_->terrain, index, impl_->bvh);
   impl->owned = impl_->owned;
+  impl->bounds = impl_->bounds;
   return Surface(std::move(impl));
 }
 
@@ -394,7 +412,7 @@ std::int32_t Surface::material(std::size_t t) const {
   return m.empty() ? 0 : m[t];
 }
 
-const Aabb& Surface::bounds() const { return impl_->grid_mode ? impl_->grid_bounds() : impl_->bounds; }
+const Aabb& Surface::bounds() const { return impl_->shared_bounds(); }
 
 bool Surface::is_height_field() const { return impl_->grid_mode; }
 

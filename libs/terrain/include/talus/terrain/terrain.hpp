@@ -135,7 +135,9 @@ class Surface {
   Vec3 normal(std::size_t t) const;
   std::int32_t material(std::size_t t) const;
   /// Bounds (m): x and y exact; z covers every realization (base ± 8.6σ, the largest
-  /// value a Box–Muller draw from 53-bit uniforms can take).
+  /// value a Box–Muller draw from 53-bit uniforms can take). The same for every
+  /// realization: computed on the first call (a pass over the base points) and shared
+  /// with every Surface that realization() makes, so a realization never pays for it.
   const Aabb& bounds() const;
   /// True for a grid-based TRN (a height field); a TIN may have walls and overhangs.
   bool is_height_field() const;

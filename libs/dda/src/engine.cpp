@@ -115,10 +115,16 @@ void check_energy(const Model& model, State& s) {
   s.checked_energy = total;
 }
 
-// Bookkeeping after an accepted step: time, maxima, rest, leaving, trajectory, limits.
+// Bookkeeping after an accepted step: time, kinetic energy, height, maxima, rest,
+// leaving, trajectory, limits. Each is computed once here and kept in the state for
+// whoever else needs it (the rest test, the trajectory, the driver's observers).
 void finish_step(const Model& model, const Ground& ground, State& s, double dt) {
   s.time += dt;
   ++s.counters.steps;
+  s.kinetic = kinetic_energy(model, s);
+  const terrain::Surface& surf = *ground.surface;
+  const auto hit = surf.height_at(s.position.x(), s.position.y());
+  s.height = hit ? s.position.z() - hit->z : std::numeric_limits<double>::quiet_NaN();
   if (!s.position.allFinite() || !s.velocity.allFinite() || !s.orientation.coeffs().allFinite()) {
     end_with(s, EndReason::non_finite);
     return;
@@ -126,10 +132,8 @@ void finish_step(const Model& model, const Ground& ground, State& s, double dt) 
   if (model.settings.check_invariants) check_energy(model, s);
   const double speed = s.velocity.head<3>().norm();
   s.max_speed = std::max(s.max_speed, speed);
-  const terrain::Surface& surf = *ground.surface;
-  double height = std::numeric_limits<double>::quiet_NaN();
-  if (const auto hit = surf.height_at(s.position.x(), s.position.y())) {
-    height = s.position.z() - hit->z;
+  const double height = s.height;
+  if (hit) {
     // Jumps count from the first real touch of the terrain (a closed contact) on: the
     // release drop is no jump, nor is a step that only searched for contacts. Beside the
     // vertical height, the distance to the plane of the triangle below, along its normal
@@ -142,7 +146,7 @@ void finish_step(const Model& model, const Ground& ground, State& s, double dt) 
   }
   if (model.settings.trajectory_interval > 0.0 && s.time + 1e-12 >= s.next_sample_time) {
     s.trajectory.push_back(TrajectorySample{s.time, s.position, s.velocity.head<3>(), height,
-                                            mechanical_energy(model, s)});
+                                            s.kinetic + model.mass * model.settings.gravity * s.position.z()});
     s.next_sample_time += model.settings.trajectory_interval;
   }
   const geometry::Aabb& b = surf.bounds();
@@ -151,10 +155,10 @@ void finish_step(const Model& model, const Ground& ground, State& s, double dt) 
     end_with(s, EndReason::left_terrain);
     return;
   }
-  // The rigid part bounds the 12-DOF energy from below: skip the 12×12 product when it
-  // already rules out rest.
   const double rest_energy = model.settings.rest_kinetic_energy * model.mass;
-  if (rigid_kinetic_energy(model, s) < rest_energy && kinetic_energy(model, s) < rest_energy) {
+  const bool slow = model.dof == DofPath::rigid6 ? s.kinetic < rest_energy
+                                                  : rigid_kinetic_energy(model, s) < rest_energy && s.kinetic < rest_energy;
+  if (slow) {
     s.rest_time += dt;
     if (s.rest_time >= model.settings.rest_dwell) {
       end_with(s, EndReason::rest);
@@ -468,6 +472,7 @@ State start(const Model& model, const Release& release, core::RandomStream impac
   s.dt = model.settings.time_step;
   s.impacts_rng = core::RandomSequence(impact_stream);
   update_world_vertices(model, s);
+  s.kinetic = kinetic_energy(model, s);
   s.max_speed = release.velocity.norm();
   if (model.settings.trajectory_interval > 0.0) s.next_sample_time = 0.0;
   return s;

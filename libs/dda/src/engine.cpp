@@ -77,7 +77,9 @@ double energy_scale(const Model& model, const State& s, double total) {
 // that a realization can never gain energy it had no source for.
 void limit_energy(const Model& model, State& s, double energy_start) {
   const double kinetic = kinetic_energy(model, s);
-  const double excess = total_energy(model, s) - energy_start;
+  // total_energy(model, s), written out to reuse the kinetic energy.
+  const double total = kinetic + model.mass * model.settings.gravity * s.position.z() + s.stored_energy;
+  const double excess = total - energy_start;
   const double scale = energy_scale(model, s, energy_start);
   if (!(excess > 1e-10 * scale)) return;
   ++s.counters.energy_limited;
@@ -140,8 +142,13 @@ void finish_step(const Model& model, const Ground& ground, State& s, double dt) 
     // (on a slope the vertical height overstates a jump by 1/cos of the slope).
     if (s.touched) {
       s.max_jump_height = std::max(s.max_jump_height, height);
-      const double normal_height = height * surf.normal(static_cast<std::size_t>(hit->triangle)).z();
-      s.max_normal_jump_height = std::max(s.max_normal_jump_height, normal_height);
+      // On a height field the normal's z is in (0, 1] (to round-off): the normal height
+      // is at most the vertical one, and is not looked at while that cannot raise the
+      // maximum (which starts at 0).
+      if (!surf.is_height_field() || height * (1.0 + 1e-9) > s.max_normal_jump_height) {
+        const double normal_height = height * surf.normal(static_cast<std::size_t>(hit->triangle)).z();
+        s.max_normal_jump_height = std::max(s.max_normal_jump_height, normal_height);
+      }
     }
   }
   if (model.settings.trajectory_interval > 0.0 && s.time + 1e-12 >= s.next_sample_time) {
@@ -296,8 +303,10 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   const double limit = model.max_step_displacement();
   const double depth = model.penetration_limit();
   const Vec3 v_start = s.velocity.head<3>();
-  const double kinetic_start = rigid_kinetic_energy(model, s);
-  const double energy_start = total_energy(model, s);
+  // The kinetic energy once for both (total_energy written out).
+  const double kinetic_now = kinetic_energy(model, s);
+  const double kinetic_start = model.dof == DofPath::rigid6 ? kinetic_now : rigid_kinetic_energy(model, s);
+  const double energy_start = kinetic_now + model.mass * model.settings.gravity * s.position.z() + s.stored_energy;
   double dt = s.dt;
   std::vector<Contact>& contacts = s.scratch_contacts;
   const Pose pose = pose_of(model, s);

@@ -94,6 +94,8 @@ Outcome run_one(const talus::mc::Scene& scene, std::uint32_t index, const PeerSe
   block_info.m_angularSleepingThreshold =
       std::sqrt(2.0 * engine.rest_kinetic_energy * model.mass / principal.minCoeff());
   btRigidBody block(block_info);
+  // Asleep after Talus's rest dwell below the thresholds (Bullet's default is 2 s).
+  gDeactivationTime = engine.rest_dwell;
   block.setLinearVelocity(bt(draw.release.velocity));
   block.setAngularVelocity(bt(draw.release.angular_velocity));
 

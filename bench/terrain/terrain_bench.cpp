@@ -167,4 +167,24 @@ void BM_TinQueryPattern(benchmark::State& state) {
 }
 BENCHMARK(BM_TinQueryPattern)->Arg(300)->Unit(benchmark::kMillisecond);
 
+// One TIN realization as the DDA engine sees it: the next realization, then query_path
+// with `range(0)` queries; only the blocks of vertices the queries read are realized.
+void BM_TinDdaQueryPattern(benchmark::State& state) {
+  const Surface first = Surface::realize(big_tin(), 0u);
+  const auto queries = static_cast<std::int32_t>(state.range(0));
+  std::uint32_t index = 1;
+  std::size_t blocks = 0, total_blocks = 0, found = 0;
+  std::vector<std::int32_t> out;
+  for (auto _ : state) {
+    const Surface s = first.realization(index++);
+    found += query_path(s, queries, 500.0, 1000.0, out);
+    blocks = s.tiles_realized();
+    total_blocks = s.tile_count();
+  }
+  benchmark::DoNotOptimize(found);
+  state.counters["blocks_realized"] = static_cast<double>(blocks);
+  state.counters["blocks_total"] = static_cast<double>(total_blocks);
+}
+BENCHMARK(BM_TinDdaQueryPattern)->Arg(300)->Unit(benchmark::kMillisecond);
+
 }  // namespace

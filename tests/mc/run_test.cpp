@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <map>
 
 #include "mc_fixtures.hpp"
 #include "run_compare.hpp"
@@ -155,6 +156,46 @@ TEST(Barrier, CrossingOfAFreeFlightMatchesTheParabola) {
       EXPECT_GE(v.height, 10.0 - 0.5 * g * 0.81);
     }
   EXPECT_TRUE(seen);
+}
+
+// The hazard cells hold, per cell, the largest kinetic energy and height of the states
+// the path passes through: here every step moves far less than a quarter cell, so those
+// are the step ends, which a trajectory sampled at every step lists. The observer keeps
+// a cell's maxima aside while the block stays in it and merges them when it leaves; the
+// result must be that of merging every sample.
+TEST(Hazard, CellsAreTheMaximaOfTheStepEnds) {
+  SceneSettings s = bench_scene(1);
+  s.engine.trajectory_interval = 1e-9;  // below Δt: a sample after every step
+  const Scene scene = Scene::build(s, bench_terrain(), library({block::SolidKind::cube}), "test");
+  const RealizationResult r = run_realization(scene, 0);
+  ASSERT_GT(r.trajectory.size(), 100u);
+  ASSERT_EQ(r.trajectory.size(), r.record.steps + 1);
+  const double weight = scene.blocks()[0].model.mass * scene.blocks()[0].model.settings.gravity;
+  std::map<std::int64_t, std::pair<double, double>> expected;
+  std::size_t changes = 0;
+  std::int64_t last = -1;
+  for (const dda::TrajectorySample& t : r.trajectory) {
+    const std::int64_t id = scene.hazard_grid().cell(t.position.x(), t.position.y());
+    if (id < 0) continue;
+    changes += id != last;
+    last = id;
+    const double kinetic = t.energy - weight * t.position.z();
+    auto [it, fresh] = expected.try_emplace(id, kinetic, std::isfinite(t.height) ? t.height : 0.0);
+    it->second.first = std::max(it->second.first, kinetic);
+    if (std::isfinite(t.height)) it->second.second = std::max(it->second.second, t.height);
+  }
+  EXPECT_GT(changes, 3u);  // the path crosses several cells
+  ASSERT_EQ(r.cells.size(), expected.size());
+  for (const CellVisit& v : r.cells) {
+    const auto it = expected.find(v.cell);
+    ASSERT_NE(it, expected.end()) << v.cell;
+    // The trajectory holds kinetic + potential energy: recovering the kinetic part costs
+    // the round-off of m·g·z (~1e5 J) -- 1e-6 J is far above it and far below any
+    // difference between two steps' energies.
+    EXPECT_NEAR(v.energy, it->second.first, 1e-6) << v.cell;
+    // The heights are the engine's own values in both.
+    EXPECT_EQ(v.height, it->second.second) << v.cell;
+  }
 }
 
 TEST(Release, ABlockReleasedAtRestOnASlopeStaysAtRest) {

@@ -421,6 +421,39 @@ TEST(TinSurface, RealizationSharesTheTreeAndEqualsRealize) {
   EXPECT_EQ(from_mesh.vertex(3), general_tin().vertices[3]);
 }
 
+// A perturbed TIN realizes only the blocks of 1024 vertex ids that its queries read, and
+// those hold the same elevations as a whole realization.
+TEST(TinSurface, QueriesRealizeOnlyTheVerticesTheyRead) {
+  Terrain t;
+  const int n = 100;  // 10 000 vertices: 10 blocks, row j of the lattice in block ⌊100j/1024⌋
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) t.mesh.vertices.emplace_back(i, j, 0.05 * i);
+  for (int j = 0; j + 1 < n; ++j)
+    for (int i = 0; i + 1 < n; ++i) {
+      const std::int32_t p = j * n + i;
+      t.mesh.triangles.push_back({p, p + 1, p + n + 1});
+      t.mesh.triangles.push_back({p, p + n + 1, p + n});
+    }
+  t.roughness = Roughness{0.2, 21};
+  const Surface base = Surface::realize(t, std::nullopt);
+  EXPECT_EQ(base.tile_count(), 0u);
+  const Surface s = base.realization(3u);
+  EXPECT_EQ(s.tile_count(), 10u);
+  EXPECT_EQ(s.tiles_realized(), 0u);
+  const auto hit = s.height_at(50.3, 3.6);  // rows 3 and 4: block 0
+  ASSERT_TRUE(hit);
+  EXPECT_EQ(s.tiles_realized(), 1u);
+  const RandomStream stream(21, Stream::terrain_roughness, 3);
+  for (std::size_t v : {std::size_t{0}, std::size_t{350}, std::size_t{1023}, std::size_t{1024}, std::size_t{9999}})
+    EXPECT_EQ(s.vertex(v).z(), t.mesh.vertices[v].z() + 0.2 * stream.normal(v)) << v;
+  EXPECT_EQ(s.tiles_realized(), 3u);
+  s.realize_all();
+  EXPECT_EQ(s.tiles_realized(), 10u);
+  const Surface direct = Surface::realize(t, 3u);
+  direct.realize_all();
+  for (std::size_t v = 0; v < t.mesh.vertex_count(); ++v) ASSERT_EQ(s.vertex(v), direct.vertex(v));
+}
+
 // Realizations made and queried on several threads at once give the same bits as
 // made one after the other on one thread.
 TEST(TinSurface, RealizationsOnThreadsMatchSerial) {
@@ -449,6 +482,35 @@ TEST(GridSurface, RealizationEqualsRealize) {
   const Surface a = base.realization(4u);
   const Surface b = Surface::realize(t, 4u);
   for (std::size_t v = 0; v < t.mesh.vertex_count(); ++v) ASSERT_EQ(a.vertex(v), b.vertex(v));
+}
+
+// The bounds of every realization are one object, computed once from the base terrain,
+// and equal to those of a surface realized on its own: a realization never re-scans the
+// points for them.
+TEST(GridSurface, RealizationsShareTheBounds) {
+  const Terrain t = rough_grid(Diagonal::random, 0.2, 8, 40, 36);
+  const Surface base = Surface::realize(t, std::nullopt);
+  const Surface a = base.realization(4u);
+  const Surface b = base.realization(5u);
+  EXPECT_EQ(&a.bounds(), &b.bounds());
+  EXPECT_EQ(&a.bounds(), &base.bounds());
+  const Surface alone = Surface::realize(t, 4u);
+  EXPECT_NE(&alone.bounds(), &a.bounds());
+  EXPECT_EQ(alone.bounds().lo, a.bounds().lo);
+  EXPECT_EQ(alone.bounds().hi, a.bounds().hi);
+  EXPECT_EQ(a.tiles_realized(), 0u);  // bounds need no realized tile
+}
+
+TEST(TinSurface, RealizationsShareTheBounds) {
+  Terrain t;
+  t.mesh = general_tin();
+  t.roughness = Roughness{0.15, 3};
+  const Surface base = Surface::realize(t, std::nullopt);
+  const Surface a = base.realization(2u);
+  EXPECT_EQ(&a.bounds(), &base.bounds());
+  const Surface alone = Surface::realize(t, 2u);
+  EXPECT_EQ(alone.bounds().lo, a.bounds().lo);
+  EXPECT_EQ(alone.bounds().hi, a.bounds().hi);
 }
 
 TEST(TinSurface, BadIndexIsAnInputError) {

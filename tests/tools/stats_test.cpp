@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -355,7 +356,8 @@ TEST_F(Stats, ComparesRunsSideBySide) {
 
 TEST_F(Stats, DrawsPlots) {
   if (!matplotlib_available()) GTEST_SKIP() << "matplotlib is not installed for /usr/bin/python3";
-  const Outcome o = run({"whole.h5", "-o", "out-plots", "--set", "bootstrap_resamples=50"});
+  // Three worker processes draw the figures, whatever the machine's core count.
+  const Outcome o = run({"whole.h5", "-o", "out-plots", "--set", "bootstrap_resamples=50", "--set", "plot_jobs=3"});
   ASSERT_EQ(o.code, 0) << o.err;
   for (const char* stem : {"cdf-runout", "cdf-max_kinetic_energy", "convergence-runout", "barrier-toe", "plan-whole",
                            "hazard-whole"})
@@ -364,6 +366,21 @@ TEST_F(Stats, DrawsPlots) {
       ASSERT_TRUE(fs::exists(file)) << file;
       EXPECT_GT(fs::file_size(file), 1000u) << file;
     }
+  // Drawn again in one process from the same summary, every file has the same bytes.
+  fs::create_directories(dir_ / "plots-serial");
+  const Outcome serial = testing::run_tool(testing::tool_path("talus-plot"),
+                                           {"out-plots/summary.h5", "plots-serial", "--jobs", "1"}, dir_, {},
+                                           "/usr/bin/python3");
+  ASSERT_EQ(serial.code, 0) << serial.err;
+  std::size_t compared = 0;
+  for (const auto& entry : fs::directory_iterator(dir_ / "out-plots" / "plots")) {
+    const fs::path other = dir_ / "plots-serial" / entry.path().filename();
+    ASSERT_TRUE(fs::exists(other)) << other;
+    EXPECT_TRUE(testing::read_text(entry.path()) == testing::read_text(other)) << entry.path().filename();
+    ++compared;
+  }
+  EXPECT_GE(compared, 12u);
+  EXPECT_EQ(static_cast<std::size_t>(std::distance(fs::directory_iterator(dir_ / "plots-serial"), fs::directory_iterator{})), compared);
 }
 
 TEST_F(Stats, WithoutMatplotlibPlotsFailWithOneLine) {

@@ -451,7 +451,8 @@ void draw_plots(const std::string& summary_path, const std::string& dir, const S
   for (const auto& f : settings.plot_formats) formats += (formats.empty() ? "" : ",") + f;
   if (formats.empty()) return;
   const auto [code, line] = run_captured(quote(python_interpreter()) + " " + quote(plot_helper()) + " " +
-                                         quote(summary_path) + " " + quote(dir) + " --formats " + formats);
+                                         quote(summary_path) + " " + quote(dir) + " --formats " + formats +
+                                         " --jobs " + std::to_string(settings.plot_jobs));
   if (code != 0)
     throw core::RuntimeError("plots: " + (line.empty() ? "talus-plot failed with exit code " + std::to_string(code) : line));
 }

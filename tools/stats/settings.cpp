@@ -25,6 +25,7 @@ void Settings::visit(core::SettingsVisitor& v) {
   v.field("plots", plots, "draw plots with the talus-plot helper (Python 3, matplotlib, h5py)");
   v.field("plot_formats", plot_formats, "plot formats: png, svg");
   v.field("plot_trajectories", plot_trajectories, "", "trajectories drawn in a plan view at most");
+  v.field("plot_jobs", plot_jobs, "", "figures drawn at once, one process each (0 = one per available core)");
 }
 
 namespace {
@@ -56,6 +57,7 @@ void Settings::validate() const {
   if (!(convergence_target > 0.0)) throw core::InputError("settings", "convergence_target must be positive");
   if (convergence_points < 2) throw core::InputError("settings", "convergence_points must be at least 2");
   if (plot_trajectories < 0) throw core::InputError("settings", "plot_trajectories must not be negative");
+  if (plot_jobs < 0) throw core::InputError("settings", "plot_jobs must not be negative");
   for (double d : reach_distances)
     if (!std::isfinite(d)) throw core::InputError("settings", "reach_distances must be finite");
   require_subset(raster_formats, {"asc", "tif"}, "raster_formats");

@@ -47,6 +47,8 @@ struct Settings {
   std::vector<std::string> plot_formats = {"png", "svg"};
   /// Trajectories drawn in each plan view at most (the first by realization index).
   std::int64_t plot_trajectories = 200;
+  /// Figures drawn at once, each in its own process (0 = one per available core).
+  std::int64_t plot_jobs = 0;
 
   void visit(core::SettingsVisitor& v);
   /// Throws core::InputError("settings", …) on a value out of range.

@@ -77,7 +77,9 @@ double energy_scale(const Model& model, const State& s, double total) {
 // that a realization can never gain energy it had no source for.
 void limit_energy(const Model& model, State& s, double energy_start) {
   const double kinetic = kinetic_energy(model, s);
-  const double excess = total_energy(model, s) - energy_start;
+  // total_energy(model, s), written out to reuse the kinetic energy.
+  const double total = kinetic + model.mass * model.settings.gravity * s.position.z() + s.stored_energy;
+  const double excess = total - energy_start;
   const double scale = energy_scale(model, s, energy_start);
   if (!(excess > 1e-10 * scale)) return;
   ++s.counters.energy_limited;
@@ -115,10 +117,16 @@ void check_energy(const Model& model, State& s) {
   s.checked_energy = total;
 }
 
-// Bookkeeping after an accepted step: time, maxima, rest, leaving, trajectory, limits.
+// Bookkeeping after an accepted step: time, kinetic energy, height, maxima, rest,
+// leaving, trajectory, limits. Each is computed once here and kept in the state for
+// whoever else needs it (the rest test, the trajectory, the driver's observers).
 void finish_step(const Model& model, const Ground& ground, State& s, double dt) {
   s.time += dt;
   ++s.counters.steps;
+  s.kinetic = kinetic_energy(model, s);
+  const terrain::Surface& surf = *ground.surface;
+  const auto hit = surf.height_at(s.position.x(), s.position.y());
+  s.height = hit ? s.position.z() - hit->z : std::numeric_limits<double>::quiet_NaN();
   if (!s.position.allFinite() || !s.velocity.allFinite() || !s.orientation.coeffs().allFinite()) {
     end_with(s, EndReason::non_finite);
     return;
@@ -126,23 +134,26 @@ void finish_step(const Model& model, const Ground& ground, State& s, double dt) 
   if (model.settings.check_invariants) check_energy(model, s);
   const double speed = s.velocity.head<3>().norm();
   s.max_speed = std::max(s.max_speed, speed);
-  const terrain::Surface& surf = *ground.surface;
-  double height = std::numeric_limits<double>::quiet_NaN();
-  if (const auto hit = surf.height_at(s.position.x(), s.position.y())) {
-    height = s.position.z() - hit->z;
+  const double height = s.height;
+  if (hit) {
     // Jumps count from the first real touch of the terrain (a closed contact) on: the
     // release drop is no jump, nor is a step that only searched for contacts. Beside the
     // vertical height, the distance to the plane of the triangle below, along its normal
     // (on a slope the vertical height overstates a jump by 1/cos of the slope).
     if (s.touched) {
       s.max_jump_height = std::max(s.max_jump_height, height);
-      const double normal_height = height * surf.normal(static_cast<std::size_t>(hit->triangle)).z();
-      s.max_normal_jump_height = std::max(s.max_normal_jump_height, normal_height);
+      // On a height field the normal's z is in (0, 1] (to round-off): the normal height
+      // is at most the vertical one, and is not looked at while that cannot raise the
+      // maximum (which starts at 0).
+      if (!surf.is_height_field() || height * (1.0 + 1e-9) > s.max_normal_jump_height) {
+        const double normal_height = height * surf.normal(static_cast<std::size_t>(hit->triangle)).z();
+        s.max_normal_jump_height = std::max(s.max_normal_jump_height, normal_height);
+      }
     }
   }
   if (model.settings.trajectory_interval > 0.0 && s.time + 1e-12 >= s.next_sample_time) {
     s.trajectory.push_back(TrajectorySample{s.time, s.position, s.velocity.head<3>(), height,
-                                            mechanical_energy(model, s)});
+                                            s.kinetic + model.mass * model.settings.gravity * s.position.z()});
     s.next_sample_time += model.settings.trajectory_interval;
   }
   const geometry::Aabb& b = surf.bounds();
@@ -151,10 +162,10 @@ void finish_step(const Model& model, const Ground& ground, State& s, double dt) 
     end_with(s, EndReason::left_terrain);
     return;
   }
-  // The rigid part bounds the 12-DOF energy from below: skip the 12×12 product when it
-  // already rules out rest.
   const double rest_energy = model.settings.rest_kinetic_energy * model.mass;
-  if (rigid_kinetic_energy(model, s) < rest_energy && kinetic_energy(model, s) < rest_energy) {
+  const bool slow = model.dof == DofPath::rigid6 ? s.kinetic < rest_energy
+                                                  : rigid_kinetic_energy(model, s) < rest_energy && s.kinetic < rest_energy;
+  if (slow) {
     s.rest_time += dt;
     if (s.rest_time >= model.settings.rest_dwell) {
       end_with(s, EndReason::rest);
@@ -292,8 +303,10 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   const double limit = model.max_step_displacement();
   const double depth = model.penetration_limit();
   const Vec3 v_start = s.velocity.head<3>();
-  const double kinetic_start = rigid_kinetic_energy(model, s);
-  const double energy_start = total_energy(model, s);
+  // The kinetic energy once for both (total_energy written out).
+  const double kinetic_now = kinetic_energy(model, s);
+  const double kinetic_start = model.dof == DofPath::rigid6 ? kinetic_now : rigid_kinetic_energy(model, s);
+  const double energy_start = kinetic_now + model.mass * model.settings.gravity * s.position.z() + s.stored_energy;
   double dt = s.dt;
   std::vector<Contact>& contacts = s.scratch_contacts;
   const Pose pose = pose_of(model, s);
@@ -468,6 +481,7 @@ State start(const Model& model, const Release& release, core::RandomStream impac
   s.dt = model.settings.time_step;
   s.impacts_rng = core::RandomSequence(impact_stream);
   update_world_vertices(model, s);
+  s.kinetic = kinetic_energy(model, s);
   s.max_speed = release.velocity.norm();
   if (model.settings.trajectory_interval > 0.0) s.next_sample_time = 0.0;
   return s;

@@ -55,7 +55,9 @@ struct Before {
   std::uint64_t flight_steps = 0;
 };
 
-// Watches each step's path for barrier crossings and hazard cells.
+// Watches each step's path for barrier crossings and hazard cells. A hazard cell is
+// looked up in the map only when the path enters it: while the centroid stays in one
+// cell its maxima are kept aside, and merged when it leaves (or at the end).
 class Observer {
  public:
   Observer(const Scene& scene, const terrain::Surface& ground, const dda::Model& model, std::uint32_t index,
@@ -65,9 +67,10 @@ class Observer {
   bool active() const { return !scene_.barriers().empty() || scene_.hazard_grid().size > 0.0; }
 
   void start(const Vec3& p, const Vec3& v, double rotational) {
-    visit(p, 0.5 * model_.mass * v.squaredNorm() + rotational);
+    visit(p, 0.5 * model_.mass * v.squaredNorm() + rotational, height_above_ground(p));
   }
 
+  // The step from `b` to `s`; `s.kinetic` and `s.height` are the engine's values at its end.
   void segment(const Before& b, const dda::State& s, double rotational_after) {
     const double dt = s.time - b.time;
     if (!(dt > 0.0)) return;
@@ -78,7 +81,12 @@ class Observer {
     const Vec3 v1 = s.velocity.head<3>();
     const double g = model_.settings.gravity;
     auto at = [&](double f, Vec3& p, Vec3& v, double& rotational) {
-      if (flight) {
+      if (f == 1.0) {
+        // The step's end: the state itself.
+        p = p1;
+        v = v1;
+        rotational = rotational_after;
+      } else if (flight) {
         const double tau = f * dt;
         p = b.position + b.velocity * tau - Vec3(0.0, 0.0, 0.5 * g * tau * tau);
         v = b.velocity - Vec3(0.0, 0.0, g * tau);
@@ -126,17 +134,20 @@ class Observer {
       // Sample the path at least every quarter cell so no cell it crosses is skipped
       // except by a corner clip shorter than that.
       const int n = std::max(1, static_cast<int>(std::ceil(d.norm() / (0.25 * grid.size))));
-      for (int k = 1; k <= n; ++k) {
+      for (int k = 1; k < n; ++k) {
         Vec3 p, v;
         double rotational = 0.0;
         at(static_cast<double>(k) / n, p, v, rotational);
-        visit(p, 0.5 * model_.mass * v.squaredNorm() + rotational);
+        visit(p, 0.5 * model_.mass * v.squaredNorm() + rotational, height_above_ground(p));
       }
+      // The end of the step: the engine has its kinetic energy and height already.
+      visit(p1, s.kinetic, s.height);
     }
   }
 
   // Per-cell maxima, sorted by cell.
-  std::vector<CellVisit> cells() const {
+  std::vector<CellVisit> cells() {
+    merge_current();
     std::vector<CellVisit> out;
     out.reserve(cells_.size());
     for (const auto& [id, values] : cells_) out.push_back({id, values.first, values.second});
@@ -150,16 +161,41 @@ class Observer {
     return hit ? p.z() - hit->z : std::numeric_limits<double>::quiet_NaN();
   }
 
-  void visit(const Vec3& p, double energy) {
+  // A sample of the path: kinetic energy (J) and height above the ground (m, NaN off it).
+  void visit(const Vec3& p, double energy, double h) {
     const std::int64_t id = scene_.hazard_grid().cell(p.x(), p.y());
     if (id < 0) return;
-    const double h = height_above_ground(p);
-    auto [it, fresh] = cells_.try_emplace(id, energy, std::isfinite(h) ? h : 0.0);
-    if (!fresh) {
-      it->second.first = std::max(it->second.first, energy);
-      if (std::isfinite(h)) it->second.second = std::max(it->second.second, h);
+    if (id != current_.cell) {
+      merge_current();
+      current_ = Current{id, energy, h, -std::numeric_limits<double>::infinity()};
+      return;
     }
+    current_.energy = std::max(current_.energy, energy);
+    if (std::isfinite(h)) current_.later_height = std::max(current_.later_height, h);
   }
+
+  // Merges the samples of the cell the path is in into the map, as if each had been
+  // merged on its own: the first sample's height counts as 0 when it is off the ground
+  // and the cell is new, later ones only when on the ground.
+  void merge_current() {
+    if (current_.cell < 0) return;
+    const Current& c = current_;
+    auto [it, fresh] = cells_.try_emplace(c.cell, c.energy, std::isfinite(c.first_height) ? c.first_height : 0.0);
+    if (!fresh) {
+      it->second.first = std::max(it->second.first, c.energy);
+      if (std::isfinite(c.first_height)) it->second.second = std::max(it->second.second, c.first_height);
+    }
+    it->second.second = std::max(it->second.second, c.later_height);
+    current_.cell = -1;
+  }
+
+  // The cell the path is in and its maxima so far.
+  struct Current {
+    std::int64_t cell = -1;
+    double energy = 0.0;
+    double first_height = 0.0;  // of the first sample in the cell (m, NaN off the ground)
+    double later_height = 0.0;  // largest of the later samples on the ground (m, −∞ if none)
+  };
 
   const Scene& scene_;
   const terrain::Surface& ground_;
@@ -167,6 +203,7 @@ class Observer {
   std::uint32_t index_;
   RealizationResult& out_;
   std::unordered_map<std::int64_t, std::pair<double, double>> cells_;
+  Current current_;
 };
 
 // Sets the release height of `block` (orientation already drawn) at plan point `xy`,
@@ -273,14 +310,14 @@ RealizationResult run_realization(const Scene& scene, std::uint32_t index) {
   auto rotational = [&model](const dda::State& st, double kinetic) {
     return kinetic - 0.5 * model.mass * st.velocity.head<3>().squaredNorm();
   };
-  double kinetic = dda::kinetic_energy(model, state);
+  double kinetic = state.kinetic;
   double max_kinetic = kinetic;
   if (observe) observer.start(state.position, state.velocity.head<3>(), rotational(state, kinetic));
   while (state.end == dda::EndReason::running) {
     const Before before{state.time, state.position, state.velocity.head<3>(), rotational(state, kinetic),
                         state.counters.flight_steps};
     dda::step(model, ground, state);
-    kinetic = dda::kinetic_energy(model, state);
+    kinetic = state.kinetic;
     if (std::isfinite(kinetic)) max_kinetic = std::max(max_kinetic, kinetic);
     if (observe && state.position.allFinite()) observer.segment(before, state, rotational(state, kinetic));
   }

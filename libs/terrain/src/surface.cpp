@@ -1,6 +1,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
+#include <mutex>
 #include <string>
 
 #include "bvh.hpp"
@@ -30,12 +32,24 @@ struct Surface::Impl {
   bool grid_mode = false;
   std::shared_ptr<const Terrain> owned;  // from_mesh keeps its own terrain (shared by realization())
   const Terrain* terrain = nullptr;
-  // Grid: computed on first use, a pass over every point a realization need not pay for.
-  mutable Aabb bounds;
-  mutable bool bounds_known = false;
+  // Bounds depend on the terrain only (base geometry and σ), not on the realization:
+  // computed on first use, once for every realization that realization() makes, so a
+  // realization never pays for a pass over every point of the terrain.
+  struct SharedBounds {
+    std::once_flag once;
+    Aabb box;
+  };
+  std::shared_ptr<SharedBounds> bounds;
+  mutable const Aabb* bounds_ready = nullptr;  // this Surface's shortcut past the once-flag
 
-  const Aabb& grid_bounds() const {
-    if (bounds_known) return bounds;
+  const Aabb& shared_bounds() const {
+    if (bounds_ready) return *bounds_ready;
+    std::call_once(bounds->once, [this] { bounds->box = grid_mode ? grid_bounds() : tin_bounds(); });
+    bounds_ready = &bounds->box;
+    return bounds->box;
+  }
+
+  Aabb grid_bounds() const {
     Aabb box;
     for (const Vec3& p : terrain->mesh.vertices) {
       box.lo.z() = std::min(box.lo.z(), p.z());
@@ -47,9 +61,16 @@ struct Surface::Impl {
     box.hi.y() = spec.y0 + (spec.ny - 1) * spec.dy;
     box.lo.z() -= kMaxNormal * sigma;
     box.hi.z() += kMaxNormal * sigma;
-    bounds = box;
-    bounds_known = true;
-    return bounds;
+    return box;
+  }
+
+  Aabb tin_bounds() const {
+    Aabb box = terrain->mesh.bounds();
+    if (!box.empty()) {
+      box.lo.z() -= kMaxNormal * terrain->roughness.sigma;
+      box.hi.z() += kMaxNormal * terrain->roughness.sigma;
+    }
+    return box;
   }
 
   // --- grid ---
@@ -64,7 +85,12 @@ struct Surface::Impl {
   mutable std::size_t tiles_done = 0;
 
   // --- TIN ---
-  std::vector<Vec3> vertices;  // realized
+  // Realized elevations, computed lazily in blocks of kTilePoints consecutive vertex ids
+  // (perturbed TINs only; a smooth one reads the base vertices): a realization costs the
+  // vertices its queries touch, not the whole TIN.
+  std::size_t vertex_total = 0;
+  mutable std::unique_ptr<double[]> vertex_z;      // vertex_total, written on demand
+  mutable std::vector<std::uint8_t> block_ready;   // one flag per block
   // Built over the base triangles with z widened by ±kMaxNormal·σ: valid for every
   // realization, so realization() shares it.
   std::shared_ptr<const detail::Bvh> bvh;
@@ -125,8 +151,27 @@ struct Surface::Impl {
     return second ? std::array{p10, p11, p01} : std::array{p00, p10, p01};
   }
 
+  void realize_block(std::size_t block) const {
+    const std::size_t first = block * kTilePoints;
+    const std::size_t n = std::min(kTilePoints, vertex_total - first);
+    double normals[kTilePoints];
+    // Draw k of the stream belongs to vertex k whatever the blocks.
+    stream.normals(first, normals, n);
+    for (std::size_t a = 0; a < n; ++a) vertex_z[first + a] = terrain->mesh.vertices[first + a].z() + sigma * normals[a];
+    block_ready[block] = 1;
+    ++tiles_done;
+  }
+
+  Vec3 tin_vertex(std::size_t v) const {
+    const Vec3& base = terrain->mesh.vertices[v];
+    if (!perturbed) return base;
+    const std::size_t block = v / kTilePoints;
+    if (!block_ready[block]) realize_block(block);
+    return {base.x(), base.y(), vertex_z[v]};
+  }
+
   Vec3 vertex(std::size_t v) const {
-    if (!grid_mode) return vertices[v];
+    if (!grid_mode) return tin_vertex(v);
     const auto nx = static_cast<std::size_t>(spec.nx);
     return grid_point(static_cast<std::int32_t>(v % nx), static_cast<std::int32_t>(v / nx));
   }
@@ -322,20 +367,16 @@ std::unique_ptr<Surface::Impl> Surface::make_impl(const Terrain& terrain, std::o
     return impl;
   }
 
-  impl->vertices = terrain.mesh.vertices;
-  if (index.has_value() && sigma > 0.0) {
-    const core::RandomStream stream(terrain.roughness.seed, core::Stream::terrain_roughness, *index);
-    std::vector<double> n(impl->vertices.size());
-    stream.normals(0, n.data(), n.size());
-    for (std::size_t k = 0; k < n.size(); ++k) impl->vertices[k].z() += sigma * n[k];
+  impl->vertex_total = terrain.mesh.vertices.size();
+  impl->sigma = sigma;
+  impl->perturbed = index.has_value() && sigma > 0.0;
+  if (impl->perturbed) {
+    impl->stream = core::RandomStream(terrain.roughness.seed, core::Stream::terrain_roughness, *index);
+    // Left uninitialised: the pages of blocks never touched are never committed.
+    impl->vertex_z = std::make_unique_for_overwrite<double[]>(impl->vertex_total);
+    impl->block_ready.assign((impl->vertex_total + kTilePoints - 1) / kTilePoints, 0);
   }
   const double widen = kMaxNormal * sigma;
-  Aabb box = terrain.mesh.bounds();
-  if (!box.empty()) {
-    box.lo.z() -= widen;
-    box.hi.z() += widen;
-  }
-  impl->bounds = box;
   if (!shared_bvh) {
     std::vector<Aabb> boxes(terrain.mesh.triangles.size());
     for (std::size_t t = 0; t < boxes.size(); ++t) {
@@ -353,12 +394,15 @@ std::unique_ptr<Surface::Impl> Surface::make_impl(const Terrain& terrain, std::o
 
 Surface Surface::realize(const Terrain& terrain, std::optional<std::uint32_t> index) {
   check_terrain(terrain);
-  return Surface(make_impl(terrain, index, nullptr));
+  auto impl = make_impl(terrain, index, nullptr);
+  impl->bounds = std::make_shared<Impl::SharedBounds>();
+  return Surface(std::move(impl));
 }
 
 Surface Surface::realization(std::optional<std::uint32_t> index) const {
   auto impl = make_impl(*impl_->terrain, index, impl_->bvh);
   impl->owned = impl_->owned;
+  impl->bounds = impl_->bounds;
   return Surface(std::move(impl));
 }
 
@@ -375,7 +419,7 @@ Surface Surface::from_mesh(geometry::TriangleMesh mesh) {
 std::size_t Surface::triangle_count() const { return impl_->triangle_count(); }
 
 std::size_t Surface::vertex_count() const {
-  return impl_->grid_mode ? impl_->spec.point_count() : impl_->vertices.size();
+  return impl_->grid_mode ? impl_->spec.point_count() : impl_->vertex_total;
 }
 
 std::array<std::int32_t, 3> Surface::triangle(std::size_t t) const { return impl_->triangle(t); }
@@ -394,19 +438,22 @@ std::int32_t Surface::material(std::size_t t) const {
   return m.empty() ? 0 : m[t];
 }
 
-const Aabb& Surface::bounds() const { return impl_->grid_mode ? impl_->grid_bounds() : impl_->bounds; }
+const Aabb& Surface::bounds() const { return impl_->shared_bounds(); }
 
 bool Surface::is_height_field() const { return impl_->grid_mode; }
 
 std::size_t Surface::tiles_realized() const { return impl_->tiles_done; }
 
 std::size_t Surface::tile_count() const {
+  if (!impl_->grid_mode) return impl_->block_ready.size();
   return static_cast<std::size_t>(impl_->tiles_x) * static_cast<std::size_t>(impl_->tiles_y);
 }
 
 void Surface::realize_all() const {
   for (std::size_t t = 0; t < impl_->tile_ready.size(); ++t)
     if (!impl_->tile_ready[t]) impl_->realize_tile(t);
+  for (std::size_t k = 0; k < impl_->block_ready.size(); ++k)
+    if (!impl_->block_ready[k]) impl_->realize_block(k);
 }
 
 void Surface::triangles_in_box(const Aabb& box, std::vector<std::int32_t>& out) const {

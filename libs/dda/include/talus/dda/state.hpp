@@ -184,6 +184,11 @@ struct State {
   core::RandomSequence impacts_rng{core::RandomStream(0, core::Stream::impact, 0)};
 
   // Realization bookkeeping.
+  /// Kinetic energy ½vᵀMv of the state (J), kept current by start() and every step.
+  double kinetic = 0.0;
+  /// Centroid above the terrain surface at `time`, vertically (m); NaN off the terrain
+  /// and before the first step.
+  double height = std::numeric_limits<double>::quiet_NaN();
   Release release;
   std::uint64_t impacts = 0;
   double max_speed = 0.0;             ///< centroid (m/s)

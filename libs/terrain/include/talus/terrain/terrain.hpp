@@ -93,8 +93,9 @@ struct Terrain {
 /// DEM pays for those cells only. Realization i is a pure function of (terrain seed, i), so
 /// laziness never changes a value. Because of that cache, one Surface must not be queried
 /// from several threads at once (each realization has its own Surface).
-/// On a TIN, realize() perturbs every vertex and builds a bounding-volume hierarchy;
-/// realization() reuses that hierarchy for the next realization.
+/// On a TIN, realize() builds a bounding-volume hierarchy and realization() reuses it for
+/// the next realization; the perturbed elevations are computed lazily as well, in blocks
+/// of 1024 consecutive vertex ids, the first time a query reads one of them.
 class Surface {
  public:
   /// Realization `index` of `terrain` (roughness applied); nullopt = the smooth base.
@@ -104,7 +105,7 @@ class Surface {
   /// c = j·(nx−1)+i are, with p00 = (i,j), p10 = (i+1,j), p01 = (i,j+1), p11 = (i+1,j+1):
   ///   cell_diagonal[c] = 0: 2c = (p00, p10, p11), 2c+1 = (p00, p11, p01);
   ///   cell_diagonal[c] = 1: 2c = (p00, p10, p01), 2c+1 = (p10, p11, p01).
-  /// Cheap on a grid (nothing is realized until queried); O(n log n) on a TIN.
+  /// Cheap on a grid (nothing is realized until queried); O(n log n) on a TIN (the BVH).
   /// Throws core::InputError (source: terrain.name) when the terrain is inconsistent
   /// (array sizes, vertex ids out of range, σ negative or not finite).
   static Surface realize(const Terrain& terrain, std::optional<std::uint32_t> index);
@@ -113,8 +114,9 @@ class Surface {
   /// Realization `index` of this Surface's terrain, bit for bit the same as
   /// realize(terrain, index), sharing the read-only search structure: on a TIN the BVH is
   /// built once over the base triangles with boxes widened by ±8.6σ in z (valid for every
-  /// realization), so a new realization costs only the vertex perturbation. On a grid it
-  /// is as cheap as realize(). Only reads this Surface: several threads may call it on
+  /// realization), so a new realization costs only the perturbation of the vertices its
+  /// queries read (a flag per 1024 vertices and untouched memory for the rest). On a grid
+  /// it is as cheap as realize(). Only reads this Surface: several threads may call it on
   /// one Surface at once (each then queries its own result).
   Surface realization(std::optional<std::uint32_t> index) const;
   /// A TIN surface from a bare mesh (material 0 everywhere), e.g. for tests.
@@ -135,13 +137,15 @@ class Surface {
   Vec3 normal(std::size_t t) const;
   std::int32_t material(std::size_t t) const;
   /// Bounds (m): x and y exact; z covers every realization (base ± 8.6σ, the largest
-  /// value a Box–Muller draw from 53-bit uniforms can take).
+  /// value a Box–Muller draw from 53-bit uniforms can take). The same for every
+  /// realization: computed on the first call (a pass over the base points) and shared
+  /// with every Surface that realization() makes, so a realization never pays for it.
   const Aabb& bounds() const;
   /// True for a grid-based TRN (a height field); a TIN may have walls and overhangs.
   bool is_height_field() const;
-  /// Grid with roughness only: the number of tiles (32 × 32 points) realized so far and
-  /// in all; 0 when nothing is perturbed (a TIN, σ = 0 or the smooth base). For tests
-  /// and benchmarks of the laziness.
+  /// With roughness only: the number of tiles (grid: 32 × 32 points; TIN: 1024
+  /// consecutive vertex ids) realized so far and in all; 0 when nothing is perturbed
+  /// (σ = 0 or the smooth base). For tests and benchmarks of the laziness.
   std::size_t tiles_realized() const;
   std::size_t tile_count() const;
   /// Realizes every tile now (before export, or to time a whole realization); a no-op

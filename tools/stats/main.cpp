@@ -11,15 +11,46 @@
 #include "talus/core/error.hpp"
 #include "talus/core/log.hpp"
 #include "talus/io/atomic_output.hpp"
+#include "talus/io/paths.hpp"
 
 namespace {
 
 using namespace talus;
 namespace fs = std::filesystem;
 
+// The files stats writes into the output directory, and its subdirectories.
+const char* const kOutputFiles[] = {"summary.csv", "convergence.csv", "comparison.csv", "table.csv", "summary.h5"};
+const char* const kOutputDirs[] = {"hazard", "plots"};
+
+// "stats/" and "./stats/" name the directory "stats": a trailing separator is dropped.
+fs::path directory_path(const std::string& dir) {
+  fs::path path(dir);
+  while (!path.has_filename() && path.has_parent_path() && path != path.root_path()) path = path.parent_path();
+  return path;
+}
+
+// Refuses an output directory whose outputs would overwrite an input.
+void check_outputs(const cli::Invocation& inv, const stats_tool::Settings& settings) {
+  std::vector<io::NamedPath> inputs = inv.named_inputs();
+  if (!settings.terrain.empty()) inputs.push_back({"terrain file (key terrain)", settings.terrain});
+  const fs::path dir = directory_path(inv.output);
+  for (const auto& in : inputs) {
+    if (io::same_file(in.path, dir.string()))
+      throw core::UsageError("-o " + inv.output + ": is the " + in.role + " " + in.path +
+                             "; -o names the output directory");
+    for (const char* sub : kOutputDirs)
+      if (io::inside_directory(in.path, (dir / sub).string()))
+        throw core::UsageError("-o " + inv.output + ": the " + in.role + " " + in.path + " lies in " +
+                               (dir / sub).string() + ", which stats rewrites (choose another -o)");
+  }
+  std::vector<io::NamedPath> outputs;
+  for (const char* name : kOutputFiles) outputs.push_back({"output", (dir / name).string()});
+  io::check_outputs_distinct(inputs, outputs);
+}
+
 // Creates the output directory (its parent must exist).
 void make_output_directory(const std::string& dir) {
-  const fs::path path(dir);
+  const fs::path path = directory_path(dir);
   if (fs::exists(path) && !fs::is_directory(path))
     throw core::UsageError("-o " + dir + ": exists and is not a directory");
   const fs::path parent = path.has_parent_path() ? path.parent_path() : fs::path(".");
@@ -39,6 +70,7 @@ int main(int argc, char** argv) {
   spec.summary = "CDFs, quantiles, convergence, comparisons, barrier CDFs, hazard rasters and plots of run files";
   spec.inputs_doc = "run files of dda-run: whole runs and/or shards of runs (shards of one run are joined)";
   spec.min_inputs = 1;
+  spec.set_example = "plots=false";
   spec.settings = [&settings](core::SettingsVisitor& v) { settings.visit(v); };
   spec.flags = {{"--print-table", "print the side-by-side summary table on standard output", &print_table}};
   spec.check = [&](const cli::Invocation& inv) {
@@ -46,12 +78,13 @@ int main(int argc, char** argv) {
     settings.validate();
     // Before any work: a missing matplotlib is reported at once, not after the analysis.
     if (settings.plots) stats_tool::check_plotting();
+    check_outputs(inv, settings);
   };
   spec.run = [&](const cli::Invocation& inv) {
     const auto runs = stats_tool::load_runs(inv.inputs, settings);
     const auto analysis = stats_tool::analyze(runs, settings);
     make_output_directory(inv.output);
-    const fs::path dir(inv.output);
+    const fs::path dir = directory_path(inv.output);
     io::write_text_file((dir / "summary.csv").string(), stats_tool::summary_csv(analysis, settings));
     io::write_text_file((dir / "convergence.csv").string(), stats_tool::convergence_csv(analysis));
     io::write_text_file((dir / "comparison.csv").string(), stats_tool::comparison_csv(analysis));

@@ -1,6 +1,7 @@
 #include "talus/io/run_file.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <limits>
 #include <map>
@@ -606,6 +607,33 @@ void write_run_file(const std::string& path, const RunInfo& info, const mc::RunD
   out.commit();
 }
 
+namespace {
+
+// A realization that did not fail numerically has only finite values: a NaN or an
+// infinity in one is a damaged or hand-edited file, refused here rather than in stats.
+void check_record_values(const std::vector<mc::Record>& records, const std::string& path) {
+  for (const auto& r : records) {
+    if (dda::is_failure(r.end)) continue;
+    const std::pair<const char*, double> values[] = {
+        {"time", r.time},
+        {"runout", r.runout},
+        {"lateral", r.lateral},
+        {"max_speed", r.max_speed},
+        {"max_jump_height", r.max_jump_height},
+        {"max_normal_jump_height", r.max_normal_jump_height},
+        {"max_kinetic_energy", r.max_kinetic_energy},
+        {"final_position", r.final_position.norm()},
+        {"release_position", r.release_position.norm()}};
+    for (const auto& [name, value] : values)
+      if (!std::isfinite(value))
+        throw InputError(path, "/records: realization " + std::to_string(r.realization) + ": " + name + " is " +
+                                   core::format_number(value) + " (values of a realization that did not fail must "
+                                   "be finite)");
+  }
+}
+
+}  // namespace
+
 RunFile read_run_file(const std::string& path) {
   const h5::File file = h5::File::open(path);
   const h5::Group root = file.root();
@@ -613,6 +641,7 @@ RunFile read_run_file(const std::string& path) {
   RunFile f;
   f.info = read_info(root);
   f.data.records = decode_records(root.open_group("records"), f.info);
+  check_record_values(f.data.records, path);
   f.data.crossings = decode_crossings(root.open_group("crossings"), f.info);
   f.data.trajectories = decode_trajectories(root.open_group("trajectories"), f.info);
   f.data.hazard = empty_hazard(f.info);

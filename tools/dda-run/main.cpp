@@ -277,7 +277,7 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
 
   const mc::RunData data = journal.read();
   io::write_run_file(output, info, data);
-  std::filesystem::remove(journal_path);
+  journal.remove();
   const std::string threads = opt.threads.empty() || opt.threads == "0"
                                   ? std::to_string(core::default_thread_count()) + " threads (" +
                                         core::default_thread_source() + ")"

@@ -7,6 +7,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <limits>
 
 #include "mc_fixtures.hpp"
 #include "run_compare.hpp"
@@ -77,6 +78,26 @@ TEST_F(RunFileTest, RoundTripsEveryTable) {
   RunJournal::create((dir_ / "j.journal").string(), info());
   EXPECT_THROW(read_run_file((dir_ / "j.journal").string()), core::InputError);
   EXPECT_THROW(read_run_file((dir_ / "j.journal" / "info.h5").string()), core::InputError);
+}
+
+TEST_F(RunFileTest, ReaderRefusesNonFiniteValuesOfRealizationsThatDidNotFail) {
+  mc::RunData data = reference();
+  const std::uint32_t which = data.records[1].realization;
+  data.records[1].end = dda::EndReason::rest;
+  data.records[1].runout = std::numeric_limits<double>::quiet_NaN();
+  const std::string path = (dir_ / "nan.h5").string();
+  write_run_file(path, info(), data);
+  try {
+    read_run_file(path);
+    FAIL() << "a NaN runout was accepted";
+  } catch (const core::InputError& e) {
+    EXPECT_EQ(std::string(e.what()), path + ": /records: realization " + std::to_string(which) +
+                                         ": runout is nan (values of a realization that did not fail must be finite)");
+  }
+  // A numerically failed realization may carry non-finite values: it is counted, not used.
+  data.records[1].end = dda::EndReason::non_finite;
+  write_run_file(path, info(), data);
+  EXPECT_NO_THROW(read_run_file(path));
 }
 
 TEST_F(RunFileTest, TornAppendIsDroppedOnResume) {

@@ -10,6 +10,7 @@
   - the default thread count follows the affinity mask and SLURM_CPUS_PER_TASK;
   - progress lines (not a terminal) name the output and shard; the summary line;
   - a build without MPI refuses to run under an MPI launcher; --version says so;
+  - a stats output folder keeps only this run's outputs;
   - talus-plot --help works without plotting libraries, honours TALUS_PYTHON.
 
 Usage: run_control.py --bin BUILD/bin
@@ -70,6 +71,20 @@ def main():
               r.stderr)
         check("small.h5: 20 realizations in " in r.stderr and "; ends: " in r.stderr, "end-of-run summary", r.stderr)
         check(not any(n.startswith("small.h5.") for n in os.listdir(work)), "no journal or lock left after a run")
+
+        # A stats folder holds only this run's outputs: a stale hazard map is removed, and said.
+        st = [os.path.join(b, "stats"), "small.h5", "-o", "st", "--set", "plots=false"]
+        r = run(st)
+        check(r.returncode == 0 and os.path.isdir(os.path.join(work, "st", "hazard")), "stats writes hazard maps",
+              r.stderr)
+        stale = os.path.join(work, "st", "hazard", "gone-reach_probability.asc")
+        with open(stale, "w") as f:
+            f.write("old")
+        r = run(st)
+        check(r.returncode == 0 and not os.path.exists(stale) and "gone-reach_probability.asc" in r.stderr,
+              "stats removes and names a stale output", r.stderr)
+        r = run(st)
+        check(r.returncode == 0 and r.stderr == "", "stats rerun removes nothing of its own", r.stderr)
 
         # The reference for the interrupted runs.
         r = run([dda, "-c", "scene.yaml", "--threads", "1", "-q", "-o", "ref.h5"])

@@ -2,6 +2,8 @@
 // from dda-run run files. See docs/stats.md.
 #include <cstdio>
 #include <filesystem>
+#include <map>
+#include <vector>
 #include <string>
 
 #include "analysis.hpp"
@@ -48,6 +50,34 @@ void check_outputs(const cli::Invocation& inv, const stats_tool::Settings& setti
   io::check_outputs_distinct(inputs, outputs);
 }
 
+// The files in stats' own subdirectories of `dir` (hazard/, plots/) with their times.
+std::map<fs::path, fs::file_time_type> owned_files(const fs::path& dir) {
+  std::map<fs::path, fs::file_time_type> files;
+  std::error_code ec;
+  for (const char* sub : kOutputDirs)
+    for (const auto& entry : fs::directory_iterator(dir / sub, ec))
+      if (entry.is_regular_file(ec)) files[entry.path()] = entry.last_write_time(ec);
+  return files;
+}
+
+// Removes the files of an earlier run that this run did not rewrite (a hazard map of a
+// run no longer given, plots when plots are off), so that the folder holds this run's
+// outputs only; says what it removed.
+void remove_stale_outputs(const std::map<fs::path, fs::file_time_type>& before) {
+  std::vector<std::string> removed;
+  std::error_code ec;
+  for (const auto& [path, time] : before) {
+    if (!fs::exists(path, ec) || fs::last_write_time(path, ec) != time) continue;
+    if (fs::remove(path, ec)) removed.push_back(path.filename().string());
+  }
+  if (removed.empty()) return;
+  std::string list;
+  for (std::size_t k = 0; k < removed.size() && k < 5; ++k) list += (k ? ", " : "") + removed[k];
+  if (removed.size() > 5) list += ", ...";
+  core::log_notice("removed " + std::to_string(removed.size()) + " file(s) of an earlier run that this run does not write: " +
+                   list);
+}
+
 // Creates the output directory (its parent must exist).
 void make_output_directory(const std::string& dir) {
   const fs::path path = directory_path(dir);
@@ -85,6 +115,7 @@ int main(int argc, char** argv) {
     const auto analysis = stats_tool::analyze(runs, settings);
     make_output_directory(inv.output);
     const fs::path dir = directory_path(inv.output);
+    const auto earlier = owned_files(dir);
     io::write_text_file((dir / "summary.csv").string(), stats_tool::summary_csv(analysis, settings));
     io::write_text_file((dir / "convergence.csv").string(), stats_tool::convergence_csv(analysis));
     io::write_text_file((dir / "comparison.csv").string(), stats_tool::comparison_csv(analysis));
@@ -100,6 +131,7 @@ int main(int argc, char** argv) {
       fs::create_directories(plots);
       stats_tool::draw_plots(summary, plots.string(), settings);
     }
+    remove_stale_outputs(earlier);
     if (print_table) std::fputs(stats_tool::side_by_side_text(analysis).c_str(), stdout);
     core::log_info("wrote " + inv.output + ": " + std::to_string(analysis.series.size()) + " series of " +
                    std::to_string(runs.size()) + " runs");

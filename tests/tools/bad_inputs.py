@@ -59,6 +59,7 @@ realizations: 3
 seed: 3
 outputs:
   chunk: 2
+  hazard_cell_size: 2
 """
 
 # A 4 x 3 DEM on a 1 m grid.
@@ -145,6 +146,8 @@ def make_fixtures(bin_dir, root):
     tool("terrain-gen", "-c", "plane.yaml", "-o", "t.h5")
     tool("block-gen", "-c", "blocks.yaml", "-o", "b.h5")
     tool("dda-run", "-c", "scene.yaml", "--threads", "1", "-o", "run.h5")
+    tool("terrain-gen", "-c", "plane.yaml", "--set", "synthetic.slope_angle_deg=30", "-o", "other.h5")
+    os.remove(os.path.join(root, "other.xmf"))
     os.remove(os.path.join(root, "t.xmf")) if os.path.exists(os.path.join(root, "t.xmf")) else None
     os.symlink("dem.asc", os.path.join(root, "link.asc"))
     os.link(os.path.join(root, "run.h5"), os.path.join(root, "hard.h5"))
@@ -162,11 +165,11 @@ CASES = [
     (["terrain-gen", "--sett", "roughness.sigma=0.2"], USAGE, ["unknown option '--sett'", "did you mean '--set'"]),
     (["block-gen", "cube.obj", "--ouput", "x.h5"], USAGE, ["'--ouput'", "did you mean '--output'"]),
     (["dda-run", "-c", "scene.yaml", "--resum", "-o", "x.h5"], USAGE, ["'--resum'", "did you mean '--resume'"]),
-    (["stats", "run.h5", "-o", "s", "--print-tabel"], USAGE, ["'--print-tabel'", "did you mean '--print-table'"]),
+    (["stats", "--set", "plots=false", "run.h5", "-o", "s", "--print-tabel"], USAGE, ["'--print-tabel'", "did you mean '--print-table'"]),
     (["terrain-gen", "dem.asc"], USAGE, ["no output file"]),
     (["block-gen", "cube.obj"], USAGE, ["no output file"]),
     (["dda-run", "-c", "scene.yaml"], USAGE, ["no output file"]),
-    (["stats", "run.h5"], USAGE, ["-o"]),
+    (["stats", "--set", "plots=false", "run.h5"], USAGE, ["-o"]),
     (["dda-run", "-c", "scene.yaml", "--threads", "abc", "-o", "x.h5"], USAGE, ["--threads", "abc"]),
     (["dda-run", "-c", "scene.yaml", "--shard", "3/2", "-o", "x.h5"], USAGE, ["3/2"]),
     (["terrain-gen", "dem.asc", "--log-level", "loud", "-o", "x.h5"], USAGE, ["--log-level", "loud"]),
@@ -192,9 +195,9 @@ CASES = [
     (["dda-run", "-c", "scene.yaml", "--set", "terrain=sub/../t.h5", "-o", "t.h5"], USAGE, ["-o t.h5", "terrain"]),
     (["dda-run", "merge", "run.h5", "-o", "run.h5"], USAGE, ["-o run.h5", "the input run.h5"]),
     (["dda-run", "merge", "run.h5", "-o", "hard.h5"], USAGE, ["-o hard.h5", "the input run.h5"]),
-    (["stats", "run.h5", "-o", "run.h5"], USAGE, ["-o run.h5", "output directory"]),
-    (["stats", "st/summary.h5", "-o", "st/"], USAGE, ["st/summary.h5"]),
-    (["stats", "run.h5", "-o", "s", "--set", "terrain=s/summary.h5"], USAGE, ["terrain"]),
+    (["stats", "--set", "plots=false", "run.h5", "-o", "run.h5"], USAGE, ["-o run.h5", "output directory"]),
+    (["stats", "--set", "plots=false", "st/summary.h5", "-o", "st/"], USAGE, ["st/summary.h5"]),
+    (["stats", "--set", "plots=false", "run.h5", "-o", "s", "--set", "terrain=s/summary.h5"], USAGE, ["terrain"]),
     # Values out of range or not finite, named where they enter.
     (["terrain-gen", "-c", "friction.yaml", "-o", "x.h5"], BAD_INPUT,
      ["friction.yaml:10", "friction_angle_mean_deg", "[0, 90) deg", "100"]),
@@ -254,11 +257,13 @@ CASES = [
     (["dda-run", "-c", "schema.yaml", "-o", "x.h5"], BAD_INPUT, ["schema.yaml", "9.0"]),
     (["dda-run", "-c", "outside.yaml", "-o", "x.h5"], BAD_INPUT, ["outside.yaml", "outside the terrain"]),
     (["dda-run", "merge", "t.h5", "-o", "x.h5"], BAD_INPUT, ["t.h5"]),
-    (["stats", "missing.h5", "-o", "s"], BAD_INPUT, ["missing.h5"]),
-    (["stats", "notes.txt", "-o", "s"], BAD_INPUT, ["notes.txt"]),
-    (["stats", "t.h5", "-o", "s"], BAD_INPUT, ["t.h5"]),
-    (["stats", "run.h5", "--set", "unknown=1", "-o", "s"], BAD_INPUT, ["--set unknown", "unknown key"]),
-    (["stats", "run.h5", "-o", "no/such/dir"], RUNTIME, ["no/such"]),
+    (["stats", "--set", "plots=false", "missing.h5", "-o", "s"], BAD_INPUT, ["missing.h5"]),
+    (["stats", "--set", "plots=false", "notes.txt", "-o", "s"], BAD_INPUT, ["notes.txt"]),
+    (["stats", "--set", "plots=false", "t.h5", "-o", "s"], BAD_INPUT, ["t.h5"]),
+    (["stats", "--set", "plots=false", "run.h5", "--set", "unknown=1", "-o", "s"], BAD_INPUT, ["--set unknown", "unknown key"]),
+    (["stats", "--set", "plots=false", "run.h5", "-o", "no/such/dir"], RUNTIME, ["no/such"]),
+    (["stats", "--set", "plots=false", "run.h5", "--set", "terrain=other.h5", "-o", "s"], BAD_INPUT,
+     ["other.h5", "is not the terrain of the run run.h5", "fingerprint"]),
 ]
 
 
@@ -332,6 +337,11 @@ def positive_checks(bin_dir, fixtures, work):
                            capture_output=True, text=True)
         if r.returncode != 0:
             problems.append(f"{tool} --help example --set {example} fails: {r.stderr.strip()}")
+    # From another directory: the run's terrain is found although the run names it relatively.
+    r = subprocess.run([os.path.join(bin_dir, "stats"), "../run.h5", "-o", "../st3", "--set", "plots=false"],
+                       cwd=os.path.join(work, "sub"), capture_output=True, text=True)
+    if r.returncode != 0 or not os.path.isdir(os.path.join(work, "st3", "hazard")):
+        problems.append(f"stats from another directory fails: {r.stderr.strip()}")
     for out in ("stats/", "./stats2/"):
         r = subprocess.run([os.path.join(bin_dir, "stats"), "run.h5", "-o", out, "--print-table", "--set", "plots=false"],
                            cwd=work, capture_output=True, text=True)

@@ -207,12 +207,15 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
   if (settings.block_file.empty()) throw core::InputError(source, "no block file given (key 'block_file')");
   core::Stopwatch clock;
   terrain::Terrain terrain = io::read_terrain_file(settings.terrain);
+  const std::string fingerprint = io::terrain_fingerprint(terrain);
   const auto library = io::read_block_file(settings.block_file);
   const mc::Scene scene = mc::Scene::build(settings, std::move(terrain), library, source);
 
   io::Provenance provenance = inv.provenance("dda-run", settings.seed);
   provenance.inputs = settings.terrain + "\n" + settings.block_file + "\n";
-  const io::RunInfo info = io::make_run_info(scene, provenance, shard);
+  io::RunInfo info = io::make_run_info(scene, provenance, shard);
+  info.terrain_fingerprint = fingerprint;
+  info.terrain_file = std::filesystem::absolute(settings.terrain).lexically_normal().string();
   const std::string journal_path = io::run_journal_path(output);
   // Held until the run file is written: a second dda-run on this output is refused
   // instead of sharing (or being told to delete) the journal.

@@ -345,6 +345,8 @@ void write_info(const h5::Group& root, const RunInfo& info) {
   run.set_attr("hazard_nx", static_cast<std::int64_t>(info.hazard.nx));
   run.set_attr("hazard_ny", static_cast<std::int64_t>(info.hazard.ny));
   run.set_attr("hazard_relative_accuracy", info.hazard_relative_accuracy);
+  if (!info.terrain_fingerprint.empty()) run.set_attr("terrain_fingerprint", info.terrain_fingerprint);
+  if (!info.terrain_file.empty()) run.set_attr("terrain_file", info.terrain_file);
 }
 
 RunInfo read_info(const h5::Group& root) {
@@ -374,6 +376,8 @@ RunInfo read_info(const h5::Group& root) {
   info.hazard.nx = static_cast<std::int32_t>(run.attr_int("hazard_nx"));
   info.hazard.ny = static_cast<std::int32_t>(run.attr_int("hazard_ny"));
   info.hazard_relative_accuracy = run.attr_double("hazard_relative_accuracy");
+  if (run.has_attr("terrain_fingerprint")) info.terrain_fingerprint = run.attr_string("terrain_fingerprint");
+  if (run.has_attr("terrain_file")) info.terrain_file = run.attr_string("terrain_file");
   if (info.hazard.size < 0.0 || info.hazard.nx < 0 || info.hazard.ny < 0 ||
       !(info.hazard_relative_accuracy > 0.0 && info.hazard_relative_accuracy < 0.5))
     throw InputError(root.file_name(), "/run: invalid hazard grid");
@@ -387,7 +391,7 @@ mc::HazardAccumulator empty_hazard(const RunInfo& info) {
 // Inputs and settings that make two files parts of the same run.
 bool same_run(const RunInfo& a, const RunInfo& b) {
   return a.provenance.settings_yaml == b.provenance.settings_yaml && a.provenance.inputs == b.provenance.inputs &&
-         a.realizations == b.realizations;
+         a.realizations == b.realizations && a.terrain_fingerprint == b.terrain_fingerprint;
 }
 
 const char* kJournalKind = "run-journal";

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <iterator>
 #include <string>
 #include <vector>
@@ -283,6 +284,40 @@ terrain::Terrain read_terrain_file(const std::string& path, TerrainFileInfo& inf
         throw InputError(path, "/trn/triangles row " + count_text(k) + " does not match the grid and /grid/diagonal");
   }
   return t;
+}
+
+namespace {
+
+struct Fnv1a {
+  std::uint64_t h = 14695981039346656037ull;
+  void bytes(const void* data, std::size_t n) {
+    const auto* p = static_cast<const unsigned char*>(data);
+    for (std::size_t k = 0; k < n; ++k) h = (h ^ p[k]) * 1099511628211ull;
+  }
+  template <class T>
+  void value(const T& v) {
+    bytes(&v, sizeof v);
+  }
+};
+
+}  // namespace
+
+std::string terrain_fingerprint(const terrain::Terrain& t) {
+  Fnv1a f;
+  for (const auto& v : t.mesh.vertices)
+    for (int k = 0; k < 3; ++k) f.value(v[k]);
+  for (const auto& tri : t.mesh.triangles) f.bytes(tri.data(), sizeof(std::int32_t) * 3);
+  f.bytes(t.material_of_triangle.data(), t.material_of_triangle.size() * sizeof(std::int32_t));
+  for (const auto& m : t.materials) {
+    f.bytes(m.name.data(), m.name.size());
+    for (const auto& c : kMaterialColumns) f.value(m.*(c.field));
+  }
+  f.value(t.roughness.sigma);
+  f.value(t.roughness.seed);
+  for (int k = 0; k < 3; ++k) f.value(t.origin_shift[k]);
+  char text[17];
+  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(f.h));
+  return text;
 }
 
 }  // namespace talus::io

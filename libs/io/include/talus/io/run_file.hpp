@@ -20,6 +20,10 @@ struct RunInfo {
   std::vector<std::string> barriers;      ///< barrier names, indexed by Crossing::barrier
   std::vector<std::vector<std::array<double, 2>>> barrier_lines;  ///< plan polylines (m)
   mc::HazardGridSpec hazard;              ///< size 0 = no hazard map
+  /// The terrain the run used: its fingerprint (io::terrain_fingerprint) and its path made
+  /// absolute when the run started; empty in files of earlier versions.
+  std::string terrain_fingerprint;
+  std::string terrain_file;
   double hazard_relative_accuracy = 0.01; ///< of the per-cell sketches (-)
 };
 

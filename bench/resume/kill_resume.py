@@ -118,8 +118,8 @@ def main():
                     problem = f"resume failed ({r.returncode}): {r.stderr.strip()}"
                 else:
                     problem = same_run(f"ref{chunk}.h5", out, work)
-                    left = sorted(n for n in os.listdir(work) if n.startswith(out) and n != out or
-                                  n.startswith("." + out))
+                    left = sorted(name for name in os.listdir(work) if name.startswith(out) and name != out or
+                                  name.startswith("." + out))
                     if not problem and left:
                         problem = "left behind: " + ", ".join(left)
                 if problem:
@@ -127,9 +127,10 @@ def main():
                     print(f"FAIL chunk {chunk} trial {trial}: {problem}")
                 else:
                     passed += 1
-                for n in os.listdir(work):
-                    if n.startswith(out) or n.startswith("." + out):
-                        os.remove(os.path.join(work, n))
+                for name in os.listdir(work):
+                    if name.startswith(out) or name.startswith("." + out):
+                        path = os.path.join(work, name)
+                        shutil.rmtree(path) if os.path.isdir(path) else os.remove(path)
             print(f"chunk {chunk}: {passed} of {args.trials} resumes identical to the reference "
                   f"({kills} killed with SIG{args.signal} mid-run; reference {wall:.1f} s, "
                   f"{n} realizations)")

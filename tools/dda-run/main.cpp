@@ -94,7 +94,15 @@ class Progress {
 // to the journal and the run ends with a message saying how to resume.
 volatile std::sig_atomic_t g_stop_signal = 0;
 
-extern "C" void request_stop(int signal) { g_stop_signal = signal; }
+// A second signal ends the process at once (the journal's chunk files stay complete).
+extern "C" void request_stop(int signal) {
+  if (g_stop_signal != 0) {
+    std::signal(signal, SIG_DFL);
+    std::raise(signal);
+    return;
+  }
+  g_stop_signal = signal;
+}
 
 class StopSignals {
  public:

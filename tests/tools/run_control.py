@@ -130,7 +130,7 @@ def main():
         small = [dda, "-c", "scene.yaml", "--set", "realizations=4", "-o", "thr.h5"]
         if shutil.which("taskset"):
             r = run(["taskset", "-c", "0"] + small)
-            check("1 threads (affinity mask)" in r.stderr, "taskset -c 0 gives one thread", r.stderr)
+            check("1 thread (affinity mask)" in r.stderr, "taskset -c 0 gives one thread", r.stderr)
         r = run(small, env={"SLURM_CPUS_PER_TASK": "3"})
         check("3 threads (SLURM_CPUS_PER_TASK)" in r.stderr, "SLURM_CPUS_PER_TASK sets the threads", r.stderr)
 

@@ -289,10 +289,9 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
   const mc::RunData data = journal.read();
   io::write_run_file(output, info, data);
   journal.remove();
-  const std::string threads = opt.threads.empty() || opt.threads == "0"
-                                  ? std::to_string(core::default_thread_count()) + " threads (" +
-                                        core::default_thread_source() + ")"
-                                  : opt.threads + " threads";
+  const unsigned thread_count = parse_threads(opt.threads) == 0 ? core::default_thread_count() : parse_threads(opt.threads);
+  const std::string threads = std::to_string(thread_count) + (thread_count == 1 ? " thread" : " threads") +
+                              (parse_threads(opt.threads) == 0 ? " (" + core::default_thread_source() + ")" : "");
   char timing[96];
   std::snprintf(timing, sizeof timing, " realizations in %.1f s (%.2f/s, ", seconds,
                 seconds > 0 ? static_cast<double>(ran) / seconds : 0.0);

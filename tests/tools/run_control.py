@@ -13,7 +13,7 @@
   - a stats output folder keeps only this run's outputs;
   - talus-plot --help works without plotting libraries, honours TALUS_PYTHON.
 
-Usage: run_control.py --bin BUILD/bin
+Usage: run_control.py --bin BUILD/bin [--realizations N]
 """
 import argparse
 import os
@@ -29,10 +29,10 @@ PLANE = "source: synthetic\nsynthetic: {kind: plane, cell_size: 1, width: 10, le
 BLOCKS = "blocks: [{name: c, solid: cube, volume: 0.5}]\n"
 SCENE = """terrain: t.h5
 block_file: b.h5
-release: {points: [[3.0, 5.0]], height: 1.0}
-realizations: 300
+release: {{points: [[3.0, 5.0]], height: 1.0}}
+realizations: {n}
 seed: 3
-outputs: {chunk: 4, hazard_cell_size: 2}
+outputs: {{chunk: 4, hazard_cell_size: 2}}
 """
 
 failures = []
@@ -47,6 +47,8 @@ def check(condition, what, detail=""):
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--bin", required=True)
+    parser.add_argument("--realizations", type=int, default=300,
+                        help="realizations of the runs that are interrupted (fewer for slow sanitized builds)")
     args = parser.parse_args()
     b = os.path.abspath(args.bin)
     dda = os.path.join(b, "dda-run")
@@ -59,7 +61,7 @@ def main():
         return subprocess.run(cmd, cwd=work, capture_output=True, text=True, env=e, **kw)
 
     try:
-        for name, text in (("plane.yaml", PLANE), ("blocks.yaml", BLOCKS), ("scene.yaml", SCENE)):
+        for name, text in (("plane.yaml", PLANE), ("blocks.yaml", BLOCKS), ("scene.yaml", SCENE.format(n=args.realizations))):
             with open(os.path.join(work, name), "w") as f:
                 f.write(text)
         assert run([os.path.join(b, "terrain-gen"), "-c", "plane.yaml", "-o", "t.h5"]).returncode == 0

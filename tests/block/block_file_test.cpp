@@ -3,7 +3,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstring>
+#include <limits>
 
 #include "talus/block/solids.hpp"
 #include "talus/core/error.hpp"
@@ -101,6 +103,28 @@ TEST_F(BlockFile, ReaderRefusesBrokenPolyhedra) {
     EXPECT_EQ(std::string(e.what()),
               file + " (block_0000): corrupt polyhedron: open surface: 5 boundary edge(s) (e.g. at vertex 6)");
   }
+}
+
+TEST_F(BlockFile, ReaderRefusesAPolyhedronThatDoesNotEncloseTheStatedVolume) {
+  // Every face reversed: a closed surface enclosing -V, which dda-run reported as
+  // "block: volume -1 m^3" without the file.
+  std::vector<block::Block> one{library()[0]};
+  for (auto& face : one[0].polyhedron.faces) std::reverse(face.begin(), face.end());
+  const std::string inverted = path("inverted.h5");
+  write_block_file(inverted, one, Provenance{});
+  try {
+    read_block_file(inverted);
+    FAIL() << "inverted polyhedron accepted";
+  } catch (const core::InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind(inverted + " (block_0000): corrupt block: the polyhedron encloses -", 0), 0u)
+        << e.what();
+  }
+  // A non-finite property.
+  one = {library()[0]};
+  one[0].inertia(0, 0) = std::numeric_limits<double>::infinity();
+  const std::string infinite = path("infinite.h5");
+  write_block_file(infinite, one, Provenance{});
+  EXPECT_THROW(read_block_file(infinite), core::InputError);
 }
 
 TEST_F(BlockFile, XdmfSidecarNamesEveryBlockSafely) {

@@ -272,10 +272,18 @@ TEST(TerrainFile, CorruptFilesAreOneLineInputErrors) {
             "corrupt terrain file: triangle 7 has material id 2 out of range [0, 2)");
   EXPECT_EQ(read_error([](Layout& l) { l.t.mesh.vertices[3].z() = std::nan(""); }),
             "corrupt terrain file: vertex 3 is not finite");
+  EXPECT_EQ(read_error([](Layout& l) { l.t.mesh.vertices[3].z() = 1e308; }),
+            "corrupt terrain file: vertex 3 lies beyond 1e9 m");
   EXPECT_EQ(read_error([](Layout& l) { l.t.materials[1].restitution_scale = 0.0; }),
-            "corrupt terrain file: material 'scree': restitution_scale = 0 must be finite and > 0");
+            "corrupt terrain file: material 'scree': restitution_scale = 0 is outside (0, 1000] m/s");
+  EXPECT_EQ(read_error([](Layout& l) { l.t.materials[1].restitution_mean = 5.0; }),
+            "corrupt terrain file: material 'scree': restitution_mean = 5 is outside [0, 1]");
+  EXPECT_EQ(read_error([](Layout& l) { l.t.materials[1].friction_angle_mean_deg = 100.0; }),
+            "corrupt terrain file: material 'scree': friction_angle_mean_deg = 100 is outside [0, 90) deg");
   EXPECT_EQ(read_error([](Layout& l) { l.t.roughness.sigma = -1.0; }),
-            "corrupt terrain file: roughness sigma must be finite and >= 0, got -1");
+            "corrupt terrain file: roughness sigma = -1 is outside [0, 100] m");
+  EXPECT_EQ(read_error([](Layout& l) { l.t.roughness.sigma = 1e300; }),
+            "corrupt terrain file: roughness sigma = 1e+300 is outside [0, 100] m");
   EXPECT_EQ(read_error([](Layout& l) {
               for (const auto& p : l.t.mesh.vertices) l.grid_z.push_back(p.z());
               l.grid_z[6] += 1.0;

@@ -6,6 +6,8 @@
 #include <unistd.h>
 
 #include <filesystem>
+#include <fstream>
+#include <limits>
 
 #include "mc_fixtures.hpp"
 #include "run_compare.hpp"
@@ -73,8 +75,29 @@ TEST_F(RunFileTest, RoundTripsEveryTable) {
   EXPECT_EQ(f.info.hazard.nx, scene_->hazard_grid().nx);
   EXPECT_TRUE(fs::exists(dir_ / "run.xmf"));
   // Not a run file: a journal, and a file of another kind.
-  RunJournal::create((dir_ / "j.h5").string(), info());
-  EXPECT_THROW(read_run_file((dir_ / "j.h5").string()), core::InputError);
+  RunJournal::create((dir_ / "j.journal").string(), info());
+  EXPECT_THROW(read_run_file((dir_ / "j.journal").string()), core::InputError);
+  EXPECT_THROW(read_run_file((dir_ / "j.journal" / "info.h5").string()), core::InputError);
+}
+
+TEST_F(RunFileTest, ReaderRefusesNonFiniteValuesOfRealizationsThatDidNotFail) {
+  mc::RunData data = reference();
+  const std::uint32_t which = data.records[1].realization;
+  data.records[1].end = dda::EndReason::rest;
+  data.records[1].runout = std::numeric_limits<double>::quiet_NaN();
+  const std::string path = (dir_ / "nan.h5").string();
+  write_run_file(path, info(), data);
+  try {
+    read_run_file(path);
+    FAIL() << "a NaN runout was accepted";
+  } catch (const core::InputError& e) {
+    EXPECT_EQ(std::string(e.what()), path + ": /records: realization " + std::to_string(which) +
+                                         ": runout is nan (values of a realization that did not fail must be finite)");
+  }
+  // A numerically failed realization may carry non-finite values: it is counted, not used.
+  data.records[1].end = dda::EndReason::non_finite;
+  write_run_file(path, info(), data);
+  EXPECT_NO_THROW(read_run_file(path));
 }
 
 TEST_F(RunFileTest, TornAppendIsDroppedOnResume) {
@@ -83,16 +106,11 @@ TEST_F(RunFileTest, TornAppendIsDroppedOnResume) {
     RunJournal j = RunJournal::create(path, info());
     j.append({(*results_)[2], (*results_)[0]});  // completion order, not index order
   }
-  {
-    // A run killed in the middle of its next append: some columns got rows, the chunk
-    // table did not.
-    const h5::File f = h5::File::open_rw(path);
-    const std::int64_t realization = 3;
-    f.root().open_group("records").append("realization", &realization, 1);
-    const double x = 1.0;
-    f.root().open_group("crossings").append("time", &x, 1);
-  }
+  // A run killed in the middle of its next chunk: a half-written temporary chunk file.
+  const fs::path torn = fs::path(path) / ".chunk-00000001.h5.tmp-999999";
+  std::ofstream(torn) << "\x89HDF\r\n half a chunk";
   RunJournal j = RunJournal::resume(path, info());
+  EXPECT_FALSE(fs::exists(torn));
   EXPECT_EQ(j.finished(), (std::vector<std::uint32_t>{0, 2}));
   j.append({(*results_)[3], (*results_)[1]});
   mc::testing::expect_same_run(reference(), j.read());
@@ -102,6 +120,17 @@ TEST_F(RunFileTest, TornAppendIsDroppedOnResume) {
   other_shard.shard = "1/2";
   EXPECT_THROW(RunJournal::resume(path, other_shard), core::InputError);
   EXPECT_THROW(RunJournal::resume((dir_ / "none").string(), info()), core::InputError);
+  // Killed while creating the journal, before its metadata was written: resumed as empty.
+  const fs::path bare = dir_ / "bare.journal";
+  fs::create_directory(bare);
+  EXPECT_TRUE(RunJournal::resume(bare.string(), info()).finished().empty());
+  // A chunk file repeating a realization of another: refused, naming the file.
+  {
+    RunJournal twice = RunJournal::create((dir_ / "twice.journal").string(), info());
+    twice.append({(*results_)[0]});
+    twice.append({(*results_)[0]});
+  }
+  EXPECT_THROW(RunJournal::resume((dir_ / "twice.journal").string(), info()), core::InputError);
 }
 
 TEST_F(RunFileTest, MergeChecksTheShardsBelongTogether) {

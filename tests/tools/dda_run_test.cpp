@@ -285,22 +285,33 @@ TEST_F(DdaRun, LiftedOrLoweredBlocksStartTouchingTheGround) {
   EXPECT_NEAR(load("placed.h5").data.records[0].release_position.z(), 16.25, 1e-9);
 }
 
+// The end-of-run summary line (timings vary) and what follows it.
+std::string after_summary(const std::string& err, const std::string& output, std::size_t realizations) {
+  const std::string head = "dda-run: " + output + ": " + std::to_string(realizations) + " realizations in ";
+  if (err.rfind(head, 0) != 0) return "no summary line: " + err;
+  return err.substr(err.find('\n') + 1);
+}
+
 TEST_F(DdaRun, WarnsOnceWhenRealizationsDoNotEndAtRest) {
   // Cut at 50 steps, no realization reaches rest: one warning line, counts by end reason.
   const Outcome cut = run({"-c", "scene.yaml", "--set", "engine.max_steps=50", "-o", "cut.h5"});
   ASSERT_EQ(cut.code, 0) << cut.err;
-  EXPECT_EQ(cut.err, "dda-run: warning: cut.h5: 6 of 6 realizations did not end at rest: 6 step_limit\n");
+  EXPECT_NE(cut.err.find("; ends: 6 step_limit\n"), std::string::npos) << cut.err;
+  EXPECT_EQ(after_summary(cut.err, "cut.h5", 6),
+            "dda-run: warning: cut.h5: 6 of 6 realizations did not end at rest: 6 step_limit\n");
   // The lifted cube slides down the 45° plane and leaves it at its foot.
   const Outcome off = run({"-c", "plane.yaml", "--set", "release.clearance=lift", "-o", "off.h5"});
   ASSERT_EQ(off.code, 0) << off.err;
-  EXPECT_EQ(off.err, "dda-run: warning: off.h5: 1 of 1 realizations did not end at rest: 1 left_terrain\n");
+  EXPECT_EQ(after_summary(off.err, "off.h5", 1),
+            "dda-run: warning: off.h5: 1 of 1 realizations did not end at rest: 1 left_terrain\n");
   EXPECT_EQ(load("off.h5").data.records[0].end, dda::EndReason::left_terrain);
   // Set face down on the flat run-out of the bench slope, the cube rests: no warning.
   const Outcome rest = run({"-c", "plane.yaml", "--set", "terrain=terrain.h5", "--set", "release.points=[[50, 10]]",
                             "--set", "release.height_reference=lowest_point", "--set", "release.height=0", "-o",
                             "rest.h5"});
   ASSERT_EQ(rest.code, 0) << rest.err;
-  EXPECT_EQ(rest.err, "");
+  EXPECT_EQ(after_summary(rest.err, "rest.h5", 1), "");
+  EXPECT_NE(rest.err.find("; ends: 1 rest\n"), std::string::npos) << rest.err;
   EXPECT_EQ(load("rest.h5").data.records[0].end, dda::EndReason::rest);
   // Joining shards reports the whole run once more.
   for (const char* shard : {"0/2", "1/2"})

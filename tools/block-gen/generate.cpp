@@ -25,25 +25,27 @@ bool draws_random(const BlockSettings& b) {
   return b.solid == "rock" || (b.solid == "ellipsoid" && b.roughness > 0.0);
 }
 
-block::RepairOptions repair_options(const RepairSettings& r, const std::string& where) {
-  core::require(r.max_hole_edges >= 3, where, "repair.max_hole_edges must be at least 3");
+block::RepairOptions repair_options(const RepairSettings& r, const std::string& where, const std::string& key) {
+  core::require(r.max_hole_edges >= 3, where, key + ".max_hole_edges must be at least 3");
   core::require(r.stitch_tolerance >= 0.0 && std::isfinite(r.stitch_tolerance), where,
-                "repair.stitch_tolerance must be >= 0 m");
+                key + ".stitch_tolerance must be >= 0 m");
   block::RepairOptions o;
   o.orient = r.orient;
   o.stitch = r.stitch;
   o.stitch_tolerance = r.stitch_tolerance;
   o.fill_holes = r.fill_holes;
   o.max_hole_edges = static_cast<std::size_t>(r.max_hole_edges);
+  o.settings_key = key;
   return o;
 }
 
 // A mesh or cloud file to a valid polyhedron in the file's frame (scaled, z up).
+// `key` is where `in` is set ("inputs", "blocks[2].input"), for the hints of messages.
 Polyhedron read_solid_file(const std::string& path, bool cloud, const InputSettings& in, const std::string& where,
-                           std::vector<std::string>& notes) {
+                           const std::string& key, std::vector<std::string>& notes) {
   core::require(in.scale > 0.0 && std::isfinite(in.scale), where, "input.scale must be positive");
   const io::UpAxis up = in.up_axis == "y" ? io::UpAxis::y : io::UpAxis::z;
-  const block::RepairOptions repair = repair_options(in.repair, where);
+  const block::RepairOptions repair = repair_options(in.repair, where, key + ".repair");
   block::CheckedMesh checked;
   if (cloud) {
     io::PointCloudOptions options;
@@ -150,7 +152,7 @@ std::vector<block::Block> build_blocks(const Settings& settings, const std::vect
       if (name.empty()) name = b.solid;
     } else {
       const std::string& path = b.mesh.empty() ? b.cloud : b.mesh;
-      poly = read_solid_file(path, !b.cloud.empty(), b.input, where, notes);
+      poly = read_solid_file(path, !b.cloud.empty(), b.input, where, "blocks[" + std::to_string(i) + "].input", notes);
       if (b.volume) {
         core::require(*b.volume > 0.0, where, "volume must be positive");
         rescale(poly, *b.volume);
@@ -165,7 +167,7 @@ std::vector<block::Block> build_blocks(const Settings& settings, const std::vect
     BlockSettings b;
     b.input = settings.inputs;
     std::vector<std::string> notes;
-    Polyhedron poly = read_solid_file(path, io::is_point_cloud_file(path), b.input, path, notes);
+    Polyhedron poly = read_solid_file(path, io::is_point_cloud_file(path), b.input, path, "inputs", notes);
     blocks.push_back(
         finish(std::filesystem::path(path).stem().string(), std::move(poly), b, settings, path, path, std::move(notes)));
   }

@@ -44,16 +44,39 @@ void print_info(const std::string& path) {
   }
 }
 
-// One mesh file per block: PATH itself for a single block, PATH_STEM_<name>.EXT otherwise.
-void export_meshes(const std::string& path, const std::vector<block::Block>& blocks) {
+// The mesh files --export-mesh PATH writes: PATH itself for a single block,
+// PATH_STEM_<name>.EXT per block otherwise.
+std::vector<std::string> export_paths(const std::string& path, const std::vector<std::string>& names) {
+  if (path.empty()) return {};
+  if (names.size() <= 1) return {path};
   const std::filesystem::path p(path);
-  for (const auto& b : blocks) {
+  std::vector<std::string> out;
+  for (const auto& name : names)
+    out.push_back((p.parent_path() / (p.stem().string() + "_" + name + p.extension().string())).string());
+  return out;
+}
+
+// The block names build_blocks will give, known before any block is built.
+std::vector<std::string> block_names(const block_gen::Settings& settings, const std::vector<std::string>& inputs) {
+  std::vector<std::string> names;
+  for (const auto& b : settings.blocks) {
+    if (!b.name.empty()) names.push_back(b.name);
+    else if (b.solid != "none") names.push_back(b.solid);
+    else names.push_back(std::filesystem::path(b.mesh.empty() ? b.cloud : b.mesh).stem().string());
+  }
+  for (const auto& input : inputs) names.push_back(std::filesystem::path(input).stem().string());
+  return names;
+}
+
+void export_meshes(const std::string& path, const std::vector<block::Block>& blocks) {
+  std::vector<std::string> names;
+  for (const auto& b : blocks) names.push_back(b.name);
+  const std::vector<std::string> targets = export_paths(path, names);
+  for (std::size_t k = 0; k < blocks.size(); ++k) {
+    const block::Block& b = blocks[k];
     geometry::TriangleMesh mesh = geometry::triangulate(b.polyhedron);
     for (auto& v : mesh.vertices) v = b.rotation * v + b.translation;
-    std::string target = path;
-    if (blocks.size() > 1)
-      target = (p.parent_path() / (p.stem().string() + "_" + b.name + p.extension().string())).string();
-    io::export_mesh(target, mesh);
+    io::export_mesh(targets[k], mesh);
   }
 }
 
@@ -70,6 +93,7 @@ int main(int argc, char** argv) {
                  "and named solids; 'block-gen info FILE' prints a block file";
   spec.inputs_doc = "mesh files (.obj .stl .ply .off .gltf ...) or point clouds (.xyz .txt .pts .csv, PLY without "
                     "faces), one block each; or 'info FILE.h5 ...'";
+  spec.set_example = "inputs.scale=0.001";
   spec.settings = [&settings](core::SettingsVisitor& v) { settings.visit(v); };
   spec.options = {{"--info", "print the properties of every block of a block file and exit", &info_option},
                   {"--export-mesh", "also write the blocks as meshes at their input position (.obj or .ply; "
@@ -89,6 +113,17 @@ int main(int argc, char** argv) {
       if (ext != ".obj" && ext != ".ply")
         throw core::UsageError("--export-mesh writes .obj or .ply, got '" + export_path + "'");
     }
+    std::vector<io::NamedPath> inputs = inv.named_inputs();
+    for (std::size_t i = 0; i < settings.blocks.size(); ++i) {
+      const std::string key = "blocks[" + std::to_string(i) + "]";
+      if (!settings.blocks[i].mesh.empty()) inputs.push_back({key + ".mesh", settings.blocks[i].mesh});
+      if (!settings.blocks[i].cloud.empty()) inputs.push_back({key + ".cloud", settings.blocks[i].cloud});
+    }
+    std::vector<io::NamedPath> outputs = {{"-o", inv.output},
+                                          {"XDMF sidecar of -o", settings.xdmf ? io::xdmf_sidecar_path(inv.output) : ""}};
+    for (const auto& path : export_paths(export_path, block_names(settings, inv.inputs)))
+      outputs.push_back({"--export-mesh", path});
+    io::check_outputs_distinct(inputs, outputs);
   };
 
   spec.run = [&](const cli::Invocation& inv) {

@@ -2,10 +2,14 @@
 
 namespace talus::block_gen {
 
+core::Range block_volume_range() { return core::Range::closed(block::kMinVolume, block::kMaxVolume); }
+core::Range density_range() { return core::Range::closed(100.0, 1e5); }
+
 void RepairSettings::visit(core::SettingsVisitor& v) {
   v.field("orient", orient, "make face orientation consistent and outward (reported)");
   v.field("stitch", stitch, "merge vertices closer than stitch_tolerance, closing cracks (reported)");
-  v.field("stitch_tolerance", stitch_tolerance, "m", "stitch distance; 0 = 1e-6 x bounding-box diagonal");
+  v.bounded("stitch_tolerance", stitch_tolerance, "m", "stitch distance; 0 = 1e-6 x bounding-box diagonal",
+            core::Range::closed(0.0, 1e3));
   v.field("fill_holes", fill_holes, "close holes of up to max_hole_edges boundary edges (reported)");
   v.field("max_hole_edges", max_hole_edges, "-", "largest hole filled, in boundary edges");
 }
@@ -17,7 +21,8 @@ void SimplifySettings::visit(core::SettingsVisitor& v) {
 }
 
 void InputSettings::visit(core::SettingsVisitor& v) {
-  v.field("scale", scale, "-", "multiplies file coordinates, e.g. 0.001 for a file in mm");
+  v.bounded("scale", scale, "-", "multiplies file coordinates, e.g. 0.001 for a file in mm",
+            core::Range::positive(1e6));
   v.choice("up_axis", up_axis, {"z", "y"}, "up axis of the file; y-up files are rotated to z-up");
   v.choice("reconstruction", reconstruction, {"hull", "advancing_front"},
            "point clouds: convex hull, or concave advancing-front reconstruction");
@@ -38,10 +43,12 @@ void BlockSettings::visit(core::SettingsVisitor& v) {
            "named solid (none when the block comes from mesh or cloud)");
   v.field("mesh", mesh, "mesh file (OBJ, STL, PLY, OFF, glTF ...), relative to the working directory");
   v.field("cloud", cloud, "point cloud file (.xyz/.txt/.pts/.csv or PLY)");
-  v.field("volume", volume, "m^3",
-          "target volume: solids are scaled to it (default 1 for Platonic solids and rocks); a mesh or cloud is "
-          "scaled about its centroid only when given");
-  v.field("dimensions", dimensions, "m", "box edges, or ellipsoid diameters, along x, y, z");
+  v.bounded("volume", volume, "m^3",
+            "target volume: solids are scaled to it (default 1 for Platonic solids and rocks); a mesh or cloud is "
+            "scaled about its centroid only when given",
+            block_volume_range());
+  v.bounded("dimensions", dimensions, "m", "box edges, or ellipsoid diameters, along x, y, z",
+            core::Range::positive(1e3));
   v.field("resolution", resolution, "-", "ellipsoid: geodesic frequency n (20 n^2 triangles)");
   v.field("roughness", roughness, "-",
           "ellipsoid: sd of the relative height of 40 random smooth bumps and dents (0..0.3); > 0 makes a "
@@ -50,14 +57,16 @@ void BlockSettings::visit(core::SettingsVisitor& v) {
   v.field("flatness", flatness, "-", "rock: target L3/L2 along the principal axes");
   v.field("points", points, "-", "rock: number of random points whose convex hull is the rock");
   v.field("seed", seed, "-", "rock, rough ellipsoid: seed of the block_shape random stream");
-  v.field("density", density, "kg/m^3", "density of this block (default: the top-level density)");
-  v.field("weight", weight, "-", "relative probability of this block when a run samples the library");
+  v.bounded("density", density, "kg/m^3", "density of this block (default: the top-level density)",
+            density_range());
+  v.bounded("weight", weight, "-", "relative probability of this block when a run samples the library",
+            core::Range::closed(0.0, 1e12));
   v.section("input", "how the mesh or cloud file is read, repaired and simplified",
             [this](core::SettingsVisitor& s) { input.visit(s); });
 }
 
 void Settings::visit(core::SettingsVisitor& v) {
-  v.field("density", density, "kg/m^3", "rock density of every block without its own");
+  v.bounded("density", density, "kg/m^3", "rock density of every block without its own", density_range());
   v.field("xdmf", xdmf, "write a .xmf sidecar next to the output so ParaView shows the blocks");
   v.section("inputs", "how the INPUT files named on the command line are read",
             [this](core::SettingsVisitor& s) { inputs.visit(s); });

@@ -40,6 +40,12 @@ struct InputSettings {
   void visit(core::SettingsVisitor& v);
 };
 
+/// Volumes a block may have (m³): from a pebble of 1 cm³ to a rock mass of 1e6 m³.
+/// Outside it the exact arithmetic and the engine's scales leave the double range.
+core::Range block_volume_range();
+/// Rock densities (kg/m³).
+core::Range density_range();
+
 /// One block of the library: a named solid, a mesh file or a point cloud.
 struct BlockSettings {
   std::string name;                   ///< default: the solid name or the file stem

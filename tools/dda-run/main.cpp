@@ -1,11 +1,13 @@
 // dda-run: Monte-Carlo rockfall runs of a scene (terrain file, block file, release,
 // engine and stochastic settings) to a run file; `dda-run merge` joins shards.
 // See docs/dda-run.md.
+#include <signal.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <array>
 #include <charconv>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -16,9 +18,11 @@
 #include "talus/cli/tool.hpp"
 #include "talus/core/error.hpp"
 #include "talus/core/log.hpp"
+#include "talus/core/threads.hpp"
 #include "talus/core/timer.hpp"
 #include "talus/io/atomic_output.hpp"
 #include "talus/io/block_file.hpp"
+#include "talus/io/paths.hpp"
 #include "talus/io/run_file.hpp"
 #include "talus/io/terrain_file.hpp"
 #include "talus/io/xdmf.hpp"
@@ -33,40 +37,100 @@ namespace {
 
 using namespace talus;
 
-// "done/total, rate, ETA": a refreshing line on a terminal, plain lines (with -v) in logs.
+// "LABEL: done/total (percent), elapsed, rate, ETA" at the default log level (-q hides
+// it): on a terminal one refreshing line; in logs (make | tee, Slurm) a plain line every
+// `log_interval` seconds. The label names the output and shard, so that the lines of
+// processes sharing one log or terminal tell apart.
 class Progress {
  public:
-  Progress(std::size_t total, std::size_t already) : total_(total), done_(already), start_done_(already) {
-    tty_ = ::isatty(STDERR_FILENO) == 1 && core::log_level() >= core::LogLevel::warn;
+  Progress(std::string label, std::size_t total, std::size_t already)
+      : label_(std::move(label)), total_(total), done_(already), start_done_(already) {
+    enabled_ = core::log_level() >= core::LogLevel::warn;
+    tty_ = enabled_ && ::isatty(STDERR_FILENO) == 1;
+    const char* interval = std::getenv("TALUS_PROGRESS_INTERVAL");
+    if (interval) log_interval_ = std::max(0.0, std::strtod(interval, nullptr));
   }
   void advance() {
     ++done_;
+    if (!enabled_) return;
     const double t = clock_.seconds();
     const bool last = done_ == total_;
     if (tty_) {
       if (t - shown_ < 0.25 && !last) return;
-      std::fprintf(stderr, "\r%s", line(t).c_str());
+      std::fprintf(stderr, "\r%s\033[K", line(t).c_str());
       if (last) std::fputc('\n', stderr);
+      std::fflush(stderr);
     } else {
-      if (t - shown_ < 10.0 && !last) return;
-      core::log_info(line(t));
+      if (t - shown_ < log_interval_ || last) return;  // the summary reports the end
+      core::log_notice(line(t));
     }
     shown_ = t;
+  }
+  // Ends a refreshing line before other messages.
+  void finish() {
+    if (tty_ && done_ != total_) std::fputc('\n', stderr);
   }
 
  private:
   std::string line(double t) const {
     const double rate = t > 0.0 ? static_cast<double>(done_ - start_done_) / t : 0.0;
     const double eta = rate > 0.0 ? static_cast<double>(total_ - done_) / rate : 0.0;
-    char buf[160];
-    std::snprintf(buf, sizeof buf, "%zu/%zu realizations, %.1f/s, ETA %.0f s   ", done_, total_, rate, eta);
+    char buf[256];
+    std::snprintf(buf, sizeof buf, "%s: %zu/%zu realizations (%.0f%%), elapsed %.0f s, %.2f/s, ETA %.0f s",
+                  label_.c_str(), done_, total_, total_ ? 100.0 * static_cast<double>(done_) / static_cast<double>(total_) : 100.0,
+                  t, rate, eta);
     return buf;
   }
+  std::string label_;
   std::size_t total_, done_, start_done_;
+  bool enabled_ = true;
   bool tty_ = false;
+  double log_interval_ = 30.0;
   double shown_ = 0.0;
   core::Stopwatch clock_;
 };
+
+// SIGINT and SIGTERM ask the run to stop: the realizations handed over so far are written
+// to the journal and the run ends with a message saying how to resume.
+volatile std::sig_atomic_t g_stop_signal = 0;
+
+// A second signal ends the process at once (the journal's chunk files stay complete).
+extern "C" void request_stop(int signal) {
+  if (g_stop_signal != 0) {
+    std::signal(signal, SIG_DFL);
+    std::raise(signal);
+    return;
+  }
+  g_stop_signal = signal;
+}
+
+class StopSignals {
+ public:
+  StopSignals() {
+    struct sigaction action{};
+    action.sa_handler = request_stop;
+    sigemptyset(&action.sa_mask);
+    ::sigaction(SIGINT, &action, &old_int_);
+    ::sigaction(SIGTERM, &action, &old_term_);
+  }
+  StopSignals(const StopSignals&) = delete;
+  StopSignals& operator=(const StopSignals&) = delete;
+  ~StopSignals() {
+    ::sigaction(SIGINT, &old_int_, nullptr);
+    ::sigaction(SIGTERM, &old_term_, nullptr);
+  }
+
+ private:
+  struct sigaction old_int_{}, old_term_{};
+};
+
+// The run stopped on a signal: exit code 128 + signal, as a shell reports a killed job.
+class Interrupted : public core::Error {
+ public:
+  Interrupted(int signal, const std::string& message)
+      : core::Error(static_cast<core::ExitCode>(128 + signal), message) {}
+};
+struct StopRequested {};
 
 unsigned parse_threads(const std::string& text) {
   if (text.empty()) return 0;
@@ -83,11 +147,37 @@ std::size_t abort_after_chunks() {
   return text ? static_cast<std::size_t>(std::strtoull(text, nullptr, 10)) : 0;
 }
 
+// The rank count an MPI launcher (Open MPI, MPICH/Hydra, Slurm's srun with PMI) gives
+// this process, or 0 outside one.
+[[maybe_unused]] int mpi_launcher_ranks() {
+  for (const char* name : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE"}) {
+    if (const char* text = std::getenv(name)) {
+      const int n = std::atoi(text);
+      if (n > 0) return n;
+    }
+  }
+  return 0;
+}
+
 struct Options {
   std::string threads;
   std::string shard;
   bool resume = false;
 };
+
+// "N realizations: a rest, b out_of_domain, ..." — the ends of a run by reason.
+std::string ends_by_reason(const std::vector<mc::Record>& records) {
+  constexpr int kReasons = static_cast<int>(dda::EndReason::penetration) + 1;
+  std::array<std::size_t, kReasons> count{};
+  for (const auto& r : records)
+    if (static_cast<std::size_t>(r.end) < count.size()) ++count[static_cast<std::size_t>(r.end)];
+  std::string text;
+  for (int k = 0; k < kReasons; ++k)
+    if (count[static_cast<std::size_t>(k)] > 0)
+      text += (text.empty() ? "" : ", ") + std::to_string(count[static_cast<std::size_t>(k)]) + " " +
+              std::string(dda::to_string(static_cast<dda::EndReason>(k)));
+  return text.empty() ? "none" : text;
+}
 
 // One warning line when realizations of the run file `path` did not end at rest: their
 // count by end reason (a run of blocks that did not stop is not a finished study).
@@ -125,25 +215,32 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
   if (settings.block_file.empty()) throw core::InputError(source, "no block file given (key 'block_file')");
   core::Stopwatch clock;
   terrain::Terrain terrain = io::read_terrain_file(settings.terrain);
+  const std::string fingerprint = io::terrain_fingerprint(terrain);
   const auto library = io::read_block_file(settings.block_file);
   const mc::Scene scene = mc::Scene::build(settings, std::move(terrain), library, source);
 
   io::Provenance provenance = inv.provenance("dda-run", settings.seed);
   provenance.inputs = settings.terrain + "\n" + settings.block_file + "\n";
-  const io::RunInfo info = io::make_run_info(scene, provenance, shard);
+  io::RunInfo info = io::make_run_info(scene, provenance, shard);
+  info.terrain_fingerprint = fingerprint;
+  info.terrain_file = std::filesystem::absolute(settings.terrain).lexically_normal().string();
   const std::string journal_path = io::run_journal_path(output);
+  // Held until the run file is written: a second dda-run on this output is refused
+  // instead of sharing (or being told to delete) the journal.
+  const io::OutputLock lock(output);
   const bool journal_exists = std::filesystem::exists(journal_path);
-  if (opt.resume && !journal_exists)
-    throw core::InputError(journal_path, "no journal of an interrupted run to resume");
   if (!opt.resume && journal_exists)
     throw core::InputError(journal_path, "a journal of an interrupted run exists: add --resume to complete it, "
                                          "or delete it to start afresh");
+  // --resume without a journal is a fresh run, so a Makefile rule can always pass it.
+  const bool resume = opt.resume && journal_exists;
+  if (opt.resume && !journal_exists) core::log_info("no journal to resume (" + journal_path + "): starting afresh");
   const std::vector<std::uint32_t> all = shard.indices(scene.realizations());
   // A block released into the ground is refused before any work (and before a journal
   // exists, which the corrected scene could not resume).
-  if (!opt.resume) mc::check_releases(scene, all, parse_threads(opt.threads));
-  io::RunJournal journal = opt.resume ? io::RunJournal::resume(journal_path, info)
-                                      : io::RunJournal::create(journal_path, info);
+  if (!resume) mc::check_releases(scene, all, parse_threads(opt.threads));
+  io::RunJournal journal = resume ? io::RunJournal::resume(journal_path, info)
+                                  : io::RunJournal::create(journal_path, info);
 
   const std::vector<std::uint32_t> done = journal.finished();
   std::vector<std::uint32_t> pending;
@@ -155,31 +252,57 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
   const std::size_t abort_after = abort_after_chunks();
   std::size_t chunks = 0;
   std::vector<mc::RealizationResult> buffer;
-  Progress progress(all.size(), done.size());
+  const std::string label = output + (shard.count > 1 ? " [shard " + shard.text() + "]" : "");
+  Progress progress(label, all.size(), done.size());
   clock.restart();
-  mc::run_realizations(scene, pending, parse_threads(opt.threads), [&](mc::RealizationResult&& r) {
-    buffer.push_back(std::move(r));
-    if (buffer.size() >= chunk) {
+  std::size_t ran = 0;
+  {
+    const StopSignals signals;
+    try {
+      mc::run_realizations(scene, pending, parse_threads(opt.threads), [&](mc::RealizationResult&& r) {
+        buffer.push_back(std::move(r));
+        ++ran;
+        if (buffer.size() >= chunk) {
+          journal.append(buffer);
+          buffer.clear();
+          if (++chunks == abort_after) std::_Exit(137);
+        }
+        progress.advance();
+        if (g_stop_signal != 0) throw StopRequested{};
+      });
+    } catch (const StopRequested&) {
+      // Realizations handed over are kept; those still running on workers are redone
+      // by the resume.
       journal.append(buffer);
-      buffer.clear();
-      if (++chunks == abort_after) std::_Exit(137);
+      progress.finish();
+      const int signal = g_stop_signal;
+      throw Interrupted(signal, std::string(signal == SIGINT ? "interrupted (SIGINT)" : "stopped (SIGTERM)") + ": " +
+                                    std::to_string(done.size() + ran) + " of " + std::to_string(all.size()) +
+                                    " realizations are in the journal " + journal_path +
+                                    "; run the same command with --resume to complete it");
     }
-    progress.advance();
-  });
+  }
   journal.append(buffer);
+  progress.finish();
   const double seconds = clock.seconds();
 
   const mc::RunData data = journal.read();
   io::write_run_file(output, info, data);
-  std::filesystem::remove(journal_path);
-  core::log_info("ran " + std::to_string(pending.size()) + " realizations in " + core::format_number(seconds) +
-                 " s (" + core::format_number(seconds > 0 ? static_cast<double>(pending.size()) / seconds : 0.0) +
-                 "/s); wrote " + output);
+  journal.remove();
+  const unsigned thread_count = parse_threads(opt.threads) == 0 ? core::default_thread_count() : parse_threads(opt.threads);
+  const std::string threads = std::to_string(thread_count) + (thread_count == 1 ? " thread" : " threads") +
+                              (parse_threads(opt.threads) == 0 ? " (" + core::default_thread_source() + ")" : "");
+  char timing[96];
+  std::snprintf(timing, sizeof timing, " realizations in %.1f s (%.2f/s, ", seconds,
+                seconds > 0 ? static_cast<double>(ran) / seconds : 0.0);
+  core::log_notice(label + ": " + std::to_string(ran) + timing + threads +
+                   (done.empty() ? std::string() : ", " + std::to_string(done.size()) + " resumed from the journal") +
+                   "); ends: " + ends_by_reason(data.records));
   if (report_ends) warn_unrested(output, data.records);
 }
 
 // The shard file of MPI rank r: "run.h5" → "run.rank1.h5" (its own .xmf sidecar name).
-[[maybe_unused]] std::string rank_part(const std::string& output, int rank) {
+std::string rank_part(const std::string& output, int rank) {
   std::filesystem::path p(output);
   const std::string ext = p.extension().string();
   return p.replace_extension().string() + ".rank" + std::to_string(rank) + ext;
@@ -192,6 +315,12 @@ int merge_main(int argc, char** argv) {
   spec.inputs_doc = "run files, shards of one run";
   spec.min_inputs = 1;
   spec.settings = [](core::SettingsVisitor&) {};
+  spec.check = [](const cli::Invocation& inv) {
+    if (inv.output.empty()) throw core::UsageError("no output file given (-o FILE)");
+    io::AtomicOutput probe(inv.output);  // fails now if the output directory is missing
+    io::check_outputs_distinct(inv.named_inputs(),
+                               {{"-o", inv.output}, {"XDMF sidecar of -o", io::xdmf_sidecar_path(inv.output)}});
+  };
   spec.run = [](const cli::Invocation& inv) {
     std::vector<io::RunFile> files;
     for (const auto& path : inv.inputs) files.push_back(io::read_run_file(path));
@@ -230,17 +359,44 @@ int main(int argc, char** argv) {
   spec.summary = "Run Monte-Carlo rockfall realizations of a scene (3-D DDA) into a run file";
   spec.inputs_doc = "none (the scene names the terrain and block files); 'dda-run merge A.h5 B.h5 -o ALL.h5' joins shards";
   spec.max_inputs = 0;
+  spec.set_example = "realizations=100";
+#ifdef TALUS_WITH_MPI
+  spec.build_notes = "MPI: yes (under mpirun each rank runs one shard; rank 0 merges)";
+#else
+  spec.build_notes = "MPI: no (build with -DTALUS_WITH_MPI=ON to run under mpirun; or use --shard K/N)";
+#endif
   spec.settings = [&settings](core::SettingsVisitor& v) { settings.visit(v); };
-  spec.flags = {{"--resume", "complete an interrupted run from its journal (OUTPUT.journal)", &opt.resume}};
-  spec.options = {{"--threads", "worker threads (default 0 = one per core)", &opt.threads},
+  spec.flags = {{"--resume",
+                 "complete an interrupted run from its journal (OUTPUT.journal); without a journal, a fresh run",
+                 &opt.resume}};
+  spec.options = {{"--threads",
+                   "worker threads (default 0 = SLURM_CPUS_PER_TASK, else the CPUs of the affinity mask)",
+                   &opt.threads},
                   {"--shard", "run only realizations i = K (mod N), K/N; join the shards with 'dda-run merge'",
                    &opt.shard}};
   spec.check = [&](const cli::Invocation& inv) {
     if (inv.output.empty()) throw core::UsageError("no output file given (-o FILE)");
     parse_threads(opt.threads);
+#ifndef TALUS_WITH_MPI
+    // Every rank of a launcher would run the whole job into one output.
+    if (const int launched = mpi_launcher_ranks(); launched > 1)
+      throw core::UsageError("this dda-run is built without MPI but runs under an MPI launcher with " +
+                             std::to_string(launched) + " ranks: rebuild with -DTALUS_WITH_MPI=ON, or run " +
+                             std::to_string(launched) + " processes with --shard K/" + std::to_string(launched) +
+                             " and join them with 'dda-run merge'");
+#endif
     if (!opt.shard.empty()) mc::Shard::parse(opt.shard);
     if (!opt.shard.empty() && ranks > 1) throw core::UsageError("--shard cannot be combined with MPI ranks");
     io::AtomicOutput probe(inv.output);  // fails now if the output directory is missing
+    std::vector<io::NamedPath> inputs = inv.named_inputs();
+    inputs.push_back({"terrain file (key terrain)", settings.terrain});
+    inputs.push_back({"block file (key block_file)", settings.block_file});
+    std::vector<io::NamedPath> outputs = {{"-o", inv.output},
+                                          {"journal of -o", io::run_journal_path(inv.output)},
+                                          {"lock file of -o", io::lock_path(inv.output)},
+                                          {"XDMF sidecar of -o", io::xdmf_sidecar_path(inv.output)}};
+    for (int r = 0; r < ranks; ++r) outputs.push_back({"shard file of MPI rank " + std::to_string(r), rank_part(inv.output, r)});
+    io::check_outputs_distinct(inputs, outputs);
   };
   spec.run = [&](const cli::Invocation& inv) {
     if (ranks == 1) {

@@ -234,10 +234,18 @@ terrain::DemGrid raster_like(const mc::HazardGridSpec& g, const std::array<doubl
   return dem;
 }
 
+// The terrain file of a run: --set terrain, else the path the run names as given, as
+// made absolute when it ran, or relative to the run file's directory (the first that
+// exists; the path as given when none does).
 std::string terrain_path_of(const Run& run, const Settings& settings) {
   if (!settings.terrain.empty()) return settings.terrain;
   const std::string& inputs = run.file.info.provenance.inputs;
-  return inputs.substr(0, inputs.find('\n'));
+  const std::string named = inputs.substr(0, inputs.find('\n'));
+  if (named.empty()) return named;
+  const std::filesystem::path beside = std::filesystem::path(run.files.front()).parent_path() / named;
+  for (const std::string& candidate : {named, run.file.info.terrain_file, beside.string()})
+    if (!candidate.empty() && std::filesystem::exists(candidate)) return candidate;
+  return named;
 }
 
 RunResult run_result(const Run& run, const Settings& settings) {
@@ -249,6 +257,14 @@ RunResult run_result(const Run& run, const Settings& settings) {
   std::optional<terrain::Terrain> ground;
   if (need_terrain && !path.empty() && std::filesystem::exists(path)) {
     ground = io::read_terrain_file(path);
+    // Hazard rasters and plan views on another terrain would be silently wrong.
+    if (const std::string& expected = info.terrain_fingerprint; !expected.empty()) {
+      const std::string found = io::terrain_fingerprint(*ground);
+      if (found != expected)
+        throw core::InputError(path, "is not the terrain of the run " + run.files.front() + " (terrain fingerprint " +
+                                         found + ", the run's " + expected +
+                                         "): give the run's terrain with --set terrain=FILE");
+    }
     out.terrain_file = path;
     out.origin_shift = {ground->origin_shift.x(), ground->origin_shift.y(), ground->origin_shift.z()};
   } else if (settings.hazard_maps && grid) {

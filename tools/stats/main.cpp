@@ -2,6 +2,8 @@
 // from dda-run run files. See docs/stats.md.
 #include <cstdio>
 #include <filesystem>
+#include <map>
+#include <vector>
 #include <string>
 
 #include "analysis.hpp"
@@ -11,15 +13,74 @@
 #include "talus/core/error.hpp"
 #include "talus/core/log.hpp"
 #include "talus/io/atomic_output.hpp"
+#include "talus/io/paths.hpp"
 
 namespace {
 
 using namespace talus;
 namespace fs = std::filesystem;
 
+// The files stats writes into the output directory, and its subdirectories.
+const char* const kOutputFiles[] = {"summary.csv", "convergence.csv", "comparison.csv", "table.csv", "summary.h5"};
+const char* const kOutputDirs[] = {"hazard", "plots"};
+
+// "stats/" and "./stats/" name the directory "stats": a trailing separator is dropped.
+fs::path directory_path(const std::string& dir) {
+  fs::path path(dir);
+  while (!path.has_filename() && path.has_parent_path() && path != path.root_path()) path = path.parent_path();
+  return path;
+}
+
+// Refuses an output directory whose outputs would overwrite an input.
+void check_outputs(const cli::Invocation& inv, const stats_tool::Settings& settings) {
+  std::vector<io::NamedPath> inputs = inv.named_inputs();
+  if (!settings.terrain.empty()) inputs.push_back({"terrain file (key terrain)", settings.terrain});
+  const fs::path dir = directory_path(inv.output);
+  for (const auto& in : inputs) {
+    if (io::same_file(in.path, dir.string()))
+      throw core::UsageError("-o " + inv.output + ": is the " + in.role + " " + in.path +
+                             "; -o names the output directory");
+    for (const char* sub : kOutputDirs)
+      if (io::inside_directory(in.path, (dir / sub).string()))
+        throw core::UsageError("-o " + inv.output + ": the " + in.role + " " + in.path + " lies in " +
+                               (dir / sub).string() + ", which stats rewrites (choose another -o)");
+  }
+  std::vector<io::NamedPath> outputs;
+  for (const char* name : kOutputFiles) outputs.push_back({"output", (dir / name).string()});
+  io::check_outputs_distinct(inputs, outputs);
+}
+
+// The files in stats' own subdirectories of `dir` (hazard/, plots/) with their times.
+std::map<fs::path, fs::file_time_type> owned_files(const fs::path& dir) {
+  std::map<fs::path, fs::file_time_type> files;
+  std::error_code ec;
+  for (const char* sub : kOutputDirs)
+    for (const auto& entry : fs::directory_iterator(dir / sub, ec))
+      if (entry.is_regular_file(ec)) files[entry.path()] = entry.last_write_time(ec);
+  return files;
+}
+
+// Removes the files of an earlier run that this run did not rewrite (a hazard map of a
+// run no longer given, plots when plots are off), so that the folder holds this run's
+// outputs only; says what it removed.
+void remove_stale_outputs(const std::map<fs::path, fs::file_time_type>& before) {
+  std::vector<std::string> removed;
+  std::error_code ec;
+  for (const auto& [path, time] : before) {
+    if (!fs::exists(path, ec) || fs::last_write_time(path, ec) != time) continue;
+    if (fs::remove(path, ec)) removed.push_back(path.filename().string());
+  }
+  if (removed.empty()) return;
+  std::string list;
+  for (std::size_t k = 0; k < removed.size() && k < 5; ++k) list += (k ? ", " : "") + removed[k];
+  if (removed.size() > 5) list += ", ...";
+  core::log_notice("removed " + std::to_string(removed.size()) + " file(s) of an earlier run that this run does not write: " +
+                   list);
+}
+
 // Creates the output directory (its parent must exist).
 void make_output_directory(const std::string& dir) {
-  const fs::path path(dir);
+  const fs::path path = directory_path(dir);
   if (fs::exists(path) && !fs::is_directory(path))
     throw core::UsageError("-o " + dir + ": exists and is not a directory");
   const fs::path parent = path.has_parent_path() ? path.parent_path() : fs::path(".");
@@ -39,6 +100,7 @@ int main(int argc, char** argv) {
   spec.summary = "CDFs, quantiles, convergence, comparisons, barrier CDFs, hazard rasters and plots of run files";
   spec.inputs_doc = "run files of dda-run: whole runs and/or shards of runs (shards of one run are joined)";
   spec.min_inputs = 1;
+  spec.set_example = "plots=false";
   spec.settings = [&settings](core::SettingsVisitor& v) { settings.visit(v); };
   spec.flags = {{"--print-table", "print the side-by-side summary table on standard output", &print_table}};
   spec.check = [&](const cli::Invocation& inv) {
@@ -46,12 +108,14 @@ int main(int argc, char** argv) {
     settings.validate();
     // Before any work: a missing matplotlib is reported at once, not after the analysis.
     if (settings.plots) stats_tool::check_plotting();
+    check_outputs(inv, settings);
   };
   spec.run = [&](const cli::Invocation& inv) {
     const auto runs = stats_tool::load_runs(inv.inputs, settings);
     const auto analysis = stats_tool::analyze(runs, settings);
     make_output_directory(inv.output);
-    const fs::path dir(inv.output);
+    const fs::path dir = directory_path(inv.output);
+    const auto earlier = owned_files(dir);
     io::write_text_file((dir / "summary.csv").string(), stats_tool::summary_csv(analysis, settings));
     io::write_text_file((dir / "convergence.csv").string(), stats_tool::convergence_csv(analysis));
     io::write_text_file((dir / "comparison.csv").string(), stats_tool::comparison_csv(analysis));
@@ -67,6 +131,7 @@ int main(int argc, char** argv) {
       fs::create_directories(plots);
       stats_tool::draw_plots(summary, plots.string(), settings);
     }
+    remove_stale_outputs(earlier);
     if (print_table) std::fputs(stats_tool::side_by_side_text(analysis).c_str(), stdout);
     core::log_info("wrote " + inv.output + ": " + std::to_string(analysis.series.size()) + " series of " +
                    std::to_string(runs.size()) + " runs");

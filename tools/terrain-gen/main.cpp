@@ -44,6 +44,7 @@ int main(int argc, char** argv) {
       "DEM (.asc, .tif), meshes (.stl .obj .ply .off .gltf; one file per material), or point clouds "
       "(.xyz .txt .pts .csv, .ply without faces); none for a synthetic slope; or a terrain file (.h5) to "
       "inspect with --summary / --export-mesh";
+  spec.set_example = "roughness.sigma=0.2";
   spec.settings = [&settings](core::SettingsVisitor& v) { settings.visit(v); };
   spec.flags = {{"--summary", "print a summary of the built terrain (kind, sizes, extent, materials, roughness)",
                  &print_summary}};
@@ -71,6 +72,12 @@ int main(int argc, char** argv) {
     }
     if (terrain_gen::resolve_source(settings, inv.inputs) == terrain_gen::SourceKind::file && !inv.output.empty())
       throw core::UsageError("a terrain file input is only inspected (--summary, --export-mesh); drop -o");
+    std::vector<io::NamedPath> inputs = inv.named_inputs();
+    if (!settings.material_raster.empty()) inputs.push_back({"material_raster", settings.material_raster});
+    io::check_outputs_distinct(
+        inputs, {{"-o", inv.output},
+                 {"XDMF sidecar of -o", inv.output.empty() ? "" : io::xdmf_sidecar_path(inv.output)},
+                 {"--export-mesh", export_path}});
   };
 
   spec.run = [&](const cli::Invocation& inv) {

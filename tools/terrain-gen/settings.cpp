@@ -3,31 +3,35 @@
 namespace talus::terrain_gen {
 
 void Settings::Crop::visit(core::SettingsVisitor& v) {
-  v.field("xmin", xmin, "m", "west edge of the window kept (input coordinates); null = unbounded");
-  v.field("ymin", ymin, "m", "south edge of the window kept; null = unbounded");
-  v.field("xmax", xmax, "m", "east edge of the window kept; null = unbounded");
-  v.field("ymax", ymax, "m", "north edge of the window kept; null = unbounded");
+  v.bounded("xmin", xmin, "m", "west edge of the window kept (input coordinates); null = unbounded", core::Range::symmetric(1e9));
+  v.bounded("ymin", ymin, "m", "south edge of the window kept; null = unbounded", core::Range::symmetric(1e9));
+  v.bounded("xmax", xmax, "m", "east edge of the window kept; null = unbounded", core::Range::symmetric(1e9));
+  v.bounded("ymax", ymax, "m", "north edge of the window kept; null = unbounded", core::Range::symmetric(1e9));
 }
 
 void Settings::Tin::visit(core::SettingsVisitor& v) {
   v.choice("mode", mode, {"keep", "resample"},
            "keep the surveyed TIN as a general surface (walls, overhangs) or resample it to a grid");
-  v.field("cell_size", cell_size, "m", "grid spacing when mode is resample");
+  v.bounded("cell_size", cell_size, "m", "grid spacing when mode is resample", core::Range::positive(1e4));
   v.choice("up_axis", up_axis, {"z", "y"}, "input axis that points up in meshes and point clouds");
-  v.field("scale", scale, "-", "factor applied to mesh and point coordinates (0.001 for millimetres)");
+  v.bounded("scale", scale, "-", "factor applied to mesh and point coordinates (0.001 for millimetres)",
+            core::Range::positive(1e6));
 }
 
 void Settings::Origin::visit(core::SettingsVisitor& v) {
   v.choice("mode", mode, {"auto", "none", "given"},
            "auto: subtract the lower-left corner rounded down to 1 km when |x| or |y| exceeds 1e5 m; "
            "given: subtract shift");
-  v.field("shift", shift, "m", "[x, y, z] subtracted from input coordinates when mode is given");
+  v.bounded("shift", shift, "m", "[x, y, z] subtracted from input coordinates when mode is given",
+            core::Range::symmetric(1e9));
 }
 
 void Settings::Roughness::visit(core::SettingsVisitor& v) {
-  v.field("sigma", sigma, "m", "standard deviation of the grid-point elevation shifts; null = smooth");
-  v.field("roughness_index", roughness_index, "-",
-          "Roemkens-Wang roughness index R instead of sigma (sigma = 0.8 R m: 1/8, 1/4, 1/2 give 0.1, 0.2, 0.4 m)");
+  v.bounded("sigma", sigma, "m", "standard deviation of the grid-point elevation shifts; null = smooth",
+            core::Range::closed(0.0, 100.0));
+  v.bounded("roughness_index", roughness_index, "-",
+            "Roemkens-Wang roughness index R instead of sigma (sigma = 0.8 R m: 1/8, 1/4, 1/2 give 0.1, 0.2, 0.4 m)",
+            core::Range::closed(0.0, 125.0));
 }
 
 void Settings::visit(core::SettingsVisitor& v) {

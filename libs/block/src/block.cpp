@@ -197,10 +197,21 @@ Block make_block(const std::string& name, const Polyhedron& input_frame, double 
                  const std::string& source) {
   if (!(density > 0.0) || !std::isfinite(density))
     throw core::InputError(source, "density must be positive, got " + core::format_number(density) + " kg/m^3");
+  for (const Vec3& p : input_frame.vertices)
+    if (!p.allFinite() || p.cwiseAbs().maxCoeff() > 1e9)
+      throw core::InputError(source, "vertex (" + core::format_number(p.x()) + ", " + core::format_number(p.y()) + ", " +
+                                         core::format_number(p.z()) + ") m: coordinates must be finite and in [-1e9, 1e9] m");
   const geometry::MassProperties input_mass = geometry::mass_properties(input_frame);
+  if (input_mass.volume >= 0.0 && input_mass.volume < kMinVolume)
+    throw core::InputError(source, "block volume " + core::format_number(input_mass.volume) +
+                                       " m^3 is outside [1e-06, 1e+06] m^3 (check the scale or volume setting)");
   if (!(input_mass.volume > 0.0))
     throw core::InputError(source, "block has no positive volume (" + core::format_number(input_mass.volume) +
                                        " m^3)");
+  // Before the exact arithmetic, which cannot take the non-finite products of a huge block.
+  if (!(input_mass.volume >= kMinVolume && input_mass.volume <= kMaxVolume))
+    throw core::InputError(source, "block volume " + core::format_number(input_mass.volume) +
+                                       " m^3 is outside [1e-06, 1e+06] m^3 (check the scale or volume setting)");
   Block b;
   b.name = name;
   b.source = source;

@@ -194,7 +194,7 @@ CheckedMesh check_mesh(TriangleMesh mesh, const RepairOptions& repair, const std
   if (topo.defect == geometry::TopologyDefect::inconsistent_orientation) {
     if (!repair.orient)
       throw core::InputError(source, topo.describe() + where(mesh, topo.vertex) +
-                                         "; set repair.orient to re-orient");
+                                         "; set " + repair.settings_key + ".orient to re-orient");
     const std::size_t flipped = orient_consistently(mesh, source);
     out.repairs.push_back("oriented: flipped " + std::to_string(flipped) + " triangle(s) to agree with their neighbours");
     topo = geometry::HalfEdgeMesh::build(mesh.vertices, geometry::to_polyhedron(mesh).faces, he);
@@ -205,9 +205,9 @@ CheckedMesh check_mesh(TriangleMesh mesh, const RepairOptions& repair, const std
     const std::string detail = "open surface: " + std::to_string(topo.count) + " boundary edge(s) in " +
                                std::to_string(holes.size()) + " hole(s), the largest of " +
                                std::to_string(largest) + " edges" + where(mesh, topo.vertex);
-    if (!repair.fill_holes) throw core::InputError(source, detail + "; set repair.fill_holes to close small holes");
+    if (!repair.fill_holes) throw core::InputError(source, detail + "; set " + repair.settings_key + ".fill_holes to close small holes");
     if (largest > repair.max_hole_edges)
-      throw core::InputError(source, detail + ", larger than repair.max_hole_edges = " +
+      throw core::InputError(source, detail + ", larger than " + repair.settings_key + ".max_hole_edges = " +
                                          std::to_string(repair.max_hole_edges));
     SurfaceMesh sm = to_surface_mesh(mesh, source);
     std::vector<SurfaceMesh::Halfedge_index> borders;
@@ -244,7 +244,7 @@ CheckedMesh check_mesh(TriangleMesh mesh, const RepairOptions& repair, const std
   if (signed_volume.value < 0.0) {
     if (!repair.orient)
       throw core::InputError(source, "inside-out: faces are oriented inward (signed volume " +
-                                         core::format_number(signed_volume.value) + " m^3); set repair.orient to flip");
+                                         core::format_number(signed_volume.value) + " m^3); set " + repair.settings_key + ".orient to flip");
     for (auto& face : poly.faces) std::reverse(face.begin(), face.end());
     out.repairs.push_back("turned inside-out surface outward (" + std::to_string(poly.faces.size()) + " faces flipped)");
   }

@@ -1,6 +1,7 @@
 #include "talus/cli/tool.hpp"
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <new>
@@ -8,6 +9,8 @@
 #include "talus/core/error.hpp"
 #include "talus/core/log.hpp"
 #include "talus/core/version.hpp"
+#include "talus/io/hdf5.hpp"
+#include "talus/io/raster.hpp"
 
 namespace talus::cli {
 
@@ -22,7 +25,58 @@ io::Provenance Invocation::provenance(const std::string& tool, std::uint64_t see
   return p;
 }
 
+std::vector<io::NamedPath> Invocation::named_inputs() const {
+  std::vector<io::NamedPath> named;
+  for (const auto& input : inputs) named.push_back({"input", input});
+  if (!config_path.empty()) named.push_back({"settings file (-c)", config_path});
+  return named;
+}
+
 namespace {
+
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diag = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diag = up;
+    }
+  }
+  return row[b.size()];
+}
+
+// "unknown option '--sett' (did you mean '--set'?)" for the first option word of the
+// command line that the tool does not know; empty when every option word is known.
+std::string unknown_option_message(const CLI::App& app, int argc, char** argv) {
+  std::vector<std::string> known;
+  for (const CLI::Option* opt : app.get_options()) {
+    for (const auto& l : opt->get_lnames()) known.push_back("--" + l);
+    for (const auto& s : opt->get_snames()) known.push_back("-" + s);
+  }
+  for (int i = 1; i < argc; ++i) {
+    std::string word = argv[i];
+    if (word == "--") break;
+    if (word.size() < 2 || word[0] != '-' || (word[1] >= '0' && word[1] <= '9') || word[1] == '.') continue;
+    word = word.substr(0, word.find('='));
+    if (std::find(known.begin(), known.end(), word) != known.end()) continue;
+    if (word[1] != '-' && word.size() > 2) continue;  // -vq style or a value
+    std::string hint;
+    std::size_t best = 3;
+    for (const auto& k : known) {
+      const std::size_t d = edit_distance(word, k);
+      if (d < best) {
+        best = d;
+        hint = " (did you mean '" + k + "'?)";
+      }
+    }
+    return "unknown option '" + word + "'" + hint + " (see --help)";
+  }
+  return {};
+}
 
 int fail(const ToolSpec& spec, core::ExitCode code, const std::string& message) {
   std::fprintf(stderr, "%s: error: %s\n", spec.name.c_str(), message.c_str());
@@ -42,9 +96,17 @@ int run_tool(int argc, char** argv, const ToolSpec& spec) {
   bool verbose = false;
   std::string log_level = "warn";
 
-  app.set_version_flag("--version", std::string(spec.name) + " (Talus) " + std::string(core::version()));
+  app.set_version_flag("--version", [&spec] {
+    std::string text = spec.name + " (Talus) " + std::string(core::version()) + "\n";
+    if (!spec.build_notes.empty()) text += spec.build_notes + "\n";
+    text += "built with: " + io::gdal_description() + ", " + io::hdf5_description();
+    return text;
+  });
   app.add_option("-c,--config", inv.config_path, "YAML settings file")->option_text("FILE");
-  app.add_option("--set", overrides, "override one setting, e.g. --set roughness.sigma=0.2 (repeatable)")
+  const std::string set_doc = "override one setting" +
+                              (spec.set_example.empty() ? std::string() : ", e.g. --set " + spec.set_example) +
+                              " (repeatable)";
+  app.add_option("--set", overrides, set_doc)
       ->option_text("KEY=VALUE")
       ->allow_extra_args(false);  // one KEY=VALUE per --set; later words are inputs
   app.add_option("-o,--output", inv.output, "output file (written under a temporary name, renamed when complete)")
@@ -64,6 +126,8 @@ int run_tool(int argc, char** argv, const ToolSpec& spec) {
   } catch (const CLI::Success& e) {
     return app.exit(e);  // --help, --version
   } catch (const CLI::ParseError& e) {
+    const std::string unknown = unknown_option_message(app, argc, argv);
+    if (!unknown.empty()) return fail(spec, core::ExitCode::usage, unknown);
     return fail(spec, core::ExitCode::usage, std::string(e.what()) + " (see --help)");
   }
 

@@ -37,4 +37,10 @@ void log(LogLevel level, std::string_view message) {
                static_cast<int>(message.size()), message.data());
 }
 
+void log_notice(std::string_view message) {
+  if (g_level.load() < static_cast<int>(LogLevel::warn)) return;
+  std::lock_guard lock(g_mutex);
+  std::fprintf(stderr, "%s: %.*s\n", g_prefix.c_str(), static_cast<int>(message.size()), message.data());
+}
+
 }  // namespace talus::core

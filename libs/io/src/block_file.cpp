@@ -7,6 +7,7 @@
 
 #include "talus/core/error.hpp"
 #include "talus/geometry/half_edge.hpp"
+#include "talus/geometry/polyhedron.hpp"
 #include "talus/io/atomic_output.hpp"
 #include "talus/io/hdf5.hpp"
 #include "talus/io/xdmf.hpp"
@@ -161,6 +162,15 @@ std::vector<block::Block> read_block_file(const std::string& path) {
     b.translation = read_vec(g, "translation");
     if (!(b.volume > 0.0) || !(b.density > 0.0) || !(b.weight >= 0.0) || !std::isfinite(b.weight))
       throw core::InputError(where, "corrupt block: volume and density must be positive, weight non-negative");
+    if (!std::isfinite(b.volume) || !std::isfinite(b.mass) || !std::isfinite(b.density) || !b.inertia.allFinite() ||
+        !b.centroid.allFinite() || !b.rotation.allFinite() || !b.translation.allFinite())
+      throw core::InputError(where, "corrupt block: a property is not finite");
+    // The polyhedron must enclose the volume the file states (inverted faces give a
+    // negative one), so the engine never meets a block the file misdescribes.
+    const double enclosed = geometry::mass_properties(b.polyhedron).volume;
+    if (!(enclosed > 0.0) || std::abs(enclosed - b.volume) > 1e-6 * b.volume)
+      throw core::InputError(where, "corrupt block: the polyhedron encloses " + core::format_number(enclosed) +
+                                        " m^3, the file states volume " + core::format_number(b.volume) + " m^3");
     blocks.push_back(std::move(b));
   }
   return blocks;

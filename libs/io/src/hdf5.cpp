@@ -9,6 +9,16 @@
 
 #include "talus/core/error.hpp"
 
+namespace talus::io {
+
+std::string hdf5_description() {
+  unsigned major = 0, minor = 0, release = 0;
+  H5get_libversion(&major, &minor, &release);
+  return "HDF5 " + std::to_string(major) + "." + std::to_string(minor) + "." + std::to_string(release);
+}
+
+}  // namespace talus::io
+
 namespace talus::io::h5 {
 namespace {
 

@@ -57,6 +57,17 @@ ImportedMesh import_with_assimp(const std::string& path, const MeshImportOptions
 
 }  // namespace
 
+void check_coordinates(const std::vector<geometry::Vec3>& points, const std::string& path, const char* what) {
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    const geometry::Vec3& p = points[k];
+    if (p.allFinite() && p.cwiseAbs().maxCoeff() <= kMaxCoordinate) continue;
+    throw core::InputError(path, std::string(what) + " " + std::to_string(k) + " (" + core::format_number(p.x()) + ", " +
+                                     core::format_number(p.y()) + ", " + core::format_number(p.z()) +
+                                     ") m after scaling: coordinates must be finite and in [-1e9, 1e9] m (check the "
+                                     "scale setting)");
+  }
+}
+
 ImportedMesh import_mesh(const std::string& path, const MeshImportOptions& options) {
   if (!std::filesystem::is_regular_file(path)) throw core::InputError(path, "cannot open mesh file");
   if (std::filesystem::file_size(path) == 0) throw core::InputError(path, "empty mesh file");
@@ -69,6 +80,7 @@ ImportedMesh import_mesh(const std::string& path, const MeshImportOptions& optio
   }
   auto& mesh = out.mesh;
   if (mesh.triangles.empty()) throw core::InputError(path, "mesh has no triangles");
+  check_coordinates(mesh.vertices, path, "vertex");
   if (options.weld) {
     double tol = options.weld_tolerance;
     if (tol <= 0.0) tol = 1e-9 * std::max(mesh.bounds().extent().norm(), 1e-300);

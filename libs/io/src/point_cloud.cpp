@@ -1,4 +1,5 @@
 #include "talus/io/point_cloud.hpp"
+#include "talus/io/mesh_io.hpp"
 
 #include <algorithm>
 #include <array>
@@ -317,6 +318,7 @@ std::vector<geometry::Vec3> read_point_cloud(const std::string& path, const Poin
   else if (is_text_cloud_extension(ext)) points = read_text_cloud(path, options);
   else throw core::InputError(path, "unknown point cloud extension '" + ext + "' (use .xyz, .txt, .pts, .csv or .ply)");
   if (points.empty()) throw core::InputError(path, "empty point cloud: no points");
+  check_coordinates(points, path, "point");
   return points;
 }
 

@@ -29,6 +29,11 @@ using core::InputError;
 using terrain::DemGrid;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// Limits of what a raster may hold: elevations (m; the Earth's relief spans 2e4 m, a
+// raster in millimetres 2e7), origin coordinates (m) and points (8 GB of doubles).
+constexpr double kMaxElevation = 1e6;
+constexpr double kMaxCoordinate = 1e9;
+constexpr double kMaxRasterPoints = 1e9;
 
 std::string lower(std::string_view text) {
   std::string out(text);
@@ -219,7 +224,18 @@ DemGrid read_esri_ascii(const std::string& path) {
   const bool has_nodata = header.nodata.has_value();
   const double nodata = has_nodata ? header.nodata->value : 0.0;
 
+  for (const auto& [v, key] : {std::pair{dem.spec.x0, "x"}, std::pair{dem.spec.y0, "y"}})
+    if (std::abs(v) > kMaxCoordinate)
+      throw InputError(at_line(path, header_end), std::string("the lower-left ") + key + " " + core::format_number(v) +
+                                                      " m is outside [-1e9, 1e9] m");
   const std::size_t expected = dem.spec.point_count();
+  // Each value takes at least two characters: a header promising more than the file can
+  // hold is refused before memory is reserved for it.
+  if (expected > text.size() / 2 + 1)
+    throw InputError(at_line(path, header.ncols->line),
+                     "ncols " + std::to_string(nx) + " x nrows " + std::to_string(ny) + " = " +
+                         std::to_string(expected) + " values cannot be in a file of " + std::to_string(text.size()) +
+                         " bytes");
   dem.z.assign(expected, kNaN);
   std::size_t count = 0;
   for (auto token = tokens.next(); !token.text.empty(); token = tokens.next()) {
@@ -234,6 +250,8 @@ DemGrid read_esri_ascii(const std::string& path) {
     if (is_nodata) z = kNaN;
     else if (!std::isfinite(z))
       throw InputError(at_line(path, token.line), "non-finite value '" + std::string(token.text) + "'");
+    else if (std::abs(z) > kMaxElevation)
+      throw InputError(at_line(path, token.line), "value " + std::string(token.text) + " is outside [-1e6, 1e6] m");
     // File rows run north to south; grid row j = 0 is the southernmost.
     const std::size_t row = count / static_cast<std::size_t>(nx), col = count % static_cast<std::size_t>(nx);
     dem.z[dem.spec.index(static_cast<std::int32_t>(col), ny - 1 - static_cast<std::int32_t>(row))] = z;
@@ -275,6 +293,16 @@ void register_gdal() {
   static std::once_flag once;
   std::call_once(once, [] { GDALAllRegister(); });
 }
+
+}  // namespace
+
+std::string gdal_description() {
+  register_gdal();
+  const bool gtiff = GDALGetDriverByName("GTiff") != nullptr;
+  return std::string("GDAL ") + GDALVersionInfo("RELEASE_NAME") + (gtiff ? " (GeoTIFF read/write)" : " (no GeoTIFF driver)");
+}
+
+namespace {
 
 // GDAL reports problems through a global handler that prints to stderr; Talus reports one
 // line instead, with GDAL's last message appended.
@@ -326,6 +354,12 @@ DemGrid read_geotiff(const std::string& path) {
     throw InputError(path, "pixel width must be positive, got " + core::format_number(gt[1]));
   if (gt[5] == 0.0) throw InputError(path, "pixel height is zero");
 
+  if (static_cast<double>(nx) * static_cast<double>(ny) > kMaxRasterPoints)
+    throw InputError(path, "raster of " + std::to_string(nx) + " x " + std::to_string(ny) +
+                               " points is larger than 1e9 points");
+  if (std::abs(gt[0]) > kMaxCoordinate || std::abs(gt[3]) > kMaxCoordinate)
+    throw InputError(path, "raster origin (" + core::format_number(gt[0]) + ", " + core::format_number(gt[3]) +
+                               ") m is outside [-1e9, 1e9] m");
   GDALRasterBandH band = GDALGetRasterBand(h, 1);
   std::vector<double> rows(static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny));
   if (GDALRasterIO(band, GF_Read, 0, 0, nx, ny, rows.data(), nx, ny, GDT_Float64, 0, 0) != CE_None)
@@ -350,6 +384,9 @@ DemGrid read_geotiff(const std::string& path) {
       if (std::isnan(z) || (has_nodata && z == nodata)) z = kNaN;
       else if (!std::isfinite(z))
         throw InputError(path, "non-finite value at row " + std::to_string(r + 1) + ", column " + std::to_string(i + 1));
+      else if (std::abs(z) > kMaxElevation)
+        throw InputError(path, "value " + core::format_number(z) + " at row " + std::to_string(r + 1) + ", column " +
+                                   std::to_string(i + 1) + " is outside [-1e6, 1e6] m");
       dem.z[dem.spec.index(i, j)] = z;
     }
   }

@@ -1,6 +1,10 @@
 #include "talus/io/run_file.hpp"
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <limits>
 #include <map>
@@ -341,6 +345,8 @@ void write_info(const h5::Group& root, const RunInfo& info) {
   run.set_attr("hazard_nx", static_cast<std::int64_t>(info.hazard.nx));
   run.set_attr("hazard_ny", static_cast<std::int64_t>(info.hazard.ny));
   run.set_attr("hazard_relative_accuracy", info.hazard_relative_accuracy);
+  if (!info.terrain_fingerprint.empty()) run.set_attr("terrain_fingerprint", info.terrain_fingerprint);
+  if (!info.terrain_file.empty()) run.set_attr("terrain_file", info.terrain_file);
 }
 
 RunInfo read_info(const h5::Group& root) {
@@ -370,6 +376,8 @@ RunInfo read_info(const h5::Group& root) {
   info.hazard.nx = static_cast<std::int32_t>(run.attr_int("hazard_nx"));
   info.hazard.ny = static_cast<std::int32_t>(run.attr_int("hazard_ny"));
   info.hazard_relative_accuracy = run.attr_double("hazard_relative_accuracy");
+  if (run.has_attr("terrain_fingerprint")) info.terrain_fingerprint = run.attr_string("terrain_fingerprint");
+  if (run.has_attr("terrain_file")) info.terrain_file = run.attr_string("terrain_file");
   if (info.hazard.size < 0.0 || info.hazard.nx < 0 || info.hazard.ny < 0 ||
       !(info.hazard_relative_accuracy > 0.0 && info.hazard_relative_accuracy < 0.5))
     throw InputError(root.file_name(), "/run: invalid hazard grid");
@@ -383,7 +391,7 @@ mc::HazardAccumulator empty_hazard(const RunInfo& info) {
 // Inputs and settings that make two files parts of the same run.
 bool same_run(const RunInfo& a, const RunInfo& b) {
   return a.provenance.settings_yaml == b.provenance.settings_yaml && a.provenance.inputs == b.provenance.inputs &&
-         a.realizations == b.realizations;
+         a.realizations == b.realizations && a.terrain_fingerprint == b.terrain_fingerprint;
 }
 
 const char* kJournalKind = "run-journal";
@@ -412,132 +420,140 @@ RunInfo make_run_info(const mc::Scene& scene, const Provenance& provenance, cons
 
 std::string run_journal_path(const std::string& output) { return output + ".journal"; }
 
+namespace {
+
+constexpr const char* kJournalInfo = "info.h5";
+
+std::string chunk_name(std::uint64_t k) {
+  char name[32];
+  std::snprintf(name, sizeof name, "chunk-%08llu.h5", static_cast<unsigned long long>(k));
+  return name;
+}
+
+// Writes an HDF5 file under a temporary name in its directory and renames it: the final
+// name holds a complete file or nothing, whenever the process is killed.
+template <class Fill>
+void write_whole(const std::filesystem::path& path, Fill fill) {
+  const std::filesystem::path temp =
+      path.parent_path() / ("." + path.filename().string() + ".tmp-" + std::to_string(::getpid()));
+  try {
+    {
+      const h5::File file = h5::File::create(temp.string());
+      fill(file.root());
+      file.flush();
+    }
+    std::filesystem::rename(temp, path);
+  } catch (...) {
+    std::error_code ec;
+    std::filesystem::remove(temp, ec);
+    throw;
+  }
+}
+
+}  // namespace
+
 RunJournal RunJournal::create(const std::string& path, const RunInfo& info) {
-  h5::File file = h5::File::create(path);
-  const h5::Group root = file.root();
-  write_header(root, kJournalKind, kRunSchema, info.provenance);
-  write_info(root, info);
-  store(root.create_group("records"), record_table({}), Mode::create_appendable);
-  store(root.create_group("crossings"), crossing_table({}), Mode::create_appendable);
-  store(root.create_group("trajectories"), trajectory_table({}), Mode::create_appendable);
-  const h5::Group hazard = root.create_group("hazard");
-  store(hazard, hazard_table({}), Mode::create_appendable);
-  // Rows each chunk added to the three hazard sub-tables, to merge chunk by chunk.
-  hazard.create_appendable("chunk_rows", Element::i64, 6);
-  file.flush();
-  return RunJournal(std::move(file), path, info);
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::remove_all(path, ec);
+  if (!fs::create_directory(path, ec) || ec)
+    throw core::RuntimeError(path + ": cannot create the journal directory (" + ec.message() + ")");
+  write_whole(fs::path(path) / kJournalInfo, [&](const h5::Group& root) {
+    write_header(root, kJournalKind, kRunSchema, info.provenance);
+    write_info(root, info);
+  });
+  return RunJournal(path, info);
 }
 
 RunJournal RunJournal::resume(const std::string& path, const RunInfo& info) {
-  h5::File file = h5::File::open_rw(path);
-  check_header(file.root(), kJournalKind, kRunSchema);
-  const RunInfo stored = read_info(file.root());
+  namespace fs = std::filesystem;
+  if (!fs::is_directory(path))
+    throw InputError(path, fs::exists(path) ? "not a journal directory (a journal of an older Talus is a file: delete "
+                                              "it to start afresh)"
+                                            : "no journal to resume");
+  const fs::path info_path = fs::path(path) / kJournalInfo;
+  // Killed while creating the journal, before its metadata was complete: nothing ran yet.
+  if (!fs::exists(info_path)) return create(path, info);
+  RunInfo stored;
+  {
+    const h5::File file = h5::File::open(info_path.string());
+    check_header(file.root(), kJournalKind, kRunSchema);
+    stored = read_info(file.root());
+  }
   if (!same_run(stored, info))
     throw InputError(path, "the journal belongs to a run with other settings or inputs; refusing to resume "
                            "(delete it to start afresh)");
   if (stored.shard != info.shard)
     throw InputError(path, "the journal is of shard " + stored.shard + ", not " + info.shard);
-  RunJournal journal(std::move(file), path, info);
-  const h5::Group root = journal.file_.root();
-  const auto chunks = root.open_group("hazard").read_int64("chunk_rows", {0, 6});
-  if (!chunks.empty())
-    for (std::size_t k = 0; k < 6; ++k) journal.totals_[k] = chunks[chunks.size() - 6 + k];
-  for (auto t : journal.totals_)
-    if (t < 0) throw InputError(path, "corrupt chunk table");
-  // Drop what a torn last append left, so new chunks line up with the committed rows.
-  auto cut = [&](const std::string& group, const Table& layout, auto rows_of) {
-    const h5::Group g = root.open_group(group);
-    for (const auto& [name, c] : layout) g.truncate_rows(name, static_cast<std::uint64_t>(rows_of(name)));
-  };
-  const auto& t = journal.totals_;
-  cut("hazard", hazard_table({}), [&](const std::string& name) {
-    return name.rfind("energy_bucket_", 0) == 0 ? t[1] : name.rfind("height_bucket_", 0) == 0 ? t[2] : t[0];
-  });
-  cut("records", record_table({}), [&](const std::string&) { return t[3]; });
-  cut("crossings", crossing_table({}), [&](const std::string&) { return t[4]; });
-  cut("trajectories", trajectory_table({}), [&](const std::string&) { return t[5]; });
-  root.open_group("hazard").truncate_rows("chunk_rows", chunks.size() / 6);
-  journal.file_.flush();
+  RunJournal journal(path, info);
+  std::vector<std::string> names;
+  for (const auto& entry : fs::directory_iterator(path)) {
+    const std::string name = entry.path().filename().string();
+    if (name.rfind(".", 0) == 0) {
+      // The temporary of a write that was killed: its chunk never counted.
+      fs::remove(entry.path());
+      continue;
+    }
+    if (name.rfind("chunk-", 0) == 0) names.push_back(name);
+  }
+  std::sort(names.begin(), names.end());
+  std::vector<bool> seen(info.realizations, false);
+  for (const auto& name : names) {
+    const std::string file_path = (fs::path(path) / name).string();
+    const h5::File file = h5::File::open(file_path);
+    for (const auto& r : decode_records(file.root().open_group("records"), info)) {
+      if (seen[r.realization]) throw InputError(file_path, "realization " + std::to_string(r.realization) + " repeats");
+      seen[r.realization] = true;
+      journal.done_.push_back(r.realization);
+    }
+    journal.chunks_.push_back(name);
+    journal.next_chunk_ = std::max<std::uint64_t>(journal.next_chunk_, std::stoull(name.substr(6)) + 1);
+  }
   return journal;
 }
 
 void RunJournal::append(const std::vector<mc::RealizationResult>& chunk) {
+  if (chunk.empty()) return;
   mc::RunData data;
   data.hazard = empty_hazard(info_);
   for (const auto& r : chunk) data.add(mc::RealizationResult(r));
-  const h5::Group root = file_.root();
-  const h5::Group hazard = root.open_group("hazard");
-  const auto h = data.hazard.table();
-  store(hazard, hazard_table(h), Mode::append);
-  store(root.open_group("crossings"), crossing_table(data.crossings), Mode::append);
-  store(root.open_group("trajectories"), trajectory_table(data.trajectories), Mode::append);
-  store(root.open_group("records"), record_table(data.records), Mode::append);
-  // The cumulative row counts go last: a chunk counts only once they are on disk, so a
-  // run killed in the middle of an append loses that chunk and nothing else.
-  totals_[0] += static_cast<std::int64_t>(h.cell.size());
-  totals_[1] += static_cast<std::int64_t>(h.energy_cell.size());
-  totals_[2] += static_cast<std::int64_t>(h.height_cell.size());
-  totals_[3] += static_cast<std::int64_t>(data.records.size());
-  totals_[4] += static_cast<std::int64_t>(data.crossings.size());
-  totals_[5] += static_cast<std::int64_t>(data.trajectories.size());
-  hazard.append("chunk_rows", totals_.data(), 1);
-  file_.flush();
+  const std::string name = chunk_name(next_chunk_);
+  write_whole(std::filesystem::path(path_) / name, [&](const h5::Group& root) {
+    store(root.create_group("records"), record_table(data.records), Mode::write);
+    store(root.create_group("crossings"), crossing_table(data.crossings), Mode::write);
+    store(root.create_group("trajectories"), trajectory_table(data.trajectories), Mode::write);
+    store(root.create_group("hazard"), hazard_table(data.hazard.table()), Mode::write);
+  });
+  ++next_chunk_;
+  chunks_.push_back(name);
+  for (const auto& r : data.records) done_.push_back(r.realization);
 }
 
 std::vector<std::uint32_t> RunJournal::finished() const {
-  std::vector<std::uint32_t> out;
-  const auto all = file_.root().open_group("records").read_int64("realization");
-  const auto n = std::min(all.size(), static_cast<std::size_t>(totals_[3]));
-  for (std::size_t k = 0; k < n; ++k) out.push_back(realization_of(all[k], file_.root(), info_.realizations));
+  std::vector<std::uint32_t> out = done_;
   std::sort(out.begin(), out.end());
   return out;
 }
 
 mc::RunData RunJournal::read() const {
-  const h5::Group root = file_.root();
   mc::RunData data;
-  data.records = decode_records(root.open_group("records"), info_, true);
-  data.records.resize(std::min(data.records.size(), static_cast<std::size_t>(totals_[3])));
-  std::vector<bool> done(info_.realizations, false);
-  for (const auto& r : data.records) done[r.realization] = true;
-  // Rows of a chunk whose record never reached the disk (killed mid-append) are dropped.
-  for (const auto& c : decode_crossings(root.open_group("crossings"), info_, true))
-    if (done[c.realization]) data.crossings.push_back(c);
-  for (const auto& p : decode_trajectories(root.open_group("trajectories"), info_, true))
-    if (done[p.realization]) data.trajectories.push_back(p);
   data.hazard = empty_hazard(info_);
-  const h5::Group hz = root.open_group("hazard");
-  const auto all = decode_hazard(load_hazard(hz, true));
-  const auto chunks = hz.read_int64("chunk_rows", {0, 6});
-  std::size_t at[3] = {0, 0, 0};
-  for (std::size_t k = 0; k < chunks.size() / 6; ++k) {
-    mc::HazardAccumulator::Table part;
-    auto slice = [&](const auto& v, std::size_t from, std::int64_t n) {
-      using V = std::decay_t<decltype(v)>;
-      if (n < 0 || from + static_cast<std::size_t>(n) > v.size())
-        throw InputError(path_, "hazard chunk rows are inconsistent");
-      return V(v.begin() + static_cast<std::ptrdiff_t>(from), v.begin() + static_cast<std::ptrdiff_t>(from) + n);
-    };
-    const auto n0 = chunks[6 * k] - static_cast<std::int64_t>(at[0]);
-    const auto n1 = chunks[6 * k + 1] - static_cast<std::int64_t>(at[1]);
-    const auto n2 = chunks[6 * k + 2] - static_cast<std::int64_t>(at[2]);
-    part.cell = slice(all.cell, at[0], n0);
-    part.reach = slice(all.reach, at[0], n0);
-    part.energy_zero = slice(all.energy_zero, at[0], n0);
-    part.height_zero = slice(all.height_zero, at[0], n0);
-    part.energy_cell = slice(all.energy_cell, at[1], n1);
-    part.energy_index = slice(all.energy_index, at[1], n1);
-    part.energy_count = slice(all.energy_count, at[1], n1);
-    part.height_cell = slice(all.height_cell, at[2], n2);
-    part.height_index = slice(all.height_index, at[2], n2);
-    part.height_count = slice(all.height_count, at[2], n2);
-    at[0] += static_cast<std::size_t>(n0);
-    at[1] += static_cast<std::size_t>(n1);
-    at[2] += static_cast<std::size_t>(n2);
-    data.hazard.merge(part, path_);
+  for (const auto& name : chunks_) {
+    const std::string file_path = (std::filesystem::path(path_) / name).string();
+    const h5::File file = h5::File::open(file_path);
+    const h5::Group root = file.root();
+    for (auto& r : decode_records(root.open_group("records"), info_)) data.records.push_back(r);
+    for (auto& c : decode_crossings(root.open_group("crossings"), info_)) data.crossings.push_back(c);
+    for (auto& p : decode_trajectories(root.open_group("trajectories"), info_)) data.trajectories.push_back(p);
+    data.hazard.merge(decode_hazard(load_hazard(root.open_group("hazard"))), file_path);
   }
   data.sort(path_);
   return data;
+}
+
+void RunJournal::remove() const {
+  std::error_code ec;
+  std::filesystem::remove_all(path_, ec);
 }
 
 void write_run_file(const std::string& path, const RunInfo& info, const mc::RunData& data) {
@@ -606,6 +622,33 @@ void write_run_file(const std::string& path, const RunInfo& info, const mc::RunD
   out.commit();
 }
 
+namespace {
+
+// A realization that did not fail numerically has only finite values: a NaN or an
+// infinity in one is a damaged or hand-edited file, refused here rather than in stats.
+void check_record_values(const std::vector<mc::Record>& records, const std::string& path) {
+  for (const auto& r : records) {
+    if (dda::is_failure(r.end)) continue;
+    const std::pair<const char*, double> values[] = {
+        {"time", r.time},
+        {"runout", r.runout},
+        {"lateral", r.lateral},
+        {"max_speed", r.max_speed},
+        {"max_jump_height", r.max_jump_height},
+        {"max_normal_jump_height", r.max_normal_jump_height},
+        {"max_kinetic_energy", r.max_kinetic_energy},
+        {"final_position", r.final_position.norm()},
+        {"release_position", r.release_position.norm()}};
+    for (const auto& [name, value] : values)
+      if (!std::isfinite(value))
+        throw InputError(path, "/records: realization " + std::to_string(r.realization) + ": " + name + " is " +
+                                   core::format_number(value) + " (values of a realization that did not fail must "
+                                   "be finite)");
+  }
+}
+
+}  // namespace
+
 RunFile read_run_file(const std::string& path) {
   const h5::File file = h5::File::open(path);
   const h5::Group root = file.root();
@@ -613,6 +656,7 @@ RunFile read_run_file(const std::string& path) {
   RunFile f;
   f.info = read_info(root);
   f.data.records = decode_records(root.open_group("records"), f.info);
+  check_record_values(f.data.records, path);
   f.data.crossings = decode_crossings(root.open_group("crossings"), f.info);
   f.data.trajectories = decode_trajectories(root.open_group("trajectories"), f.info);
   f.data.hazard = empty_hazard(f.info);

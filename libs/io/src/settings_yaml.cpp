@@ -35,11 +35,21 @@ std::size_t edit_distance(const std::string& a, const std::string& b) {
   return row[b.size()];
 }
 
+// A value put into the YAML tree by --set KEY=VALUE: messages about it name "--set KEY",
+// not the settings file and a line the value never was on.
+struct SetValue {
+  YAML::Node node;
+  std::string key;
+};
+using SetValues = std::vector<SetValue>;
+
 // Reads one mapping node into a settings struct, remembering the keys it consumed.
 class Reader final : public SettingsVisitor {
  public:
-  Reader(YAML::Node node, std::string source, std::string prefix)
-      : node_(std::move(node)), source_(std::move(source)), prefix_(std::move(prefix)) {}
+  Reader(YAML::Node node, std::string source, std::string prefix, const SetValues& set_values,
+         bool from_set = false)
+      : node_(std::move(node)), source_(std::move(source)), prefix_(std::move(prefix)),
+        set_values_(set_values), from_set_(from_set) {}
 
   void field(std::string_view key, double& value, std::string_view, std::string_view) override {
     if (auto n = take(key)) value = to_double(*n, key);
@@ -113,6 +123,40 @@ class Reader final : public SettingsVisitor {
       }
     }
   }
+  void bounded(std::string_view key, double& value, std::string_view unit, std::string_view,
+               const core::Range& range) override {
+    if (auto found = take(key)) {
+      const YAML::Node& n = *found;
+      value = to_double(n, key);
+      check_range(n, key, value, unit, range);
+    }
+  }
+  void bounded(std::string_view key, std::optional<double>& value, std::string_view unit, std::string_view,
+               const core::Range& range) override {
+    if (auto found = take(key)) {
+      const YAML::Node& n = *found;
+      if (n.IsNull()) {
+        value.reset();
+        return;
+      }
+      value = to_double(n, key);
+      check_range(n, key, *value, unit, range);
+    }
+  }
+  void bounded(std::string_view key, std::array<double, 3>& value, std::string_view unit, std::string_view doc,
+               const core::Range& range) override {
+    field(key, value, unit, doc);
+    if (auto found = peek(key))
+      for (std::size_t i = 0; i < 3; ++i) check_range((*found)[i], key, value[i], unit, range);
+  }
+  void bounded(std::string_view key, std::int64_t& value, std::string_view unit, std::string_view,
+               const core::Range& range) override {
+    if (auto found = take(key)) {
+      const YAML::Node& n = *found;
+      value = to_integer<std::int64_t>(n, key, "an integer");
+      check_range(n, key, static_cast<double>(value), unit, range);
+    }
+  }
   void choice(std::string_view key, std::string& value, std::initializer_list<std::string_view> allowed,
               std::string_view) override {
     if (auto found = take(key)) {
@@ -134,13 +178,13 @@ class Reader final : public SettingsVisitor {
     auto found = take(key);
     if (!found || found->IsNull()) {
       // Absent section: visit with an empty map so defaults stay; nothing to check.
-      Reader inner(YAML::Node(YAML::NodeType::Map), source_, path(key));
+      Reader inner(YAML::Node(YAML::NodeType::Map), source_, path(key), set_values_, from_set_);
       body(inner);
       return;
     }
     const YAML::Node& n = *found;
     if (!n.IsMap()) fail(n, key, "expected a mapping of settings");
-    Reader inner(n, source_, path(key));
+    Reader inner = nested(n, key, path(key));
     body(inner);
     inner.check_unknown();
   }
@@ -149,7 +193,7 @@ class Reader final : public SettingsVisitor {
     if (!found || found->IsNull()) {
       // Absent list: keep the defaults, but still visit them so nested defaults settle.
       for (std::size_t i = 0; i < items.size(); ++i) {
-        Reader inner(YAML::Node(YAML::NodeType::Map), source_, path(key));
+        Reader inner(YAML::Node(YAML::NodeType::Map), source_, path(key), set_values_, from_set_);
         items.visit_item(i, inner);
       }
       return;
@@ -161,7 +205,7 @@ class Reader final : public SettingsVisitor {
       const YAML::Node item = n[i];
       const std::string item_path = path(key) + "[" + std::to_string(i) + "]";
       if (!item.IsMap()) fail(item, key, "item " + std::to_string(i) + ": expected a mapping");
-      Reader inner(item, source_, item_path);
+      Reader inner = nested(item, key, item_path);
       items.visit_item(i, inner);
       inner.check_unknown();
     }
@@ -182,7 +226,7 @@ class Reader final : public SettingsVisitor {
           hint = " (did you mean '" + known + "'?)";
         }
       }
-      throw InputError(location(kv.first), "unknown key '" + path(key) + "'" + hint);
+      throw InputError(unknown_key_location(kv, path(key)), "unknown key '" + path(key) + "'" + hint);
     }
   }
 
@@ -199,10 +243,51 @@ class Reader final : public SettingsVisitor {
     seen_.insert(k);
     return n;
   }
+  // The node under `key` without marking it consumed.
+  std::optional<YAML::Node> peek(std::string_view key) const {
+    if (!node_.IsMap()) return std::nullopt;
+    const YAML::Node& map = node_;
+    YAML::Node n = map[std::string(key)];
+    if (!n.IsDefined()) return std::nullopt;
+    return n;
+  }
+  // Where an unknown key came from: the --set whose key path runs through it, else the file.
+  std::string unknown_key_location(const std::pair<YAML::Node, YAML::Node>& kv, const std::string& full) const {
+    if (const std::string from = set_key(kv.second); !from.empty()) return "--set " + from;
+    for (const auto& s : set_values_) {
+      const std::string& k = s.key;
+      if (k == full || (k.size() > full.size() && k.compare(0, full.size(), full) == 0 &&
+                        (k[full.size()] == '.' || k[full.size()] == '[')))
+        return "--set " + k;
+    }
+    return location(kv.first);
+  }
+  // The --set key that put `n` into the tree, or "".
+  std::string set_key(const YAML::Node& n) const {
+    for (const auto& s : set_values_)
+      if (n.is(s.node)) return s.key;
+    return {};
+  }
+  // The reader of a nested mapping: named after its --set key when --set gave all of it.
+  Reader nested(const YAML::Node& n, std::string_view key, const std::string& prefix) const {
+    const std::string from = set_key(n);
+    if (!from.empty()) return Reader(n, "--set " + from, prefix, set_values_, true);
+    if (auto top = peek(key)) {
+      const std::string whole = set_key(*top);
+      if (!whole.empty()) return Reader(n, "--set " + whole, prefix, set_values_, true);
+    }
+    return Reader(n, source_, prefix, set_values_, from_set_);
+  }
+  void check_range(const YAML::Node& n, std::string_view key, double value, std::string_view unit,
+                   const core::Range& range) const {
+    if (!range.contains(value))
+      fail(n, key, "must be in " + range.text(unit) + ", got " + core::format_number(value));
+  }
   std::string path(std::string_view key) const {
     return prefix_.empty() ? std::string(key) : prefix_ + "." + std::string(key);
   }
   std::string location(const YAML::Node& n) const {
+    if (from_set_) return source_;
     const auto mark = n.Mark();
     if (mark.line < 0) return source_;
     return source_ + ":" + std::to_string(mark.line + 1);
@@ -214,11 +299,20 @@ class Reader final : public SettingsVisitor {
     return "nothing";
   }
   [[noreturn]] void fail(const YAML::Node& n, std::string_view key, const std::string& what) const {
+    // A value given by --set KEY=... is named by that KEY, which already says the path.
+    if (auto top = peek(key)) {
+      const std::string from = set_key(*top);
+      if (!from.empty()) throw InputError("--set " + from, what);
+    }
     throw InputError(location(n), path(key) + ": " + what);
   }
   double to_double(const YAML::Node& n, std::string_view key) const {
     if (!n.IsScalar()) fail(n, key, "expected a number, got " + describe(n));
     const std::string& text = n.Scalar();
+    // YAML's own spellings of the non-finite numbers.
+    static const std::set<std::string> non_finite = {".nan", ".NaN", ".NAN", ".inf", ".Inf", ".INF",
+                                                      "+.inf", "+.Inf", "+.INF", "-.inf", "-.Inf", "-.INF"};
+    if (non_finite.count(text)) fail(n, key, "must be finite, got " + describe(n));
     char* end = nullptr;
     const double v = std::strtod(text.c_str(), &end);
     if (text.empty() || end != text.c_str() + text.size())
@@ -251,6 +345,8 @@ class Reader final : public SettingsVisitor {
   std::string prefix_;
   std::set<std::string> seen_;
   std::set<std::string> seen_all_;
+  const SetValues& set_values_;
+  bool from_set_ = false;
 };
 
 // Emits the effective settings.
@@ -312,6 +408,30 @@ class Writer final : public SettingsVisitor {
     out_ << YAML::EndSeq;
     comment(unit, doc);
   }
+  void bounded(std::string_view key, double& value, std::string_view unit, std::string_view doc,
+               const core::Range& range) override {
+    out_ << YAML::Key << std::string(key) << YAML::Value << number(value);
+    comment(unit, with_range(doc, range));
+  }
+  void bounded(std::string_view key, std::optional<double>& value, std::string_view unit, std::string_view doc,
+               const core::Range& range) override {
+    out_ << YAML::Key << std::string(key) << YAML::Value;
+    if (value) out_ << number(*value);
+    else out_ << YAML::Null;
+    comment(unit, with_range(doc, range));
+  }
+  void bounded(std::string_view key, std::array<double, 3>& value, std::string_view unit, std::string_view doc,
+               const core::Range& range) override {
+    out_ << YAML::Key << std::string(key) << YAML::Value << YAML::Flow << YAML::BeginSeq;
+    for (double v : value) out_ << number(v);
+    out_ << YAML::EndSeq;
+    comment(unit, with_range(doc, range));
+  }
+  void bounded(std::string_view key, std::int64_t& value, std::string_view unit, std::string_view doc,
+               const core::Range& range) override {
+    out_ << YAML::Key << std::string(key) << YAML::Value << value;
+    comment(unit, with_range(doc, range));
+  }
   void choice(std::string_view key, std::string& value, std::initializer_list<std::string_view> allowed,
               std::string_view doc) override {
     out_ << YAML::Key << std::string(key) << YAML::Value << value;
@@ -349,6 +469,9 @@ class Writer final : public SettingsVisitor {
     }
     return buffer;
   }
+  static std::string with_range(std::string_view doc, const core::Range& range) {
+    return std::string(doc) + "; in " + range.text();
+  }
   void comment(std::string_view unit, std::string_view doc) {
     if (!comments_) return;
     std::string text;
@@ -361,7 +484,7 @@ class Writer final : public SettingsVisitor {
 };
 
 // Applies one "a.b[2].c=value" override to the YAML tree.
-void apply_override(YAML::Node& root, const std::string& text) {
+void apply_override(YAML::Node& root, const std::string& text, SetValues& set_values) {
   const auto eq = text.find('=');
   if (eq == std::string::npos || eq == 0)
     throw core::UsageError("--set expects key=value, got '" + text + "'");
@@ -373,6 +496,7 @@ void apply_override(YAML::Node& root, const std::string& text) {
   } catch (const YAML::Exception& e) {
     throw core::UsageError("--set " + key + ": cannot parse value '" + value + "'");
   }
+  set_values.push_back({parsed, key});
   // Split on '.' and on [index].
   std::vector<std::string> parts;
   std::string current;
@@ -432,8 +556,9 @@ void read_settings(const std::string& yaml_text, const std::string& source,
   }
   if (root.IsNull()) root = YAML::Node(YAML::NodeType::Map);
   if (!root.IsMap()) throw InputError(source, "expected a mapping of settings at the top level");
-  for (const auto& o : overrides) apply_override(root, o);
-  Reader reader(root, source, "");
+  SetValues set_values;
+  for (const auto& o : overrides) apply_override(root, o, set_values);
+  Reader reader(root, source, "", set_values);
   body(reader);
   reader.check_unknown();
 }

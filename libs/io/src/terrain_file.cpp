@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -19,22 +21,20 @@ using terrain::Terrain;
 
 std::string count_text(std::size_t n) { return std::to_string(n); }
 
-// Material parameters as stored, one dataset per column: name, value accessor, unit, and
-// the smallest allowed value (a standard deviation may be 0, the scale K may not).
+// Material parameters as stored, one dataset per column: name, value accessor, unit
+// (their allowed values are Material::ranges()).
 struct MaterialColumn {
   const char* name;
   double Material::*field;
   const char* unit;
-  double min_value;
-  bool min_exclusive;
 };
 constexpr MaterialColumn kMaterialColumns[] = {
-    {"restitution_mean", &Material::restitution_mean, "-", 0.0, false},
-    {"restitution_sd", &Material::restitution_sd, "-", 0.0, false},
-    {"restitution_scale", &Material::restitution_scale, "m/s", 0.0, true},
-    {"friction_angle_mean_deg", &Material::friction_angle_mean_deg, "deg", 0.0, false},
-    {"friction_coefficient_sd", &Material::friction_coefficient_sd, "-", 0.0, false},
-    {"lateral_tilt_sd_deg", &Material::lateral_tilt_sd_deg, "deg", 0.0, false},
+    {"restitution_mean", &Material::restitution_mean, "-"},
+    {"restitution_sd", &Material::restitution_sd, "-"},
+    {"restitution_scale", &Material::restitution_scale, "m/s"},
+    {"friction_angle_mean_deg", &Material::friction_angle_mean_deg, "deg"},
+    {"friction_coefficient_sd", &Material::friction_coefficient_sd, "-"},
+    {"lateral_tilt_sd_deg", &Material::lateral_tilt_sd_deg, "deg"},
 };
 
 }  // namespace
@@ -47,6 +47,7 @@ std::string terrain_problem(const Terrain& t) {
   if (mesh.vertices.empty()) return "no vertices";
   for (std::size_t v = 0; v < mesh.vertices.size(); ++v)
     if (!mesh.vertices[v].allFinite()) return "vertex " + count_text(v) + " is not finite";
+    else if (mesh.vertices[v].cwiseAbs().maxCoeff() > 1e9) return "vertex " + count_text(v) + " lies beyond 1e9 m";
   const auto n = static_cast<std::int64_t>(mesh.vertices.size());
   for (std::size_t k = 0; k < mesh.triangles.size(); ++k)
     for (std::int32_t v : mesh.triangles[k])
@@ -60,16 +61,20 @@ std::string terrain_problem(const Terrain& t) {
       return "triangle " + count_text(k) + " has material id " + std::to_string(m) + " out of range [0, " +
              std::to_string(materials) + ")";
   }
+  // The ranges terrain-gen and dda-run read materials with (parallel to kMaterialColumns).
+  const Material::Ranges r = Material::ranges();
+  const core::Range* ranges[] = {&r.restitution_mean,        &r.restitution_sd,         &r.restitution_scale,
+                                 &r.friction_angle_mean_deg, &r.friction_coefficient_sd, &r.lateral_tilt_sd_deg};
+  static_assert(std::size(kMaterialColumns) == 6);
   for (const Material& m : t.materials)
-    for (const auto& c : kMaterialColumns) {
-      const double value = m.*(c.field);
-      const bool ok = std::isfinite(value) && (c.min_exclusive ? value > c.min_value : value >= c.min_value);
-      if (!ok)
-        return "material '" + m.name + "': " + c.name + " = " + core::format_number(value) + " must be finite and " +
-               (c.min_exclusive ? "> " : ">= ") + core::format_number(c.min_value);
+    for (std::size_t c = 0; c < std::size(kMaterialColumns); ++c) {
+      const double value = m.*(kMaterialColumns[c].field);
+      if (!ranges[c]->contains(value))
+        return "material '" + m.name + "': " + kMaterialColumns[c].name + " = " + core::format_number(value) +
+               " is outside " + ranges[c]->text(kMaterialColumns[c].unit);
     }
-  if (!(t.roughness.sigma >= 0.0 && std::isfinite(t.roughness.sigma)))
-    return "roughness sigma must be finite and >= 0, got " + core::format_number(t.roughness.sigma);
+  if (!(t.roughness.sigma >= 0.0 && t.roughness.sigma <= 100.0))
+    return "roughness sigma = " + core::format_number(t.roughness.sigma) + " is outside [0, 100] m";
   if (!t.origin_shift.allFinite()) return "origin_shift is not finite";
   if (t.grid) {
     const GridSpec& g = *t.grid;
@@ -279,6 +284,40 @@ terrain::Terrain read_terrain_file(const std::string& path, TerrainFileInfo& inf
         throw InputError(path, "/trn/triangles row " + count_text(k) + " does not match the grid and /grid/diagonal");
   }
   return t;
+}
+
+namespace {
+
+struct Fnv1a {
+  std::uint64_t h = 14695981039346656037ull;
+  void bytes(const void* data, std::size_t n) {
+    const auto* p = static_cast<const unsigned char*>(data);
+    for (std::size_t k = 0; k < n; ++k) h = (h ^ p[k]) * 1099511628211ull;
+  }
+  template <class T>
+  void value(const T& v) {
+    bytes(&v, sizeof v);
+  }
+};
+
+}  // namespace
+
+std::string terrain_fingerprint(const terrain::Terrain& t) {
+  Fnv1a f;
+  for (const auto& v : t.mesh.vertices)
+    for (int k = 0; k < 3; ++k) f.value(v[k]);
+  for (const auto& tri : t.mesh.triangles) f.bytes(tri.data(), sizeof(std::int32_t) * 3);
+  f.bytes(t.material_of_triangle.data(), t.material_of_triangle.size() * sizeof(std::int32_t));
+  for (const auto& m : t.materials) {
+    f.bytes(m.name.data(), m.name.size());
+    for (const auto& c : kMaterialColumns) f.value(m.*(c.field));
+  }
+  f.value(t.roughness.sigma);
+  f.value(t.roughness.seed);
+  for (int k = 0; k < 3; ++k) f.value(t.origin_shift[k]);
+  char text[17];
+  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(f.h));
+  return text;
 }
 
 }  // namespace talus::io

@@ -10,12 +10,14 @@
 #include <optional>
 #include <thread>
 
+#include "talus/core/threads.hpp"
+
 namespace talus::mc {
 
 void run_realizations(const Scene& scene, const std::vector<std::uint32_t>& indices, unsigned threads,
                       const std::function<void(RealizationResult&&)>& on_done) {
   if (indices.empty()) return;
-  if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
+  if (threads == 0) threads = core::default_thread_count();
   threads = static_cast<unsigned>(std::min<std::size_t>(threads, indices.size()));
 
   std::atomic<std::size_t> next{0};
@@ -78,7 +80,7 @@ void run_realizations(const Scene& scene, const std::vector<std::uint32_t>& indi
 
 void check_releases(const Scene& scene, const std::vector<std::uint32_t>& indices, unsigned threads) {
   if (indices.empty()) return;
-  if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
+  if (threads == 0) threads = core::default_thread_count();
   threads = static_cast<unsigned>(std::min<std::size_t>(threads, indices.size()));
   const bool rough = scene.settings().stochastic.roughness;
   std::atomic<std::size_t> next{0};

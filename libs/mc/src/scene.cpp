@@ -13,14 +13,16 @@ using core::InputError;
 
 void MaterialOverride::visit(core::SettingsVisitor& v) {
   v.field("name", name, "name of the terrain file's material to override");
-  v.field("restitution_mean", restitution_mean, "-", "mean of the scaled restitution R_v");
-  v.field("restitution_sd", restitution_sd, "-", "standard deviation of R_v");
-  v.field("restitution_scale", restitution_scale, "m/s", "K in SF = 1/(1 + (V_in/K)^2)");
-  v.field("friction_angle_mean_deg", friction_angle_mean_deg, "deg", "mean friction angle");
-  v.field("friction_coefficient_sd", friction_coefficient_sd, "-",
-          "standard deviation of the friction coefficient tan(phi)");
-  v.field("lateral_tilt_sd_deg", lateral_tilt_sd_deg, "deg",
-          "standard deviation of the lateral ground tilt drawn at each impact");
+  const terrain::Material::Ranges r = terrain::Material::ranges();
+  v.bounded("restitution_mean", restitution_mean, "-", "mean of the scaled restitution R_v", r.restitution_mean);
+  v.bounded("restitution_sd", restitution_sd, "-", "standard deviation of R_v", r.restitution_sd);
+  v.bounded("restitution_scale", restitution_scale, "m/s", "K in SF = 1/(1 + (V_in/K)^2)", r.restitution_scale);
+  v.bounded("friction_angle_mean_deg", friction_angle_mean_deg, "deg", "mean friction angle",
+            r.friction_angle_mean_deg);
+  v.bounded("friction_coefficient_sd", friction_coefficient_sd, "-",
+            "standard deviation of the friction coefficient tan(phi)", r.friction_coefficient_sd);
+  v.bounded("lateral_tilt_sd_deg", lateral_tilt_sd_deg, "deg",
+            "standard deviation of the lateral ground tilt drawn at each impact", r.lateral_tilt_sd_deg);
 }
 
 void ReleaseSettings::visit(core::SettingsVisitor& v) {
@@ -35,16 +37,19 @@ void ReleaseSettings::visit(core::SettingsVisitor& v) {
   v.choice("clearance", clearance, {"refuse", "lift"},
            "a centroid-placed block in the ground (or nearer than clearance_gap): refuse the scene, "
            "or lift the block vertically just enough");
-  v.field("clearance_gap", clearance_gap, "m",
-          "vertical gap required between a centroid-placed block and the ground (refused or lifted below it)");
+  v.bounded("clearance_gap", clearance_gap, "m",
+          "vertical gap required between a centroid-placed block and the ground (refused or lifted below it)",
+            core::Range::closed(0.0, 1e3));
   v.choice("orientation", orientation, {"random", "fixed"},
            "block orientation: uniform random rotation per realization, or orientation_deg");
-  v.field("orientation_deg", orientation_deg, "deg",
-          "fixed orientation: z-y-x Euler angles (yaw about z, pitch about y, roll about x)");
-  v.field("velocity", velocity, "m/s", "initial centroid velocity");
-  v.field("angular_velocity", angular_velocity, "rad/s", "initial spin (world frame)");
-  v.field("main_direction_deg", main_direction_deg, "deg",
-          "azimuth of the main slope direction from +x, counter-clockwise (runout along it)");
+  v.bounded("orientation_deg", orientation_deg, "deg",
+            "fixed orientation: z-y-x Euler angles (yaw about z, pitch about y, roll about x)",
+            core::Range::symmetric(360.0));
+  v.bounded("velocity", velocity, "m/s", "initial centroid velocity", core::Range::symmetric(1e3));
+  v.bounded("angular_velocity", angular_velocity, "rad/s", "initial spin (world frame)", core::Range::symmetric(1e3));
+  v.bounded("main_direction_deg", main_direction_deg, "deg",
+            "azimuth of the main slope direction from +x, counter-clockwise (runout along it)",
+            core::Range::symmetric(360.0));
 }
 
 void StochasticSettings::visit(core::SettingsVisitor& v) {

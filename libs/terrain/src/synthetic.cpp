@@ -46,10 +46,11 @@ double profile_z(const std::vector<std::array<double, 2>>& p, double x) {
 void SyntheticSlope::visit(core::SettingsVisitor& v) {
   v.choice("kind", kind, {"bench", "plane", "profile"},
            "bench: the reference bench slope; plane: a uniform slope; profile: z piecewise linear in x");
-  v.field("cell_size", cell_size, "m", "grid spacing in x and y");
-  v.field("width", width, "m", "extent across the slope (y)");
-  v.field("length", length, "m", "plane: extent downslope (x)");
-  v.field("slope_angle_deg", slope_angle_deg, "deg", "plane: inclination of the slope");
+  v.bounded("cell_size", cell_size, "m", "grid spacing in x and y", core::Range::positive(1e4));
+  v.bounded("width", width, "m", "extent across the slope (y)", core::Range::positive(1e6));
+  v.bounded("length", length, "m", "plane: extent downslope (x)", core::Range::positive(1e6));
+  v.bounded("slope_angle_deg", slope_angle_deg, "deg", "plane: inclination of the slope",
+            core::Range::right_open(0.0, 90.0));
   v.field("profile", profile, "m", "profile: [x, z] breakpoints, x increasing downslope");
 }
 

@@ -10,6 +10,10 @@ namespace talus::block {
 
 /// Reference rock density (SPEC §4), kg/m³.
 inline constexpr double kDefaultDensity = 2800.0;
+/// Volumes a block may have (m³): from a pebble of 1 cm³ to a rock mass of 1e6 m³.
+/// Outside them the exact volume and the engine's scales leave the double range.
+inline constexpr double kMinVolume = 1e-6;
+inline constexpr double kMaxVolume = 1e6;
 
 /// A rock as the DDA engine consumes it: a closed, 2-manifold, outward-oriented
 /// polyhedron in its centroid frame and its mass properties. Every property except

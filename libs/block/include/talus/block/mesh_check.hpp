@@ -16,6 +16,9 @@ struct RepairOptions {
   double stitch_tolerance = 0.0;   ///< m; 0 = 1e-6 × bounding-box diagonal
   bool fill_holes = false;         ///< close holes of at most max_hole_edges boundary edges
   std::size_t max_hole_edges = 16; ///< largest hole (boundary edges) filled
+  /// Where these options are set, for the hints of messages ("inputs.repair" gives
+  /// "set inputs.repair.fill_holes").
+  std::string settings_key = "repair";
 };
 
 struct CheckedMesh {

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "talus/io/file_header.hpp"
+#include "talus/io/paths.hpp"
 #include "talus/io/settings_yaml.hpp"
 
 namespace talus::cli {
@@ -19,6 +20,8 @@ struct Invocation {
   std::string settings_yaml;        ///< effective settings, defaults included
   std::string command_line;         ///< the invocation, for provenance
 
+  /// The positional inputs and the settings file, for io::check_outputs_distinct.
+  std::vector<io::NamedPath> named_inputs() const;
   /// Provenance for an output file of `tool`.
   io::Provenance provenance(const std::string& tool, std::uint64_t seed) const;
 };
@@ -43,6 +46,8 @@ struct ToolSpec {
   std::string name;          ///< "terrain-gen"
   std::string summary;       ///< one line for --help
   std::string inputs_doc;    ///< what the positional inputs are
+  std::string set_example;   ///< a valid KEY=VALUE of this tool, shown by --help for --set
+  std::string build_notes;   ///< optional parts of this tool's build for --version ("MPI: no ...")
   bool needs_output = true;  ///< -o is required (unless --print-config or a tool flag says otherwise)
   std::size_t min_inputs = 0;
   std::size_t max_inputs = std::numeric_limits<std::size_t>::max();

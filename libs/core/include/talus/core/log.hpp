@@ -20,5 +20,8 @@ void log(LogLevel level, std::string_view message);
 inline void log_warn(std::string_view message) { log(LogLevel::warn, message); }
 inline void log_info(std::string_view message) { log(LogLevel::info, message); }
 inline void log_debug(std::string_view message) { log(LogLevel::debug, message); }
+/// Progress and end-of-run summaries: shown at the default level (hidden by -q), as
+/// "PREFIX: MESSAGE" without a level label.
+void log_notice(std::string_view message);
 
 }  // namespace talus::core

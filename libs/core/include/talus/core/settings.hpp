@@ -4,12 +4,37 @@
 #include <cstdint>
 #include <functional>
 #include <initializer_list>
+#include <limits>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
 namespace talus::core {
+
+/// The allowed values of a number setting: an interval whose ends may be open or absent.
+/// Settings declared with a range are refused outside it where they are read, naming the
+/// file and line (or the --set key) and the interval.
+struct Range {
+  double min = -std::numeric_limits<double>::infinity();
+  double max = std::numeric_limits<double>::infinity();
+  bool min_open = false;  ///< min itself is excluded
+  bool max_open = false;  ///< max itself is excluded
+
+  bool contains(double value) const;
+  /// "[0, 90)", "(0, inf)"; `unit` is appended when not empty ("[0, 90) deg").
+  std::string text(std::string_view unit = {}) const;
+
+  static Range closed(double lo, double hi) { return {lo, hi, false, false}; }
+  /// [lo, hi)
+  static Range right_open(double lo, double hi) { return {lo, hi, false, true}; }
+  /// (lo, hi]
+  static Range left_open(double lo, double hi) { return {lo, hi, true, false}; }
+  /// (0, hi]
+  static Range positive(double hi) { return {0.0, hi, true, false}; }
+  /// [-limit, limit]
+  static Range symmetric(double limit) { return {-limit, limit, false, false}; }
+};
 
 /// A settings struct declares each of its fields once, with its unit and meaning, by
 /// accepting a SettingsVisitor:
@@ -45,6 +70,30 @@ class SettingsVisitor {
   /// A polygon or polyline: a list of [x, y] pairs.
   virtual void field(std::string_view key, std::vector<std::array<double, 2>>& value,
                      std::string_view unit, std::string_view doc) = 0;
+  /// A number restricted to `range` (read as a number, then checked). The default only
+  /// forwards to the plain field, for visitors that do not read values.
+  virtual void bounded(std::string_view key, double& value, std::string_view unit, std::string_view doc,
+                       const Range& range) {
+    (void)range;
+    field(key, value, unit, doc);
+  }
+  virtual void bounded(std::string_view key, std::optional<double>& value, std::string_view unit,
+                       std::string_view doc, const Range& range) {
+    (void)range;
+    field(key, value, unit, doc);
+  }
+  /// Each component restricted to `range`.
+  virtual void bounded(std::string_view key, std::array<double, 3>& value, std::string_view unit,
+                       std::string_view doc, const Range& range) {
+    (void)range;
+    field(key, value, unit, doc);
+  }
+  /// An integer restricted to `range`.
+  virtual void bounded(std::string_view key, std::int64_t& value, std::string_view unit, std::string_view doc,
+                       const Range& range) {
+    (void)range;
+    field(key, value, unit, doc);
+  }
   /// A string restricted to `allowed` (the first allowed value is not implied as default).
   virtual void choice(std::string_view key, std::string& value,
                       std::initializer_list<std::string_view> allowed, std::string_view doc) = 0;

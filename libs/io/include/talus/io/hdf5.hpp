@@ -6,6 +6,11 @@
 #include <string_view>
 #include <vector>
 
+namespace talus::io {
+/// "HDF5 1.10.8", for --version.
+std::string hdf5_description();
+}  // namespace talus::io
+
 namespace talus::io::h5 {
 
 /// Shape of a row-major dataset.

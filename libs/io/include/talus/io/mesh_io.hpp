@@ -32,6 +32,15 @@ struct ImportedMesh {
 /// (and line, for the text formats) when it cannot be read or holds no triangles.
 ImportedMesh import_mesh(const std::string& path, const MeshImportOptions& options = {});
 
+/// Largest coordinate magnitude a mesh, point cloud or raster may have after scaling (m):
+/// projected coordinates stay below 1e8 m; beyond 1e9 m products of coordinates in
+/// volumes and inertias leave the double range.
+inline constexpr double kMaxCoordinate = 1e9;
+
+/// Throws core::InputError naming `path`, the point and the limit for the first point
+/// with a non-finite coordinate or one beyond kMaxCoordinate.
+void check_coordinates(const std::vector<geometry::Vec3>& points, const std::string& path, const char* what);
+
 /// Writes a triangle mesh as OBJ or binary PLY, chosen by the extension, atomically.
 /// For PLY, `face_values` (if not empty, one per triangle) is stored as the integer face
 /// property "material".

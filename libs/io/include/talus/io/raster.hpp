@@ -26,6 +26,10 @@ terrain::DemGrid read_geotiff(const std::string& path);
 /// Reads a DEM chosen by extension: .asc as ESRI ASCII, .tif/.tiff as GeoTIFF.
 terrain::DemGrid read_dem(const std::string& path);
 
+/// The GDAL this build reads rasters with and its GeoTIFF support, for --version:
+/// "GDAL 3.6.2 (GeoTIFF read/write)".
+std::string gdal_description();
+
 /// True when `path` names a raster read_dem understands (.asc, .tif, .tiff, any case).
 bool is_dem_path(const std::string& path);
 

@@ -20,41 +20,48 @@ struct RunInfo {
   std::vector<std::string> barriers;      ///< barrier names, indexed by Crossing::barrier
   std::vector<std::vector<std::array<double, 2>>> barrier_lines;  ///< plan polylines (m)
   mc::HazardGridSpec hazard;              ///< size 0 = no hazard map
+  /// The terrain the run used: its fingerprint (io::terrain_fingerprint) and its path made
+  /// absolute when the run started; empty in files of earlier versions.
+  std::string terrain_fingerprint;
+  std::string terrain_file;
   double hazard_relative_accuracy = 0.01; ///< of the per-cell sketches (-)
 };
 
 /// The run metadata of a scene run as shard `shard`.
 RunInfo make_run_info(const mc::Scene& scene, const Provenance& provenance, const mc::Shard& shard);
 
-/// The crash-safe journal of a run in progress, next to the output: finished
-/// realizations are appended in chunks to extendible datasets and flushed, so a killed
-/// run loses at most the chunk in flight. The output file is written from it at the end.
+/// The crash-safe journal of a run in progress, next to the output: a directory holding
+/// the run's metadata (info.h5) and one file per chunk of finished realizations
+/// (chunk-NNNNNNNN.h5), each written under a temporary name and renamed when complete.
+/// A run killed at any moment, even inside a write, leaves only complete chunk files
+/// (and a temporary the resume removes), so it loses at most the chunk in flight. The
+/// output file is written from it at the end.
 class RunJournal {
  public:
-  /// Creates (truncates) a journal at `path`.
+  /// Creates an empty journal at `path` (a directory; removed first if it exists).
   static RunJournal create(const std::string& path, const RunInfo& info);
   /// Reopens the journal of an interrupted run for appending. Throws core::InputError
   /// naming the journal if it is not one, or if its settings, inputs or shard differ from
   /// `info` (a resume must continue the same run).
   static RunJournal resume(const std::string& path, const RunInfo& info);
 
-  /// Appends finished realizations (any order) and flushes the file.
+  /// Writes finished realizations (any order) as one more chunk file.
   void append(const std::vector<mc::RealizationResult>& chunk);
   /// Realizations already in the journal, ascending.
   std::vector<std::uint32_t> finished() const;
   /// Everything appended, in canonical order.
   mc::RunData read() const;
   const std::string& path() const { return path_; }
+  /// Removes the journal (once the run file is written).
+  void remove() const;
 
  private:
-  RunJournal(h5::File file, std::string path, RunInfo info)
-      : file_(std::move(file)), path_(std::move(path)), info_(std::move(info)) {}
-  h5::File file_;
+  RunJournal(std::string path, RunInfo info) : path_(std::move(path)), info_(std::move(info)) {}
   std::string path_;
   RunInfo info_;
-  /// Cumulative rows of complete chunks: hazard cells, energy and height buckets,
-  /// records, crossings, trajectory points.
-  std::array<std::int64_t, 6> totals_{};
+  std::vector<std::string> chunks_;  ///< chunk file names, in writing order
+  std::uint64_t next_chunk_ = 0;     ///< number of the next chunk file
+  std::vector<std::uint32_t> done_;  ///< realizations in the chunk files
 };
 
 /// The journal path of an output ("run.h5" → "run.h5.journal").

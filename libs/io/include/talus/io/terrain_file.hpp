@@ -41,4 +41,9 @@ terrain::Terrain read_terrain_file(const std::string& path);
 /// Same, also returning the schema version, provenance and roughness index.
 terrain::Terrain read_terrain_file(const std::string& path, TerrainFileInfo& info);
 
+/// A 64-bit FNV-1a digest (16 hex digits) of everything a run depends on in a terrain:
+/// vertices, triangles, materials per triangle, material parameters, roughness and origin
+/// shift. A run file records it, so that stats can tell the run's terrain from another.
+std::string terrain_fingerprint(const terrain::Terrain& terrain);
+
 }  // namespace talus::io

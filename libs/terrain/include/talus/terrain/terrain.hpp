@@ -62,6 +62,18 @@ struct Material {
   double friction_coefficient_sd = 0.05;   ///< sd of the friction coefficient tan φ (-)
   double lateral_tilt_sd_deg = 0.0;        ///< sd of the lateral ground tilt at impact (deg)
   void visit(core::SettingsVisitor& v);
+
+  /// Allowed values, refused outside them where they are read (terrain-gen settings and
+  /// dda-run's material overrides). R_v is clamped to [0, 1] at each impact.
+  struct Ranges {
+    core::Range restitution_mean = core::Range::closed(0.0, 1.0);
+    core::Range restitution_sd = core::Range::closed(0.0, 1.0);
+    core::Range restitution_scale = core::Range::positive(1e3);  // m/s
+    core::Range friction_angle_mean_deg = core::Range::right_open(0.0, 90.0);
+    core::Range friction_coefficient_sd = core::Range::closed(0.0, 10.0);
+    core::Range lateral_tilt_sd_deg = core::Range::right_open(0.0, 90.0);
+  };
+  static Ranges ranges() { return {}; }
 };
 
 /// Ground roughness: realization i shifts every grid point (or TIN vertex) vertically by

@@ -1,0 +1,391 @@
+#!/usr/bin/env python3
+# SPDX-License-Identifier: MIT
+"""Bad-input matrix of the four tools (docs/errors.md).
+
+Every case runs one built tool on a wrong command line, setting or input file in a fresh
+copy of a small set of valid inputs and checks what the tools promise for bad input:
+
+  - the documented exit code (2 usage, 3 bad input, 1 runtime failure);
+  - exactly one line on standard error, "TOOL: error: ...", naming the file (or the
+    --set key) and what is wrong (the case lists the words the line must contain);
+  - nothing on standard output;
+  - every file of the directory byte-identical afterwards and no file added (no output,
+    no temporary, no journal).
+
+A few positive checks follow: every tool's --help example of --set is a valid setting,
+and the README's `stats run.h5 -o stats/ --print-table` works with a trailing slash.
+
+Usage: bad_inputs.py --bin BUILD/bin [--keep DIR] [-k SUBSTRING]
+"""
+import argparse
+import hashlib
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+
+TOOLS = ("terrain-gen", "block-gen", "dda-run", "stats")
+
+# --- valid inputs, written once ----------------------------------------------------------
+
+PLANE_YAML = """source: synthetic
+synthetic:
+  kind: plane
+  cell_size: 1
+  width: 10
+  length: 20
+  slope_angle_deg: 35
+materials:
+  - name: rock
+    restitution_mean: 0.8
+"""
+
+BLOCKS_YAML = """blocks:
+  - name: c
+    solid: cube
+    volume: 0.5
+"""
+
+SCENE_YAML = """terrain: t.h5
+block_file: b.h5
+release:
+  points: [[3.0, 5.0]]
+  height: 1.0
+engine:
+  max_steps: 3000
+realizations: 3
+seed: 3
+outputs:
+  chunk: 2
+  hazard_cell_size: 2
+"""
+
+# A 4 x 3 DEM on a 1 m grid.
+DEM_ASC = """ncols 4
+nrows 3
+xllcorner 0
+yllcorner 0
+cellsize 1
+NODATA_value -9999
+3 2 1 0
+3 2 1 0
+3 2 1 0
+"""
+
+CUBE_OBJ = """v 0 0 0
+v 1 0 0
+v 1 1 0
+v 0 1 0
+v 0 0 1
+v 1 0 1
+v 1 1 1
+v 0 1 1
+f 1 3 2
+f 1 4 3
+f 5 6 7
+f 5 7 8
+f 1 2 6
+f 1 6 5
+f 2 3 7
+f 2 7 6
+f 3 4 8
+f 3 8 7
+f 4 1 5
+f 4 5 8
+"""
+
+
+def write(path, text):
+    with open(path, "w") as f:
+        f.write(text)
+
+
+def make_fixtures(bin_dir, root):
+    """Valid inputs every case starts from (built with the tools themselves)."""
+    os.makedirs(root)
+    write(os.path.join(root, "plane.yaml"), PLANE_YAML)
+    write(os.path.join(root, "blocks.yaml"), BLOCKS_YAML)
+    write(os.path.join(root, "scene.yaml"), SCENE_YAML)
+    write(os.path.join(root, "dem.asc"), DEM_ASC)
+    write(os.path.join(root, "cube.obj"), CUBE_OBJ)
+    # The cube's top face missing: an open surface.
+    write(os.path.join(root, "open.obj"), "\n".join(l for l in CUBE_OBJ.splitlines() if l not in ("f 5 6 7", "f 5 7 8")) + "\n")
+    write(os.path.join(root, "huge.obj"), re.sub(r"^v (\S+) (\S+) (\S+)$",
+                                                  lambda m: "v " + " ".join(f"{float(x) * 1e150:g}" for x in m.groups()),
+                                                  CUBE_OBJ, flags=re.M))
+    write(os.path.join(root, "cloud.xyz"), "0 0 0\n1 0 0\n0 1 0\n0 0 1\n1 1 1\n")
+    write(os.path.join(root, "nan.xyz"), "0 0 0\n1 0 0\nnan 1 0\n0 0 1\n")
+    write(os.path.join(root, "two.xyz"), "0 0 0\n1 0 0\n")
+    write(os.path.join(root, "empty.obj"), "")
+    write(os.path.join(root, "notes.txt"), "not a run file\n")
+    dem = DEM_ASC.splitlines()
+    write(os.path.join(root, "high.asc"), "\n".join(dem[:7] + ["3 2 1e308 0"] + dem[8:]) + "\n")
+    write(os.path.join(root, "infdem.asc"), "\n".join(dem[:7] + ["3 2 inf 0"] + dem[8:]) + "\n")
+    write(os.path.join(root, "word.asc"), "\n".join(dem[:7] + ["3 2 abc 0"] + dem[8:]) + "\n")
+    write(os.path.join(root, "short.asc"), "\n".join(dem[:-1]) + "\n")
+    write(os.path.join(root, "vast.asc"), "ncols 100000000\nnrows 100000000\nxllcorner 0\nyllcorner 0\ncellsize 1\n1 2 3\n")
+    write(os.path.join(root, "far.asc"), DEM_ASC.replace("xllcorner 0", "xllcorner 1e300"))
+    write(os.path.join(root, "ids.asc"), DEM_ASC.replace("3 2 1 0", "0 0 0 0"))
+    write(os.path.join(root, "bad.yaml"), "source: synthetic\nsynthetic: [unclosed\n")
+    write(os.path.join(root, "friction.yaml"), PLANE_YAML.replace("restitution_mean: 0.8", "friction_angle_mean_deg: 100"))
+    write(os.path.join(root, "restitution.yaml"), PLANE_YAML.replace("0.8", "5"))
+    write(os.path.join(root, "sigma.yaml"), PLANE_YAML + "roughness:\n  sigma: 1e300\n")
+    write(os.path.join(root, "volume.yaml"), BLOCKS_YAML.replace("0.5", "1e200"))
+    write(os.path.join(root, "mesh-block.yaml"), "blocks:\n  - mesh: cube.obj\n")
+    write(os.path.join(root, "schema.yaml"), 'schema_version: "9.0"\n' + SCENE_YAML)
+    write(os.path.join(root, "outside.yaml"), SCENE_YAML.replace("[[3.0, 5.0]]", "[[300.0, 5.0]]"))
+    os.makedirs(os.path.join(root, "sub"))
+
+    def tool(*args):
+        r = subprocess.run([os.path.join(bin_dir, args[0])] + list(args[1:]), cwd=root, capture_output=True, text=True)
+        if r.returncode != 0:
+            sys.exit(f"fixture failed: {' '.join(args)}: {r.stderr.strip()}")
+
+    tool("terrain-gen", "-c", "plane.yaml", "-o", "t.h5")
+    tool("block-gen", "-c", "blocks.yaml", "-o", "b.h5")
+    tool("dda-run", "-c", "scene.yaml", "--threads", "1", "-o", "run.h5")
+    tool("terrain-gen", "-c", "plane.yaml", "--set", "synthetic.slope_angle_deg=30", "-o", "other.h5")
+    os.remove(os.path.join(root, "other.xmf"))
+    os.remove(os.path.join(root, "t.xmf")) if os.path.exists(os.path.join(root, "t.xmf")) else None
+    os.symlink("dem.asc", os.path.join(root, "link.asc"))
+    os.link(os.path.join(root, "run.h5"), os.path.join(root, "hard.h5"))
+    os.makedirs(os.path.join(root, "st"))
+    shutil.copy(os.path.join(root, "run.h5"), os.path.join(root, "st", "summary.h5"))
+
+
+# --- the cases ---------------------------------------------------------------------------
+# (tool and arguments, exit code, words the error line must contain)
+
+USAGE, BAD_INPUT, RUNTIME = 2, 3, 1
+
+CASES = [
+    # Command lines.
+    (["terrain-gen", "--sett", "roughness.sigma=0.2"], USAGE, ["unknown option '--sett'", "did you mean '--set'"]),
+    (["block-gen", "cube.obj", "--ouput", "x.h5"], USAGE, ["'--ouput'", "did you mean '--output'"]),
+    (["dda-run", "-c", "scene.yaml", "--resum", "-o", "x.h5"], USAGE, ["'--resum'", "did you mean '--resume'"]),
+    (["stats", "--set", "plots=false", "run.h5", "-o", "s", "--print-tabel"], USAGE, ["'--print-tabel'", "did you mean '--print-table'"]),
+    (["terrain-gen", "dem.asc"], USAGE, ["no output file"]),
+    (["block-gen", "cube.obj"], USAGE, ["no output file"]),
+    (["dda-run", "-c", "scene.yaml"], USAGE, ["no output file"]),
+    (["stats", "--set", "plots=false", "run.h5"], USAGE, ["-o"]),
+    (["dda-run", "-c", "scene.yaml", "--threads", "abc", "-o", "x.h5"], USAGE, ["--threads", "abc"]),
+    (["dda-run", "-c", "scene.yaml", "--shard", "3/2", "-o", "x.h5"], USAGE, ["3/2"]),
+    (["terrain-gen", "dem.asc", "--log-level", "loud", "-o", "x.h5"], USAGE, ["--log-level", "loud"]),
+    (["terrain-gen", "dem.asc", "--set", "novalue", "-o", "x.h5"], USAGE, ["--set", "novalue"]),
+    (["dda-run", "merge", "-o", "x.h5"], USAGE, ["input"]),
+    (["block-gen", "-o", "x.h5"], USAGE, ["nothing to build"]),
+    # An output that would overwrite an input, or another output.
+    (["terrain-gen", "dem.asc", "-o", "dem.asc"], USAGE, ["-o dem.asc", "the input dem.asc", "never overwrites"]),
+    (["terrain-gen", "dem.asc", "-o", "./dem.asc"], USAGE, ["-o ./dem.asc", "the input dem.asc"]),
+    (["terrain-gen", "dem.asc", "-o", "sub/../dem.asc"], USAGE, ["-o sub/../dem.asc", "the input dem.asc"]),
+    (["terrain-gen", "dem.asc", "-o", "link.asc"], USAGE, ["-o link.asc", "the input dem.asc"]),
+    (["terrain-gen", "-c", "plane.yaml", "-o", "plane.yaml"], USAGE, ["-o plane.yaml", "settings file"]),
+    (["terrain-gen", "dem.asc", "-o", "x.h5", "--export-mesh", "./dem.asc"], USAGE, ["--export-mesh"]),
+    (["terrain-gen", "dem.asc", "--set", "material_raster=ids.asc", "-o", "ids.asc"], USAGE, ["-o ids.asc", "material_raster"]),
+    (["terrain-gen", "dem.asc", "-o", "x.h5", "--export-mesh", "x.xmf"], USAGE, ["x.xmf"]),
+    (["block-gen", "cube.obj", "-o", "cube.obj"], USAGE, ["-o cube.obj", "the input cube.obj"]),
+    (["block-gen", "cube.obj", "-o", "x.h5", "--export-mesh", "./cube.obj"], USAGE, ["--export-mesh", "cube.obj"]),
+    (["block-gen", "-c", "mesh-block.yaml", "-o", "cube.obj"], USAGE, ["-o cube.obj", "blocks[0].mesh"]),
+    (["block-gen", "-c", "blocks.yaml", "-o", "blocks.yaml"], USAGE, ["-o blocks.yaml"]),
+    (["dda-run", "-c", "scene.yaml", "-o", "t.h5"], USAGE, ["-o t.h5", "terrain"]),
+    (["dda-run", "-c", "scene.yaml", "-o", "./b.h5"], USAGE, ["-o ./b.h5", "block file"]),
+    (["dda-run", "-c", "scene.yaml", "-o", "scene.yaml"], USAGE, ["-o scene.yaml", "settings file"]),
+    (["dda-run", "-c", "scene.yaml", "--set", "terrain=sub/../t.h5", "-o", "t.h5"], USAGE, ["-o t.h5", "terrain"]),
+    (["dda-run", "merge", "run.h5", "-o", "run.h5"], USAGE, ["-o run.h5", "the input run.h5"]),
+    (["dda-run", "merge", "run.h5", "-o", "hard.h5"], USAGE, ["-o hard.h5", "the input run.h5"]),
+    (["stats", "--set", "plots=false", "run.h5", "-o", "run.h5"], USAGE, ["-o run.h5", "output directory"]),
+    (["stats", "--set", "plots=false", "st/summary.h5", "-o", "st/"], USAGE, ["st/summary.h5"]),
+    (["stats", "--set", "plots=false", "run.h5", "-o", "s", "--set", "terrain=s/summary.h5"], USAGE, ["terrain"]),
+    # Values out of range or not finite, named where they enter.
+    (["terrain-gen", "-c", "friction.yaml", "-o", "x.h5"], BAD_INPUT,
+     ["friction.yaml:10", "friction_angle_mean_deg", "[0, 90) deg", "100"]),
+    (["terrain-gen", "-c", "restitution.yaml", "-o", "x.h5"], BAD_INPUT, ["restitution.yaml:10", "restitution_mean", "[0, 1]"]),
+    (["terrain-gen", "-c", "sigma.yaml", "-o", "x.h5"], BAD_INPUT, ["sigma.yaml:12", "roughness.sigma", "[0, 100] m"]),
+    (["terrain-gen", "--set", "roughness.sigma=1e300", "-o", "x.h5"], BAD_INPUT, ["--set roughness.sigma", "[0, 100] m", "1e+300"]),
+    (["terrain-gen", "-c", "plane.yaml", "--set", "roughness.sigma=-1", "-o", "x.h5"], BAD_INPUT, ["--set roughness.sigma", "[0, 100] m"]),
+    (["terrain-gen", "-c", "plane.yaml", "--set", "roughness.sigma=.nan", "-o", "x.h5"], BAD_INPUT, ["--set roughness.sigma", "finite"]),
+    (["terrain-gen", "--set", "materials=[{name: r, restitution_mean: 5}]", "-o", "x.h5"], BAD_INPUT,
+     ["--set materials", "restitution_mean", "[0, 1]"]),
+    (["terrain-gen", "--set", "synthetic.slope_angle_deg=90", "-o", "x.h5"], BAD_INPUT, ["--set synthetic.slope_angle_deg", "[0, 90) deg"]),
+    (["terrain-gen", "--set", "synthetic.cell_size=0", "-o", "x.h5"], BAD_INPUT, ["--set synthetic.cell_size", "(0, 10000] m"]),
+    (["terrain-gen", "-c", "plane.yaml", "--set", "roughness.sigam=0.2", "-o", "x.h5"], BAD_INPUT,
+     ["--set roughness.sigam", "unknown key", "did you mean 'sigma'"]),
+    (["terrain-gen", "-c", "plane.yaml", "--set", "origin.shift=[0,0,1e300]", "-o", "x.h5"], BAD_INPUT, ["--set origin.shift", "[-1e+09, 1e+09] m"]),
+    (["terrain-gen", "high.asc", "-o", "x.h5"], BAD_INPUT, ["high.asc:8", "1e308", "[-1e6, 1e6] m"]),
+    (["terrain-gen", "infdem.asc", "-o", "x.h5"], BAD_INPUT, ["infdem.asc:8", "non-finite"]),
+    (["terrain-gen", "word.asc", "-o", "x.h5"], BAD_INPUT, ["word.asc:8", "abc"]),
+    (["terrain-gen", "short.asc", "-o", "x.h5"], BAD_INPUT, ["short.asc", "too few values"]),
+    (["terrain-gen", "vast.asc", "-o", "x.h5"], BAD_INPUT, ["vast.asc:1", "ncols 100000000 x nrows 100000000"]),
+    (["terrain-gen", "far.asc", "-o", "x.h5"], BAD_INPUT, ["far.asc", "[-1e9, 1e9] m"]),
+    (["terrain-gen", "huge.obj", "-o", "x.h5"], BAD_INPUT, ["huge.obj", "vertex", "[-1e9, 1e9] m"]),
+    (["terrain-gen", "missing.asc", "-o", "x.h5"], BAD_INPUT, ["missing.asc"]),
+    (["terrain-gen", "-c", "missing.yaml", "-o", "x.h5"], BAD_INPUT, ["missing.yaml"]),
+    (["terrain-gen", "-c", "bad.yaml", "-o", "x.h5"], BAD_INPUT, ["bad.yaml:", "YAML"]),
+    (["block-gen", "huge.obj", "-o", "x.h5"], BAD_INPUT, ["huge.obj", "vertex 1", "[-1e9, 1e9] m"]),
+    (["block-gen", "cube.obj", "--set", "inputs.scale=1e150", "-o", "x.h5"], BAD_INPUT, ["--set inputs.scale", "(0, 1e+06]"]),
+    (["block-gen", "cube.obj", "--set", "inputs.scale=1e-150", "-o", "x.h5"], BAD_INPUT, ["cube.obj", "block volume", "[1e-06, 1e+06] m^3"]),
+    (["block-gen", "--set", "blocks=[{solid: cube, volume: 1e300}]", "-o", "x.h5"], BAD_INPUT,
+     ["--set blocks", "volume", "[1e-06, 1e+06] m^3"]),
+    (["block-gen", "-c", "volume.yaml", "-o", "x.h5"], BAD_INPUT, ["volume.yaml:4", "blocks[0].volume", "1e+200"]),
+    (["block-gen", "-c", "blocks.yaml", "--set", "blocks[0].volume=1e-300", "-o", "x.h5"], BAD_INPUT, ["--set blocks[0].volume", "[1e-06, 1e+06]"]),
+    (["block-gen", "-c", "blocks.yaml", "--set", "blocks[0].volume=0", "-o", "x.h5"], BAD_INPUT, ["--set blocks[0].volume"]),
+    (["block-gen", "-c", "blocks.yaml", "--set", "blocks[0].volume=-1", "-o", "x.h5"], BAD_INPUT, ["--set blocks[0].volume", "-1"]),
+    (["block-gen", "-c", "blocks.yaml", "--set", "blocks[0].volume=.inf", "-o", "x.h5"], BAD_INPUT, ["--set blocks[0].volume", "finite"]),
+    (["block-gen", "-c", "blocks.yaml", "--set", "blocks[0].dimensions=[1,1,1e300]", "-o", "x.h5"], BAD_INPUT, ["--set blocks[0].dimensions"]),
+    (["block-gen", "-c", "blocks.yaml", "--set", "density=-5", "-o", "x.h5"], BAD_INPUT, ["--set density", "kg/m^3"]),
+    (["block-gen", "-c", "blocks.yaml", "--set", "blocks[0].solid=sphere", "-o", "x.h5"], BAD_INPUT, ["--set blocks[0].solid", "sphere", "not one of"]),
+    (["block-gen", "open.obj", "-o", "x.h5"], BAD_INPUT, ["open.obj", "inputs.repair.fill_holes"]),
+    (["block-gen", "empty.obj", "-o", "x.h5"], BAD_INPUT, ["empty.obj"]),
+    (["block-gen", "nan.xyz", "-o", "x.h5"], BAD_INPUT, ["nan.xyz"]),
+    (["block-gen", "two.xyz", "-o", "x.h5"], BAD_INPUT, ["two.xyz"]),
+    (["block-gen", "missing.obj", "-o", "x.h5"], BAD_INPUT, ["missing.obj"]),
+    (["block-gen", "info", "missing.h5"], BAD_INPUT, ["missing.h5"]),
+    (["dda-run", "-c", "scene.yaml", "--set", "release.velocity=[1e200,0,0]", "-o", "x.h5"], BAD_INPUT,
+     ["--set release.velocity", "[-1000, 1000] m/s", "1e+200"]),
+    (["dda-run", "-c", "scene.yaml", "--set", "release.angular_velocity=[0,0,1e9]", "-o", "x.h5"], BAD_INPUT,
+     ["--set release.angular_velocity", "rad/s"]),
+    (["dda-run", "-c", "scene.yaml", "--set", "materials=[{name: rock, restitution_mean: 5}]", "-o", "x.h5"], BAD_INPUT,
+     ["--set materials", "restitution_mean", "[0, 1]"]),
+    (["dda-run", "-c", "scene.yaml", "--set", "realizations=0", "-o", "x.h5"], BAD_INPUT, ["scene.yaml", "realizations"]),
+    (["dda-run", "-c", "scene.yaml", "--set", "outputs.chunk=0", "-o", "x.h5"], BAD_INPUT, ["outputs.chunk"]),
+    (["dda-run", "-c", "scene.yaml", "--set", "unknown.key=1", "-o", "x.h5"], BAD_INPUT, ["--set unknown.key", "unknown key"]),
+    (["dda-run", "-c", "scene.yaml", "--set", "terrain=missing.h5", "-o", "x.h5"], BAD_INPUT, ["missing.h5"]),
+    (["dda-run", "-c", "scene.yaml", "--set", "terrain=notes.txt", "-o", "x.h5"], BAD_INPUT, ["notes.txt"]),
+    (["dda-run", "-c", "scene.yaml", "--set", "block_file=t.h5", "-o", "x.h5"], BAD_INPUT, ["t.h5"]),
+    (["dda-run", "-c", "schema.yaml", "-o", "x.h5"], BAD_INPUT, ["schema.yaml", "9.0"]),
+    (["dda-run", "-c", "outside.yaml", "-o", "x.h5"], BAD_INPUT, ["outside.yaml", "outside the terrain"]),
+    (["dda-run", "merge", "t.h5", "-o", "x.h5"], BAD_INPUT, ["t.h5"]),
+    (["stats", "--set", "plots=false", "missing.h5", "-o", "s"], BAD_INPUT, ["missing.h5"]),
+    (["stats", "--set", "plots=false", "notes.txt", "-o", "s"], BAD_INPUT, ["notes.txt"]),
+    (["stats", "--set", "plots=false", "t.h5", "-o", "s"], BAD_INPUT, ["t.h5"]),
+    (["stats", "--set", "plots=false", "run.h5", "--set", "unknown=1", "-o", "s"], BAD_INPUT, ["--set unknown", "unknown key"]),
+    (["stats", "--set", "plots=false", "run.h5", "-o", "no/such/dir"], RUNTIME, ["no/such"]),
+    (["stats", "--set", "plots=false", "run.h5", "--set", "terrain=other.h5", "-o", "s"], BAD_INPUT,
+     ["other.h5", "is not the terrain of the run run.h5", "fingerprint"]),
+]
+
+
+def snapshot(root):
+    files = {}
+    for base, dirs, names in os.walk(root):
+        for name in dirs + names:
+            path = os.path.join(base, name)
+            rel = os.path.relpath(path, root)
+            if os.path.islink(path):
+                files[rel] = "link:" + os.readlink(path)
+            elif os.path.isdir(path):
+                files[rel] = "dir"
+            else:
+                with open(path, "rb") as f:
+                    files[rel] = hashlib.sha256(f.read()).hexdigest()
+    return files
+
+
+def run_case(bin_dir, fixtures, work, args, code, words):
+    shutil.copytree(fixtures, work, symlinks=True)
+    # copytree does not keep hard links: make hard.h5 one again.
+    os.remove(os.path.join(work, "hard.h5"))
+    os.link(os.path.join(work, "run.h5"), os.path.join(work, "hard.h5"))
+    before = snapshot(work)
+    tool = args[0] if args[:2] != ["dda-run", "merge"] else "dda-run merge"
+    try:
+        r = subprocess.run([os.path.join(bin_dir, args[0])] + args[1:], cwd=work, capture_output=True, text=True,
+                           timeout=120)
+    except subprocess.TimeoutExpired:
+        return ["timed out (hang)"]
+    problems = []
+    if r.returncode != code:
+        problems.append(f"exit code {r.returncode}, expected {code}")
+    lines = r.stderr.splitlines()
+    if len(lines) != 1:
+        problems.append(f"{len(lines)} lines on stderr, expected 1")
+    line = lines[0] if lines else ""
+    if not line.startswith(tool + ": error: "):
+        problems.append(f"error line does not start with '{tool}: error: '")
+    for w in words:
+        if w not in line:
+            problems.append(f"error line lacks '{w}'")
+    if r.stdout:
+        problems.append("wrote to stdout")
+    after = snapshot(work)
+    for rel in sorted(set(before) | set(after)):
+        if rel not in after:
+            problems.append(f"{rel} was removed")
+        elif rel not in before:
+            problems.append(f"{rel} was created")
+        elif before[rel] != after[rel]:
+            problems.append(f"{rel} was changed")
+    if problems:
+        problems.append("stderr: " + r.stderr.strip())
+    return problems
+
+
+def positive_checks(bin_dir, fixtures, work):
+    """Documented examples that must work."""
+    problems = []
+    shutil.copytree(fixtures, work, symlinks=True)
+    for tool in TOOLS:
+        help_text = subprocess.run([os.path.join(bin_dir, tool), "--help"], capture_output=True, text=True).stdout
+        m = re.search(r"e\.g\. --set (\S+)", help_text)
+        if not m:
+            problems.append(f"{tool} --help shows no --set example")
+            continue
+        example = m.group(1)
+        r = subprocess.run([os.path.join(bin_dir, tool), "--print-config", "--set", example], cwd=work,
+                           capture_output=True, text=True)
+        if r.returncode != 0:
+            problems.append(f"{tool} --help example --set {example} fails: {r.stderr.strip()}")
+    # From another directory: the run's terrain is found although the run names it relatively.
+    r = subprocess.run([os.path.join(bin_dir, "stats"), "../run.h5", "-o", "../st3", "--set", "plots=false"],
+                       cwd=os.path.join(work, "sub"), capture_output=True, text=True)
+    if r.returncode != 0 or not os.path.isdir(os.path.join(work, "st3", "hazard")):
+        problems.append(f"stats from another directory fails: {r.stderr.strip()}")
+    for out in ("stats/", "./stats2/"):
+        r = subprocess.run([os.path.join(bin_dir, "stats"), "run.h5", "-o", out, "--print-table", "--set", "plots=false"],
+                           cwd=work, capture_output=True, text=True)
+        if r.returncode != 0 or not os.path.isfile(os.path.join(work, out, "summary.csv")):
+            problems.append(f"stats run.h5 -o {out} --print-table fails: {r.stderr.strip()}")
+    return problems
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--bin", required=True, help="directory of the built tools")
+    parser.add_argument("--keep", help="work in this directory and keep it")
+    parser.add_argument("-k", dest="filter", default="", help="run only cases whose command line contains this")
+    args = parser.parse_args()
+    bin_dir = os.path.abspath(args.bin)
+    root = args.keep or tempfile.mkdtemp(prefix="talus-bad-inputs-")
+    if args.keep:
+        shutil.rmtree(root, ignore_errors=True)
+    fixtures = os.path.join(root, "fixtures")
+    make_fixtures(bin_dir, fixtures)
+
+    failed = 0
+    ran = 0
+    counts = {t: 0 for t in TOOLS}
+    for k, (argv, code, words) in enumerate(CASES):
+        if args.filter not in " ".join(argv):
+            continue
+        ran += 1
+        counts[argv[0]] += 1
+        problems = run_case(bin_dir, fixtures, os.path.join(root, f"case{k:03d}"), argv, code, words)
+        if problems:
+            failed += 1
+            print(f"FAIL {' '.join(argv)}")
+            for p in problems:
+                print(f"     {p}")
+    problems = positive_checks(bin_dir, fixtures, os.path.join(root, "positive"))
+    for p in problems:
+        print(f"FAIL {p}")
+    print(f"{ran - failed} of {ran} bad-input cases pass ({', '.join(f'{t} {n}' for t, n in counts.items())}); "
+          f"{len(problems)} failed positive checks")
+    if not args.keep:
+        shutil.rmtree(root, ignore_errors=True)
+    return 1 if failed or problems else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

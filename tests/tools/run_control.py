@@ -1,0 +1,174 @@
+#!/usr/bin/env python3
+# SPDX-License-Identifier: MIT
+"""dda-run under make, Slurm and a terminal (docs/errors.md), end to end:
+
+  - --resume without a journal is a fresh run (a Makefile rule can always pass it);
+  - a second writer on the same output is refused while the first runs (lock);
+  - SIGINT and SIGTERM end with 130/143, keep the finished realizations in a resumable
+    journal, and the resume gives the uninterrupted run's records;
+  - temporaries of dead processes of this host are removed, other hosts' are kept;
+  - the default thread count follows the affinity mask and SLURM_CPUS_PER_TASK;
+  - progress lines (not a terminal) name the output and shard; the summary line;
+  - a build without MPI refuses to run under an MPI launcher; --version says so;
+  - a stats output folder keeps only this run's outputs;
+  - talus-plot --help works without plotting libraries, honours TALUS_PYTHON.
+
+Usage: run_control.py --bin BUILD/bin [--realizations N]
+"""
+import argparse
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+
+PLANE = "source: synthetic\nsynthetic: {kind: plane, cell_size: 1, width: 10, length: 20, slope_angle_deg: 35}\n"
+BLOCKS = "blocks: [{name: c, solid: cube, volume: 0.5}]\n"
+SCENE = """terrain: t.h5
+block_file: b.h5
+release: {{points: [[3.0, 5.0]], height: 1.0}}
+realizations: {n}
+seed: 3
+outputs: {{chunk: 4, hazard_cell_size: 2}}
+"""
+
+failures = []
+
+
+def check(condition, what, detail=""):
+    if not condition:
+        failures.append(what + (": " + detail.strip() if detail else ""))
+        print("FAIL " + what + (": " + detail.strip() if detail else ""))
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--bin", required=True)
+    parser.add_argument("--realizations", type=int, default=300,
+                        help="realizations of the runs that are interrupted (fewer for slow sanitized builds)")
+    args = parser.parse_args()
+    b = os.path.abspath(args.bin)
+    dda = os.path.join(b, "dda-run")
+    work = tempfile.mkdtemp(prefix="talus-run-control-")
+
+    def run(cmd, env=None, **kw):
+        e = dict(os.environ)
+        e.pop("SLURM_CPUS_PER_TASK", None)
+        e.update(env or {})
+        return subprocess.run(cmd, cwd=work, capture_output=True, text=True, env=e, **kw)
+
+    try:
+        for name, text in (("plane.yaml", PLANE), ("blocks.yaml", BLOCKS), ("scene.yaml", SCENE.format(n=args.realizations))):
+            with open(os.path.join(work, name), "w") as f:
+                f.write(text)
+        assert run([os.path.join(b, "terrain-gen"), "-c", "plane.yaml", "-o", "t.h5"]).returncode == 0
+        assert run([os.path.join(b, "block-gen"), "-c", "blocks.yaml", "-o", "b.h5"]).returncode == 0
+
+        # --resume with nothing to resume: a fresh run, with the summary line.
+        r = run([dda, "-c", "scene.yaml", "--set", "realizations=20", "--threads", "1", "--resume", "-o", "small.h5"])
+        check(r.returncode == 0 and os.path.exists(os.path.join(work, "small.h5")), "--resume without a journal runs",
+              r.stderr)
+        check("small.h5: 20 realizations in " in r.stderr and "; ends: " in r.stderr, "end-of-run summary", r.stderr)
+        check(not any(n.startswith("small.h5.") for n in os.listdir(work)), "no journal or lock left after a run")
+
+        # A stats folder holds only this run's outputs: a stale hazard map is removed, and said.
+        st = [os.path.join(b, "stats"), "small.h5", "-o", "st", "--set", "plots=false"]
+        r = run(st)
+        check(r.returncode == 0 and os.path.isdir(os.path.join(work, "st", "hazard")), "stats writes hazard maps",
+              r.stderr)
+        stale = os.path.join(work, "st", "hazard", "gone-reach_probability.asc")
+        with open(stale, "w") as f:
+            f.write("old")
+        r = run(st)
+        check(r.returncode == 0 and not os.path.exists(stale) and "gone-reach_probability.asc" in r.stderr,
+              "stats removes and names a stale output", r.stderr)
+        r = run(st)
+        check(r.returncode == 0 and r.stderr == "", "stats rerun removes nothing of its own", r.stderr)
+
+        # The reference for the interrupted runs.
+        r = run([dda, "-c", "scene.yaml", "--threads", "1", "-q", "-o", "ref.h5"])
+        check(r.returncode == 0, "reference run", r.stderr)
+
+        for sig, code in ((signal.SIGINT, 130), (signal.SIGTERM, 143)):
+            out = f"int{code}.h5"
+            first = subprocess.Popen([dda, "-c", "scene.yaml", "--threads", "1", "-o", out], cwd=work,
+                                     stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+            deadline = time.time() + 30
+            while not os.path.isdir(os.path.join(work, out + ".journal")) and time.time() < deadline:
+                time.sleep(0.05)
+            time.sleep(0.3)
+            second = run([dda, "-c", "scene.yaml", "--threads", "1", "--resume", "-o", out])
+            check(second.returncode == 1 and "another process (pid %d" % first.pid in second.stderr
+                  and out + ".lock" in second.stderr, "a second writer is refused while the first runs", second.stderr)
+            first.send_signal(sig)
+            _, err = first.communicate(timeout=60)
+            check(first.returncode == code, f"signal {sig.name} ends with {code}", f"{first.returncode}: {err}")
+            check("realizations are in the journal " + out + ".journal" in err and "--resume" in err,
+                  f"signal {sig.name} says how to resume", err)
+            check(os.path.isdir(os.path.join(work, out + ".journal")) and not os.path.exists(os.path.join(work, out)),
+                  f"signal {sig.name} leaves the journal and no output")
+            r = run([dda, "-c", "scene.yaml", "--threads", "1", "--resume", "-v", "-o", out])
+            check(r.returncode == 0 and "already done" in r.stderr, f"resume after {sig.name}", r.stderr)
+            if shutil.which("h5diff"):
+                for g in ("/records", "/hazard", "/crossings"):
+                    d = run(["h5diff", "ref.h5", out, g, g])
+                    check(d.returncode == 0, f"resume after {sig.name} equals the uninterrupted run in {g}", d.stdout)
+
+        # Leftover temporaries: this host's dead process is removed, another host's kept.
+        host = socket.gethostname().replace("-", "_").replace("/", "_")
+        dead = f".tmp.h5.tmp-{host}-999999999"
+        other = ".tmp.h5.tmp-otherhost-1"
+        for n in (dead, other):
+            with open(os.path.join(work, n), "w") as f:
+                f.write("half")
+        r = run([dda, "-c", "scene.yaml", "--set", "realizations=4", "--threads", "1", "-o", "tmp.h5"])
+        check(r.returncode == 0 and not os.path.exists(os.path.join(work, dead)), "stale temporary removed", r.stderr)
+        check(os.path.exists(os.path.join(work, other)), "another host's temporary kept")
+
+        # Threads: affinity mask and Slurm.
+        small = [dda, "-c", "scene.yaml", "--set", "realizations=4", "-o", "thr.h5"]
+        if shutil.which("taskset"):
+            r = run(["taskset", "-c", "0"] + small)
+            check("1 thread (affinity mask)" in r.stderr, "taskset -c 0 gives one thread", r.stderr)
+        r = run(small, env={"SLURM_CPUS_PER_TASK": "3"})
+        check("3 threads (SLURM_CPUS_PER_TASK)" in r.stderr, "SLURM_CPUS_PER_TASK sets the threads", r.stderr)
+
+        # Progress lines in a log, labelled with output and shard.
+        r = run([dda, "-c", "scene.yaml", "--set", "realizations=20", "--threads", "1", "--shard", "1/2",
+                 "-o", "part.h5"], env={"TALUS_PROGRESS_INTERVAL": "0"})
+        lines = [l for l in r.stderr.splitlines() if "ETA" in l]
+        check(len(lines) >= 5 and all(l.startswith("dda-run: part.h5 [shard 1/2]: ") for l in lines),
+              "progress lines name output and shard", r.stderr)
+        r = run([dda, "-q", "-c", "scene.yaml", "--set", "realizations=4", "-o", "quiet.h5"],
+                env={"TALUS_PROGRESS_INTERVAL": "0"})
+        check(r.returncode == 0 and r.stderr == "", "-q prints nothing", r.stderr)
+
+        # MPI.
+        version = run([dda, "--version"]).stdout
+        check("MPI: " in version and "GDAL" in version and "HDF5" in version, "--version lists the optional parts",
+              version)
+        if "MPI: no" in version:
+            r = run(small, env={"OMPI_COMM_WORLD_SIZE": "2"})
+            check(r.returncode == 2 and "built without MPI" in r.stderr, "no-MPI build refuses an MPI launcher",
+                  r.stderr)
+
+        # talus-plot.
+        plot = os.path.join(b, "talus-plot")
+        r = run(["python3", plot, "--help"], env={"TALUS_PYTHON": ""})
+        check(r.returncode == 0 and "SUMMARY.h5" in r.stdout, "talus-plot --help", r.stderr)
+        r = run(["python3", plot, "a.h5", "out"], env={"TALUS_PYTHON": "/nonexistent/python"})
+        check(r.returncode == 1 and "TALUS_PYTHON=/nonexistent/python" in r.stderr, "talus-plot honours TALUS_PYTHON",
+              r.stderr)
+        r = run(["python3", plot, "a.h5"])
+        check(r.returncode == 2 and len(r.stderr.splitlines()) == 1, "talus-plot usage error in one line", r.stderr)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    print(f"{len(failures)} failed checks")
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -34,21 +34,6 @@ std::vector<io::NamedPath> Invocation::named_inputs() const {
 
 namespace {
 
-std::size_t edit_distance(const std::string& a, const std::string& b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diag = row[0];
-    row[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t up = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diag = up;
-    }
-  }
-  return row[b.size()];
-}
-
 // "unknown option '--sett' (did you mean '--set'?)" for the first option word of the
 // command line that the tool does not know; empty when every option word is known.
 std::string unknown_option_message(const CLI::App& app, int argc, char** argv) {
@@ -67,7 +52,7 @@ std::string unknown_option_message(const CLI::App& app, int argc, char** argv) {
     std::string hint;
     std::size_t best = 3;
     for (const auto& k : known) {
-      const std::size_t d = edit_distance(word, k);
+      const std::size_t d = core::edit_distance(word, k);
       if (d < best) {
         best = d;
         hint = " (did you mean '" + k + "'?)";

@@ -1,6 +1,8 @@
 #include "talus/core/settings.hpp"
 
+#include <algorithm>
 #include <cstdio>
+#include <vector>
 
 namespace talus::core {
 
@@ -23,6 +25,21 @@ std::string Range::text(std::string_view unit) const {
                     ", " + end(max) + (max_open || max == std::numeric_limits<double>::infinity() ? ")" : "]");
   if (!unit.empty() && unit != "-") out += " " + std::string(unit);
   return out;
+}
+
+std::size_t edit_distance(std::string_view a, std::string_view b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diag = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diag = up;
+    }
+  }
+  return row[b.size()];
 }
 
 }  // namespace talus::core

@@ -20,21 +20,6 @@ namespace {
 using core::InputError;
 using core::SettingsVisitor;
 
-std::size_t edit_distance(const std::string& a, const std::string& b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diag = row[0];
-    row[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t up = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diag = up;
-    }
-  }
-  return row[b.size()];
-}
-
 // A value put into the YAML tree by --set KEY=VALUE: messages about it name "--set KEY",
 // not the settings file and a line the value never was on.
 struct SetValue {
@@ -220,7 +205,7 @@ class Reader final : public SettingsVisitor {
       std::string hint;
       std::size_t best = 3;
       for (const auto& known : seen_all_) {
-        const std::size_t d = edit_distance(key, known);
+        const std::size_t d = core::edit_distance(key, known);
         if (d < best) {
           best = d;
           hint = " (did you mean '" + known + "'?)";

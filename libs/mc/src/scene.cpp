@@ -13,16 +13,7 @@ using core::InputError;
 
 void MaterialOverride::visit(core::SettingsVisitor& v) {
   v.field("name", name, "name of the terrain file's material to override");
-  const terrain::Material::Ranges r = terrain::Material::ranges();
-  v.bounded("restitution_mean", restitution_mean, "-", "mean of the scaled restitution R_v", r.restitution_mean);
-  v.bounded("restitution_sd", restitution_sd, "-", "standard deviation of R_v", r.restitution_sd);
-  v.bounded("restitution_scale", restitution_scale, "m/s", "K in SF = 1/(1 + (V_in/K)^2)", r.restitution_scale);
-  v.bounded("friction_angle_mean_deg", friction_angle_mean_deg, "deg", "mean friction angle",
-            r.friction_angle_mean_deg);
-  v.bounded("friction_coefficient_sd", friction_coefficient_sd, "-",
-            "standard deviation of the friction coefficient tan(phi)", r.friction_coefficient_sd);
-  v.bounded("lateral_tilt_sd_deg", lateral_tilt_sd_deg, "deg",
-            "standard deviation of the lateral ground tilt drawn at each impact", r.lateral_tilt_sd_deg);
+  terrain::Material::visit_properties(v, *this);
 }
 
 void ReleaseSettings::visit(core::SettingsVisitor& v) {

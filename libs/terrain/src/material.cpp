@@ -11,16 +11,7 @@ namespace talus::terrain {
 
 void Material::visit(core::SettingsVisitor& v) {
   v.field("name", name, "material name");
-  const Ranges r = ranges();
-  v.bounded("restitution_mean", restitution_mean, "-", "mean of the scaled restitution R_v", r.restitution_mean);
-  v.bounded("restitution_sd", restitution_sd, "-", "standard deviation of R_v", r.restitution_sd);
-  v.bounded("restitution_scale", restitution_scale, "m/s", "K in SF = 1/(1 + (V_in/K)^2)", r.restitution_scale);
-  v.bounded("friction_angle_mean_deg", friction_angle_mean_deg, "deg", "mean friction angle",
-            r.friction_angle_mean_deg);
-  v.bounded("friction_coefficient_sd", friction_coefficient_sd, "-",
-            "standard deviation of the friction coefficient tan(phi)", r.friction_coefficient_sd);
-  v.bounded("lateral_tilt_sd_deg", lateral_tilt_sd_deg, "deg",
-            "standard deviation of the lateral ground tilt drawn at each impact", r.lateral_tilt_sd_deg);
+  visit_properties(v, *this);
 }
 
 void MaterialZone::visit(core::SettingsVisitor& v) {

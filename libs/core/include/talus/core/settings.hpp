@@ -118,4 +118,7 @@ class SettingsVisitor {
   }
 };
 
+/// Levenshtein distance between two words: the suggestion for a misspelt key or option.
+std::size_t edit_distance(std::string_view a, std::string_view b);
+
 }  // namespace talus::core

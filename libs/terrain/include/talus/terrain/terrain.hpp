@@ -74,6 +74,22 @@ struct Material {
     core::Range lateral_tilt_sd_deg = core::Range::right_open(0.0, 90.0);
   };
   static Ranges ranges() { return {}; }
+
+  /// Visits the six properties of `m` — a Material, or an override of one whose fields
+  /// are optional — with their units, documentation and ranges.
+  template <class Properties>
+  static void visit_properties(core::SettingsVisitor& v, Properties& m) {
+    const Ranges r = ranges();
+    v.bounded("restitution_mean", m.restitution_mean, "-", "mean of the scaled restitution R_v", r.restitution_mean);
+    v.bounded("restitution_sd", m.restitution_sd, "-", "standard deviation of R_v", r.restitution_sd);
+    v.bounded("restitution_scale", m.restitution_scale, "m/s", "K in SF = 1/(1 + (V_in/K)^2)", r.restitution_scale);
+    v.bounded("friction_angle_mean_deg", m.friction_angle_mean_deg, "deg", "mean friction angle",
+              r.friction_angle_mean_deg);
+    v.bounded("friction_coefficient_sd", m.friction_coefficient_sd, "-",
+              "standard deviation of the friction coefficient tan(phi)", r.friction_coefficient_sd);
+    v.bounded("lateral_tilt_sd_deg", m.lateral_tilt_sd_deg, "deg",
+              "standard deviation of the lateral ground tilt drawn at each impact", r.lateral_tilt_sd_deg);
+  }
 };
 
 /// Ground roughness: realization i shifts every grid point (or TIN vertex) vertically by

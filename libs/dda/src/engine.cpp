@@ -389,8 +389,9 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   s.contacts.clear();
   bool any_closed = false;
   double spring_energy = 0.0;
-  // Contacts closed through the whole step: their end points (world) and normals.
-  thread_local std::vector<std::pair<Vec3, Vec3>> persistent;
+  // Contacts closed through the whole step: their end points (world), normals and, for
+  // those that end it locked, the friction impulse they can carry (settle_contacts).
+  thread_local std::vector<Persistent> persistent;
   persistent.clear();
   for (std::size_t i = 0; i < contacts.size(); ++i) {
     Contact& c = contacts[i];
@@ -425,7 +426,9 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
     }
     any_closed = true;
     spring_energy += 0.5 * p * std::min(0.0, g) * std::min(0.0, g);
-    if (start_modes[i] != ContactMode::open) persistent.emplace_back(c.point + du, c.normal);
+    if (start_modes[i] != ContactMode::open)
+      persistent.push_back({c.point + du, c.normal,
+                            c.mode == ContactMode::locked ? friction * c.normal_force * dt : 0.0});
     s.contacts.push_back(c);
   }
   apply_displacement<N>(model, s, d, dt, freeze_strain);

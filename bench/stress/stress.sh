@@ -446,8 +446,8 @@ else
   rest_release=("release.height=$h")
 fi
 case $mode in
-  ci) slide_yaws=(0 45); slide_cuts=(alternating); slide_mus=(0 0.2); stick_yaws=(); analytic_dofs=(rigid6)
-      roll_spheres=(); roll_yaws=() ;;
+  ci) slide_yaws=(0 45); slide_cuts=(alternating); slide_mus=(0 0.2); stick_yaws=(0); analytic_dofs=(rigid6)
+      roll_spheres=(sphere5120); roll_yaws=(0) ;;
   quick) slide_yaws=(0 30 45 60 90); slide_cuts=(alternating random fixed); slide_mus=(0 0.2); stick_yaws=(0 45)
          analytic_dofs=(rigid6); roll_spheres=(sphere5120 sphere1280); roll_yaws=(0 45) ;;
   full) slide_yaws=(0 15 30 45 60 75 90); slide_cuts=(alternating random fixed); slide_mus=(0 0.2)

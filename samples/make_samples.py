@@ -26,7 +26,6 @@ import os
 import random
 import struct
 import sys
-import zlib
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -102,10 +101,11 @@ def site_dem():
 
 
 def geotiff(rows, west, north, cell):
-    """A single-band float32 GeoTIFF (deflate), pixel-is-area, EPSG:2056, nodata -9999."""
+    """A single-band float32 GeoTIFF, uncompressed (so that the bytes do not depend on a
+    compressor's version), pixel-is-area, EPSG:2056, nodata -9999."""
     nrows, ncols = len(rows), len(rows[0])
     raw = b"".join(struct.pack("<%df" % ncols, *r) for r in rows)
-    data = zlib.compress(raw, 9)
+    data = raw
     scale = struct.pack("<3d", cell, cell, 0.0)
     tie = struct.pack("<6d", 0.0, 0.0, 0.0, west, north, 0.0)
     keys = [1, 1, 0, 4,
@@ -117,7 +117,7 @@ def geotiff(rows, west, north, cell):
     nodata = b"-9999\0"
     # (tag, type, count, value or bytes); types: 3 SHORT, 4 LONG, 12 DOUBLE, 2 ASCII
     entries = [
-        (256, 3, 1, ncols), (257, 3, 1, nrows), (258, 3, 1, 32), (259, 3, 1, 8), (262, 3, 1, 1),
+        (256, 3, 1, ncols), (257, 3, 1, nrows), (258, 3, 1, 32), (259, 3, 1, 1), (262, 3, 1, 1),
         (273, 4, 1, None), (277, 3, 1, 1), (278, 3, 1, nrows), (279, 4, 1, len(data)), (284, 3, 1, 1),
         (339, 3, 1, 3), (33550, 12, 3, scale), (33922, 12, 6, tie), (34735, 3, len(keys), geokeys),
         (42113, 2, len(nodata), nodata),

@@ -307,6 +307,8 @@ def main():
     docs = ["README.md"] + sorted(os.path.relpath(p, source) for p in glob.glob(os.path.join(source, "docs", "*.md")))
     cmds = {d: commands(os.path.join(source, d), d, problems) for d in docs}
     flat = [c for d in docs for c in cmds[d]]
+    if not flat:
+        problems.append(f"no ```sh commands found in README.md and docs/*.md under {source}")
     used_ex, used_opt, used_ov = plan(flat, args.realizations, problems)
     problems += [f"EXCLUDED entry matches no command: {EXCLUDED[k][0]}" for k in range(len(EXCLUDED)) if k not in used_ex]
     problems += [f"OPTIONAL entry matches no command: {OPTIONAL[k][0]}" for k in range(len(OPTIONAL)) if k not in used_opt]

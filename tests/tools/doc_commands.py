@@ -254,11 +254,11 @@ def script_for(cmds, logs):
             continue
         out, err = os.path.join(logs, f"{k}.out"), os.path.join(logs, f"{k}.err")
         pre = [f"[ -e {shlex.quote(p)} ] && echo {shlex.quote(p)}" for _, p in c.outputs]
-        s.append(f"echo start {k} >> \"$__status\"")
+        s.append(f"echo start {k} $EPOCHREALTIME >> \"$__status\"")
         if pre:
             s.append("{ " + "; ".join(pre) + "; } > " + shlex.quote(out + ".before") + " 2>/dev/null")
         s.append("{\n" + with_overrides(c) + "\n} > " + shlex.quote(out) + " 2> " + shlex.quote(err))
-        s.append(f"__rc=$?; echo \"end {k} $__rc $PWD\" >> \"$__status\"")
+        s.append(f"__rc=$?; echo \"end {k} $__rc $EPOCHREALTIME $PWD\" >> \"$__status\"")
         s.append(f"[ $__rc -eq {c.expect} ] || exit 1")
     s.append("exit 0")
     return "\n".join(s) + "\n"
@@ -366,14 +366,14 @@ def main():
             except subprocess.TimeoutExpired:
                 timed_out = True
             status = {}
-            last_started = None
+            last_started, started_at = None, 0.0
             if os.path.exists(os.path.join(logs, "status")):
                 for line in open(os.path.join(logs, "status")):
-                    parts = line.split(" ", 3)
+                    parts = line.split(" ", 4)
                     if parts[0] == "start":
-                        last_started = int(parts[1])
+                        last_started, started_at = int(parts[1]), float(parts[2])
                     else:
-                        status[int(parts[1])] = (int(parts[2]), parts[3].rstrip("\n"))
+                        status[int(parts[1])] = (int(parts[2]), float(parts[3]) - started_at, parts[4].rstrip("\n"))
             ok_doc = True
             for k, c in enumerate(cmds[d]):
                 if c.excluded:
@@ -392,7 +392,7 @@ def main():
                         failed.append(f"{c.where}: {c.first_line()}\n    not run: {r.stderr.strip()}")
                     ok_doc = False
                     continue
-                rc, cwd = status[k]
+                rc, seconds, cwd = status[k]
                 before = set(open(os.path.join(logs, f"{k}.out.before")).read().split("\n")) \
                     if os.path.exists(os.path.join(logs, f"{k}.out.before")) else set()
                 problems_k = check_outputs(c, cwd, before)
@@ -404,7 +404,7 @@ def main():
                                   "\n" + tail(os.path.join(logs, f"{k}.err")))
                 elif d in selected:
                     passed += 1
-                    print(f"ok       {c.where}: {c.first_line()}")
+                    print(f"ok       {c.where} ({seconds:.1f} s): {c.first_line()}")
             if ok_doc:
                 roots[d] = root
             print(f"-- {d}: {time.monotonic() - started:.1f} s")

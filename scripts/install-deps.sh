@@ -10,6 +10,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libopenmpi-dev openmpi-bin
   python3-matplotlib python3-h5py python3-numpy
+  time
 )
 
 missing=()

@@ -9,6 +9,8 @@
   - temporaries of dead processes of this host are removed, other hosts' are kept;
   - the default thread count follows the affinity mask and SLURM_CPUS_PER_TASK;
   - progress lines (not a terminal) name the output and shard; the summary line;
+  - on a terminal, one refreshing line for a lone process, whole labelled lines for
+    shards and for jobs of a parallel make (two shards under make -j2);
   - a build without MPI refuses to run under an MPI launcher; --version says so;
   - a stats output folder keeps only this run's outputs;
   - talus-plot --help works without plotting libraries, honours TALUS_PYTHON.
@@ -17,6 +19,8 @@ Usage: run_control.py --bin BUILD/bin [--realizations N]
 """
 import argparse
 import os
+import pty
+import select
 import shutil
 import signal
 import socket
@@ -36,6 +40,29 @@ outputs: {{chunk: 4, hazard_cell_size: 2}}
 """
 
 failures = []
+
+
+def run_on_tty(cmd, cwd, env):
+    """Runs cmd with its standard output and error on a new pseudo-terminal; returns the
+    exit code and everything written to the terminal."""
+    master, slave = pty.openpty()
+    p = subprocess.Popen(cmd, cwd=cwd, env=env, stdin=subprocess.DEVNULL, stdout=slave, stderr=slave)
+    os.close(slave)
+    out = b""
+    while True:
+        ready, _, _ = select.select([master], [], [], 1.0)
+        if ready:
+            try:
+                data = os.read(master, 65536)
+            except OSError:  # the terminal is closed once every writer has ended
+                data = b""
+            if not data:
+                break
+            out += data
+        elif p.poll() is not None:
+            break
+    os.close(master)
+    return p.wait(), out.decode(errors="replace")
 
 
 def check(condition, what, detail=""):
@@ -142,6 +169,37 @@ def main():
         lines = [l for l in r.stderr.splitlines() if "ETA" in l]
         check(len(lines) >= 5 and all(l.startswith("dda-run: part.h5 [shard 1/2]: ") for l in lines),
               "progress lines name output and shard", r.stderr)
+        # Progress on a terminal: one refreshing line for a lone process; whole lines,
+        # labelled, for processes that share it (shards, jobs of a parallel make).
+        tty_env = dict(os.environ, TALUS_PROGRESS_INTERVAL="0")
+        tty_env.pop("MAKEFLAGS", None)
+        tty_env.pop("SLURM_CPUS_PER_TASK", None)
+        rc, out = run_on_tty([dda, "-c", "scene.yaml", "--set", "realizations=8", "--threads", "1", "-o", "tty.h5"],
+                             work, tty_env)
+        check(rc == 0 and "\rtty.h5: 8/8 realizations" in out, "a lone process refreshes one line on a terminal", out)
+        rc, out = run_on_tty([dda, "-c", "scene.yaml", "--set", "realizations=16", "--threads", "1", "--shard", "1/2",
+                              "-o", "tty-part.h5"], work, tty_env)
+        lines = [l for l in out.replace("\r\n", "\n").split("\n") if "ETA" in l]
+        check(rc == 0 and "\r" not in out.replace("\r\n", "\n") and len(lines) >= 4 and
+              all(l.startswith("dda-run: tty-part.h5 [shard 1/2]: ") for l in lines),
+              "a shard prints whole labelled lines on a terminal", out)
+        rc, out = run_on_tty([dda, "-c", "scene.yaml", "--set", "realizations=8", "--threads", "1", "-o", "tty-make.h5"],
+                             work, dict(tty_env, MAKEFLAGS=" -j2 --jobserver-auth=3,4"))
+        check(rc == 0 and "\r" not in out.replace("\r\n", "\n") and "dda-run: tty-make.h5: 4/8 realizations" in out,
+              "a job of a parallel make prints whole lines on a terminal", out)
+        if shutil.which("make"):
+            # The case of the issue: two shards under make -j2 on one terminal.
+            with open(os.path.join(work, "Makefile"), "w") as f:
+                f.write("all: s0.h5 s1.h5\ns%.h5:\n\t" + dda + " -c scene.yaml --set realizations=16 --threads 1"
+                        " --shard $*/2 -o $@\n")
+            rc, out = run_on_tty(["make", "-j2", "-s"], work, tty_env)
+            text = out.replace("\r\n", "\n")
+            lines = [l for l in text.split("\n") if "ETA" in l]
+            check(rc == 0 and "\r" not in text and
+                  any(l.startswith("dda-run: s0.h5 [shard 0/2]: ") for l in lines) and
+                  any(l.startswith("dda-run: s1.h5 [shard 1/2]: ") for l in lines) and
+                  all(l.startswith(("dda-run: s0.h5 [shard 0/2]: ", "dda-run: s1.h5 [shard 1/2]: ")) for l in lines),
+                  "two shards under make -j2 print whole labelled lines on one terminal", out)
         r = run([dda, "-q", "-c", "scene.yaml", "--set", "realizations=4", "-o", "quiet.h5"],
                 env={"TALUS_PROGRESS_INTERVAL": "0"})
         check(r.returncode == 0 and r.stderr == "", "-q prints nothing", r.stderr)

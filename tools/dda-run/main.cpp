@@ -39,39 +39,51 @@ using namespace talus;
 
 // "LABEL: done/total (percent), elapsed, rate, ETA" at the default log level (-q hides
 // it): on a terminal one refreshing line; in logs (make | tee, Slurm) a plain line every
-// `log_interval` seconds. The label names the output and shard, so that the lines of
-// processes sharing one log or terminal tell apart.
+// `interval` seconds. The label names the output and shard, so that the lines of
+// processes sharing one log or terminal tell apart. Processes that likely share the
+// terminal (shards, jobs of a parallel make) print whole lines there too, every 10 s:
+// one refreshing line would be overwritten by the others'.
 class Progress {
  public:
-  Progress(std::string label, std::size_t total, std::size_t already)
+  Progress(std::string label, std::size_t total, std::size_t already, bool sharded)
       : label_(std::move(label)), total_(total), done_(already), start_done_(already) {
     enabled_ = core::log_level() >= core::LogLevel::warn;
-    tty_ = enabled_ && ::isatty(STDERR_FILENO) == 1;
+    const bool tty = enabled_ && ::isatty(STDERR_FILENO) == 1;
+    refresh_ = tty && !sharded && !under_parallel_make();
+    interval_ = tty ? 10.0 : 30.0;
     const char* interval = std::getenv("TALUS_PROGRESS_INTERVAL");
-    if (interval) log_interval_ = std::max(0.0, std::strtod(interval, nullptr));
+    if (interval) interval_ = std::max(0.0, std::strtod(interval, nullptr));
   }
   void advance() {
     ++done_;
     if (!enabled_) return;
     const double t = clock_.seconds();
     const bool last = done_ == total_;
-    if (tty_) {
+    if (refresh_) {
       if (t - shown_ < 0.25 && !last) return;
       std::fprintf(stderr, "\r%s\033[K", line(t).c_str());
       if (last) std::fputc('\n', stderr);
       std::fflush(stderr);
     } else {
-      if (t - shown_ < log_interval_ || last) return;  // the summary reports the end
+      if (t - shown_ < interval_ || last) return;  // the summary reports the end
       core::log_notice(line(t));
     }
     shown_ = t;
   }
   // Ends a refreshing line before other messages.
   void finish() {
-    if (tty_ && done_ != total_) std::fputc('\n', stderr);
+    if (refresh_ && done_ != total_) std::fputc('\n', stderr);
   }
 
  private:
+  // GNU make passes -j (and its jobserver) to the jobs it runs in parallel.
+  static bool under_parallel_make() {
+    const char* flags = std::getenv("MAKEFLAGS");
+    if (flags == nullptr) return false;
+    const std::string f = flags;
+    return f.find("--jobserver") != std::string::npos || f.rfind("-j", 0) == 0 || f.find(" -j") != std::string::npos;
+  }
+
   std::string line(double t) const {
     const double rate = t > 0.0 ? static_cast<double>(done_ - start_done_) / t : 0.0;
     const double eta = rate > 0.0 ? static_cast<double>(total_ - done_) / rate : 0.0;
@@ -84,8 +96,8 @@ class Progress {
   std::string label_;
   std::size_t total_, done_, start_done_;
   bool enabled_ = true;
-  bool tty_ = false;
-  double log_interval_ = 30.0;
+  bool refresh_ = false;
+  double interval_ = 30.0;
   double shown_ = 0.0;
   core::Stopwatch clock_;
 };
@@ -253,7 +265,7 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
   std::size_t chunks = 0;
   std::vector<mc::RealizationResult> buffer;
   const std::string label = output + (shard.count > 1 ? " [shard " + shard.text() + "]" : "");
-  Progress progress(label, all.size(), done.size());
+  Progress progress(label, all.size(), done.size(), shard.count > 1);
   clock.restart();
   std::size_t ran = 0;
   {

@@ -122,12 +122,12 @@ def mesh_volume(v, f):
 
 
 def cmd_rock_obj(args):
-    """A scanned-like rock: a level-3 icosphere (1280 triangles) stretched to 1.4 x 1 x 0.75,
+    """A scanned-like rock: a level-3 icosphere (1280 triangles; --levels 4: 5120) stretched to 1.4 x 1 x 0.75,
     its radius modulated by smooth random bumps, per-vertex noise and one deep dent. The
     surface stays a radial graph over the sphere (star-shaped about the centre), so it is
     closed and cannot self-intersect, whatever the noise."""
     rng = np.random.default_rng(args.seed)
-    v, f = icosphere(3)
+    v, f = icosphere(args.levels)
     r = np.ones(len(v))
     for _ in range(25):
         d = rng.normal(size=3)
@@ -650,6 +650,7 @@ def main():
     s = sub.add_parser("rock-obj")
     s.add_argument("out")
     s.add_argument("--seed", type=int, default=5)
+    s.add_argument("--levels", type=int, default=3)
     s.add_argument("--volume", type=float, default=1.0)
 
     s = sub.add_parser("sphere-obj")

@@ -12,7 +12,38 @@
 
 namespace talus::dda {
 
+namespace {
+// The presets' time steps (s), from the run time against error measurements.
+constexpr double kScreeningTimeStep = 2e-3;
+constexpr double kResearchTimeStep = 2.5e-4;
+}  // namespace
+
+void apply_preset(Settings& s, const std::string& preset) {
+  // Measured by bench/pareto/pareto.py (docs/benchmarks.md, "Run time against error").
+  const Settings design;
+  s.preset = preset;
+  s.dof = design.dof;
+  s.time_step = design.time_step;
+  s.penalty_omega = design.penalty_omega;
+  s.max_open_close_iterations = design.max_open_close_iterations;
+  s.max_displacement_ratio = design.max_displacement_ratio;
+  if (preset == "screening") {
+    s.time_step = kScreeningTimeStep;
+  } else if (preset == "research") {
+    s.time_step = kResearchTimeStep;
+  } else if (preset != "design") {
+    throw core::InputError("dda settings", "preset '" + preset + "': expected screening, design or research");
+  }
+}
+
 void Settings::visit(core::SettingsVisitor& v) {
+  // The preset first: reading it sets the fields it names, and the fields that follow
+  // in this visit override it where they are given.
+  const std::string before = preset;
+  v.choice("preset", preset, {"screening", "design", "research"},
+           "measured trade of run time against error (docs/benchmarks.md): sets time_step and the "
+           "numerical fields it names; fields given explicitly win");
+  if (preset != before) apply_preset(*this, preset);
   v.choice("dof", dof, {"rigid6", "full12"},
            "unknowns per block: rigid 6-DOF (fast default) or full 12-DOF DDA with strains");
   v.field("time_step", time_step, "s", "nominal time step");

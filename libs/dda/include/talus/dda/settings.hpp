@@ -23,6 +23,10 @@ enum class RestitutionLaw : std::uint8_t {
 /// Numerical and physical settings of the engine, with defaults (SI units). A driver may
 /// override them (YAML, --set) through visit(); Model::build validates them.
 struct Settings {
+  /// A measured trade of run time against error (docs/benchmarks.md, "Run time against
+  /// error"): "screening", "design" (the defaults) or "research". Reading a preset sets
+  /// the numerical fields it names (apply_preset); fields given explicitly beside it win.
+  std::string preset = "design";
   std::string dof = "rigid6";               ///< "rigid6" or "full12"
   double time_step = 1e-3;                  ///< nominal Δt (s)
   double min_time_step = 1e-7;              ///< smallest Δt the step control may cut to (s)
@@ -76,5 +80,9 @@ struct Settings {
 
   void visit(core::SettingsVisitor& v);
 };
+
+/// Sets the numerical fields of `preset` ("screening", "design" or "research") in `s`;
+/// throws core::InputError for another name.
+void apply_preset(Settings& s, const std::string& preset);
 
 }  // namespace talus::dda

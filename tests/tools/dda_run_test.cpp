@@ -245,6 +245,31 @@ TEST_F(DdaRun, ExampleScenesRun) {
 }
 
 
+// The presets of docs/dda-run.md ("Presets"): each runs, --print-config shows the time
+// step it documents, and a field given beside a preset wins over it.
+TEST_F(DdaRun, PresetsRunAndPrintTheirSettings) {
+  const std::vector<std::pair<std::string, std::string>> documented = {
+      {"screening", "time_step: 0.002 "}, {"design", "time_step: 0.001 "}, {"research", "time_step: 0.00025 "}};
+  for (const auto& [preset, line] : documented) {
+    SCOPED_TRACE(preset);
+    const Outcome printed = run({"-c", "scene.yaml", "--set", "engine.preset=" + preset, "--print-config"});
+    ASSERT_EQ(printed.code, 0) << printed.err;
+    EXPECT_NE(printed.out.find("preset: " + preset + " "), std::string::npos) << printed.out;
+    EXPECT_NE(printed.out.find(line), std::string::npos) << printed.out;
+    const Outcome r = run({"-c", "scene.yaml", "--set", "engine.preset=" + preset, "--set", "realizations=2",
+                           "--threads", "1", "-o", "preset.h5"});
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_EQ(load("preset.h5").data.records.size(), 2u);
+  }
+  const Outcome explicit_step = run({"-c", "scene.yaml", "--set", "engine.preset=screening", "--set",
+                                     "engine.time_step=5e-4", "--print-config"});
+  ASSERT_EQ(explicit_step.code, 0) << explicit_step.err;
+  EXPECT_NE(explicit_step.out.find("time_step: 0.0005 "), std::string::npos) << explicit_step.out;
+  const Outcome bad = run({"-c", "scene.yaml", "--set", "engine.preset=fast", "--print-config"});
+  EXPECT_NE(bad.code, 0);
+  EXPECT_NE(bad.err.find("screening, design, research"), std::string::npos) << bad.err;
+}
+
 TEST_F(DdaRun, BlockInTheGroundIsRefusedWithOneLine) {
   const Outcome r = run({"-c", "plane.yaml", "-o", "refused.h5"});
   EXPECT_EQ(r.code, 3) << r.err;

@@ -48,6 +48,10 @@ TABLE_VARIABLES = [("runout", "Runout (m, along x from the release point at x = 
                    ("max_normal_jump_height", "Jump height, normal to the ground (m)")]
 QUANTILES = [0.05, 0.25, 0.5, 0.75, 0.95, 0.99]
 END_REASONS = ["rest", "left_terrain", "step_limit", "non_finite", "no_convergence", "penetration"]
+# The bench slope's plan extent (SPEC §6): a block that left the terrain left through the
+# edge its final centroid is nearest to.
+LENGTH, WIDTH = 60.0, 40.0
+EDGES = ["x = 60 m", "y = 40 m", "y = 0", "x = 0"]
 
 
 def fail(message):
@@ -117,6 +121,13 @@ class Run:
     def toe(self, block, x_toe):
         sel = self.select(block)
         return float(np.mean(self.final[sel, 0] >= x_toe)) if sel.any() else float("nan")
+
+    def exits(self, block=None):
+        """How many realizations left the terrain through each edge (EDGES order)."""
+        sel = self.select(block) & (self.end == 2)
+        x, y = self.final[sel, 0], self.final[sel, 1]
+        nearest = np.argmin(np.stack([np.abs(LENGTH - x), np.abs(WIDTH - y), np.abs(y), np.abs(x)]), axis=0)
+        return [int(np.sum(nearest == k)) for k in range(len(EDGES))]
 
 
 def series_keys():
@@ -241,12 +252,14 @@ def lateral_rows(studies):
     groups = [(level, [level]) for level in LEVELS] + [("S1-S3", LEVELS)]
     base = {}
     rows = []
-    for i, (name, summary, _) in enumerate(studies):
+    for i, (name, summary, runs) in enumerate(studies):
         for group, levels in groups:
             x = np.concatenate([lateral_samples(summary, level) for level in levels])
             mean, sd, se, n = mean_se(x)
+            exits = np.sum([runs[level].exits() for level in levels], axis=0)
             row = {"triangulation": name, "level": group, "n": n, "mean": mean, "sd": sd, "se": se,
-                   "z_zero": mean / se if se > 0 else float("nan")}
+                   "z_zero": mean / se if se > 0 else float("nan"),
+                   "left_y40": int(exits[1]), "left_y0": int(exits[2])}
             row["p_zero"] = math.erfc(abs(row["z_zero"]) / math.sqrt(2))
             if i == 0:
                 base[group] = (mean, se)
@@ -319,26 +332,31 @@ def fraction_rows(name, summary, runs, toe):
         s = summary.get(key)
         fr = s["fractions"]
         benches = [fr.get("stop:bench %d" % k, 0.0) for k in (1, 2, 3)]
+        exits = runs[level].exits(block)
         rows.append({
             "triangulation": name, "level": level, "block": block or "all", "realizations": s["realizations"],
             "toe": runs[level].toe(block, toe), "bench1": benches[0], "bench2": benches[1], "bench3": benches[2],
             "benches": sum(benches), "slope": fr.get("stop:slope", 0.0),
             "runout_area": fr.get("stop:toe/run-out", 0.0), "out_of_domain": fr.get("stop:out of domain", 0.0),
             "rest": fr.get("end:rest", 0.0), "left_terrain": fr.get("end:left_terrain", 0.0),
-            "step_limit": fr.get("end:step_limit", 0.0), "numerical_failure": fr.get("numerical_failure", 0.0)})
+            "step_limit": fr.get("end:step_limit", 0.0), "numerical_failure": fr.get("numerical_failure", 0.0),
+            "cross_48": fr.get("cross:mid-runout", float("nan")),
+            "left_x60": exits[0], "left_y40": exits[1], "left_y0": exits[2], "left_x0": exits[3]})
     return rows
 
 
 def fraction_table(rows):
-    head = ["series", "realizations", "toe (x ≥ 36 m)", "bench 1", "bench 2", "bench 3", "benches",
-            "slope", "run-out area", "left the terrain", "step limit", "numerical failure"]
+    head = ["series", "realizations", "toe (x ≥ 36 m)", "crossed x = 48 m", "bench 1", "bench 2", "bench 3",
+            "benches", "slope", "run-out area", "left the terrain", "step limit", "numerical failure",
+            "left via x = 60 / y = 40 / y = 0 / x = 0 (count)"]
     lines = ["**Where the blocks stopped (% of the realizations)**", "",
              "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in rows:
         key = r["level"] if r["block"] == "all" else r["level"] + "/" + r["block"]
         lines.append("| " + " | ".join([label(key), "%d" % r["realizations"]] + [pct(r[k]) for k in (
-            "toe", "bench1", "bench2", "bench3", "benches", "slope", "runout_area", "out_of_domain",
-            "step_limit", "numerical_failure")]) + " |")
+            "toe", "cross_48", "bench1", "bench2", "bench3", "benches", "slope", "runout_area", "out_of_domain",
+            "step_limit", "numerical_failure")] + ["%d / %d / %d / %d" % (
+                r["left_x60"], r["left_y40"], r["left_y0"], r["left_x0"])]) + " |")
     return "\n".join(lines) + "\n"
 
 
@@ -350,7 +368,7 @@ def quantile(v, p):
 def summary_table(summary, rows):
     """One line per series: the figures a reader compares first."""
     head = ["series", "runout P50 / P95 (m)", "lateral mean / P5 / P95 (m)", "max speed P50 / P95 (m/s)",
-            "jump height P50 / P95 (m)", "toe", "benches", "at rest"]
+            "jump height P50 / P95 (m)", "toe", "crossed x = 48 m", "benches", "left the terrain"]
     lines = ["**Summary**", "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for key, r in zip(series_keys(), rows):
         v = summary.get(key)["variables"]
@@ -361,7 +379,8 @@ def summary_table(summary, rows):
             "%s / %s / %s" % (fmt(la.get("mean"), 2), fmt(quantile(la, 0.05), 1), fmt(quantile(la, 0.95), 1)),
             "%s / %s" % (fmt(quantile(sp, 0.5), 1), fmt(quantile(sp, 0.95), 1)),
             "%s / %s" % (fmt(quantile(ju, 0.5), 2), fmt(quantile(ju, 0.95), 2)),
-            pct(r["toe"]) + " %", pct(r["benches"]) + " %", pct(r["rest"]) + " %"]) + " |")
+            pct(r["toe"]) + " %", pct(r["cross_48"]) + " %", pct(r["benches"]) + " %",
+            pct(r["left_terrain"]) + " %"]) + " |")
     return "\n".join(lines) + "\n"
 
 
@@ -379,9 +398,9 @@ def cmd_tables(args):
     write_atomically(args.output, study_tables(args.study, args.toe))
 
 
-FRACTION_FIELDS = ["triangulation", "level", "block", "realizations", "toe", "bench1", "bench2", "bench3",
-                   "benches", "slope", "runout_area", "out_of_domain", "rest", "left_terrain", "step_limit",
-                   "numerical_failure"]
+FRACTION_FIELDS = ["triangulation", "level", "block", "realizations", "toe", "cross_48", "bench1", "bench2",
+                   "bench3", "benches", "slope", "runout_area", "out_of_domain", "rest", "left_terrain", "step_limit",
+                   "numerical_failure", "left_x60", "left_y40", "left_y0", "left_x0"]
 
 
 def cmd_fractions(args):
@@ -397,7 +416,7 @@ def cmd_fractions(args):
 
 
 LATERAL_FIELDS = ["triangulation", "level", "n", "mean", "sd", "se", "z_zero", "p_zero", "diff", "se_diff",
-                  "z_diff", "p_diff"]
+                  "z_diff", "p_diff", "left_y40", "left_y0"]
 
 
 def cmd_triangulation(args):
@@ -413,7 +432,7 @@ def cmd_triangulation(args):
 
 def lateral_table(rows, first):
     head = ["triangulation", "level", "n (at rest)", "mean lateral ± SE (m)", "sd (m)", "z against 0",
-            "p against 0", "difference from %s ± SE (m)" % first, "z", "p"]
+            "p against 0", "difference from %s ± SE (m)" % first, "z", "p", "left via y = 40 m / y = 0"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in rows:
         diff = "–" if math.isnan(r["diff"]) else "%+.2f ± %.2f" % (r["diff"], r["se_diff"])
@@ -421,7 +440,72 @@ def lateral_table(rows, first):
             r["triangulation"], r["level"], "%d" % r["n"], "%+.2f ± %.2f" % (r["mean"], r["se"]), fmt(r["sd"]),
             "%+.1f" % r["z_zero"], "%.2g" % r["p_zero"], diff,
             "–" if math.isnan(r["z_diff"]) else "%+.1f" % r["z_diff"],
-            "–" if math.isnan(r["p_diff"]) else "%.2g" % r["p_diff"]]) + " |")
+            "–" if math.isnan(r["p_diff"]) else "%.2g" % r["p_diff"],
+            "%d / %d" % (r["left_y40"], r["left_y0"])]) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def ks(a, b):
+    """Two-sample Kolmogorov-Smirnov distance and its asymptotic p-value (Stephens), as stats."""
+    a, b = np.sort(a), np.sort(b)
+    if len(a) == 0 or len(b) == 0:
+        return float("nan"), float("nan")
+    grid = np.concatenate([a, b])
+    d = float(np.max(np.abs(np.searchsorted(a, grid, "right") / len(a) - np.searchsorted(b, grid, "right") / len(b))))
+    ne = len(a) * len(b) / (len(a) + len(b))
+    lam = (math.sqrt(ne) + 0.12 + 0.11 / math.sqrt(ne)) * d
+    if lam < 1e-3:
+        return d, 1.0
+    p = 2 * sum((-1) ** (k - 1) * math.exp(-2 * k * k * lam * lam) for k in range(1, 101))
+    return d, min(1.0, max(0.0, p))
+
+
+def other_outputs_table(studies, toe):
+    """Each triangulation against the first: KS distance (p) of the four CDF variables and the toe
+    fraction, per level (all blocks)."""
+    first_name, first_summary, first_runs = studies[0]
+    head = ["triangulation", "level"] + ["%s KS (p)" % var for var, _ in CDF_VARIABLES] + \
+           ["toe fraction (%s → this)" % first_name]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for name, summary, runs in studies[1:]:
+        for level in LEVELS:
+            cells = [name, level]
+            for var, _ in CDF_VARIABLES:
+                d, p = ks(first_summary.get(level)["variables"][var]["values"],
+                          summary.get(level)["variables"][var]["values"])
+                cells.append("%.3f (%.2g)" % (d, p))
+            t0, t1 = first_runs[level].toe(None, toe), runs[level].toe(None, toe)
+            n0, n1 = len(first_runs[level].end), len(runs[level].end)
+            se = math.sqrt(t0 * (1 - t0) / n0 + t1 * (1 - t1) / n1)
+            cells.append("%.1f → %.1f %% (± %.1f)" % (100 * t0, 100 * t1, 100 * se))
+            lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def spread_table(studies, toe):
+    """Lateral spread per triangulation and level: all blocks at rest, and those at rest past the toe."""
+    head = ["triangulation", "level", "lateral sd ± SE (m), at rest", "P5 … P95 (m)", "sd past the toe ± SE (m)",
+            "sd on the benches (m)", "left via the sides"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for name, summary, runs in studies:
+        for level in LEVELS:
+            v = summary.get(level)["variables"]["lateral"]
+            run = runs[level]
+            rest = run.end == 1
+            past = run.lateral[rest & (run.final[:, 0] >= toe)]
+            before = run.lateral[rest & (run.final[:, 0] < toe)]
+            exits = run.exits()
+
+            def sd_se(x):
+                if len(x) < 2:
+                    return "–"
+                sd = float(np.std(x, ddof=1))
+                return "%.2f ± %.2f (n = %d)" % (sd, sd / math.sqrt(2 * (len(x) - 1)), len(x))
+            lines.append("| " + " | ".join([
+                name, level, sd_se(np.asarray(v["values"])), "%s … %s" % (fmt(quantile(v, 0.05), 1),
+                                                                      fmt(quantile(v, 0.95), 1)),
+                sd_se(past), fmt(float(np.std(before, ddof=1)) if len(before) > 1 else float("nan")),
+                "%d" % (exits[1] + exits[2])]) + " |")
     return "\n".join(lines) + "\n"
 
 
@@ -466,7 +550,19 @@ def cmd_report(args):
              "Runout and lateral over the blocks at rest; speed and jump height over every realization "
              "without a numerical failure. Toe: final centroid at x ≥ %g m." % args.toe, "",
              "## Lateral drift by triangulation", "",
+             "Mean lateral over the blocks at rest; the last column counts the blocks that left the "
+             "terrain through its side edges (left out of the mean).", "",
              lateral_table(lateral_rows(studies), first[0]), ""]
+    if len(studies) > 1:
+        parts += ["## Other outputs by triangulation", "",
+                  "Each triangulation against %s, all blocks of a level: two-sample KS distance "
+                  "(asymptotic p-value) and toe fraction (± standard error of the difference)." % first[0], "",
+                  other_outputs_table(studies, args.toe), ""]
+    parts += ["## Lateral spread by roughness", "",
+              "Standard deviation of the lateral position of the blocks at rest (SE ≈ sd/√(2(n − 1))), "
+              "all of them and those past the toe (x ≥ %g m), and the blocks that left through the side "
+              "edges (the widest, left out)." % args.toe, "",
+              spread_table(studies, args.toe), ""]
     for arg in args.studies:
         parts.append("## " + study_tables(arg, args.toe).lstrip("# "))
     write_atomically(args.output, "\n".join(parts))

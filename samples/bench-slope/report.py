@@ -13,7 +13,7 @@ A STUDY is NAME=DIR: one triangulation of the study, DIR holding run-S1.h5 … r
   report.py triangulation STUDY STUDY ... -o TRIANGULATION.csv
       mean lateral ± standard error per level and triangulation, each against the first
   report.py lateral-figure STUDY STUDY ... -o FIG.png
-  report.py report STUDY ... [--toe X] [--seed S] [--bin DIR] -o REPORT.md
+  report.py report STUDY ... [--toe X] [--command C] [--bin DIR] -o REPORT.md
       all tables, with the machine, date and source revision
   report.py verify STUDY ... --realizations N --out DIR
       the checks of `make check`
@@ -542,11 +542,11 @@ def cmd_report(args):
     first = studies[0]
     n = first[2]["S1"].realizations
     parts = ["# Bench-slope study (SPEC §6)", "",
-             "- realizations: %d per level and triangulation (%d per block), seed %s" % (n, n // 4, args.seed),
+             "- realizations: %d per level and triangulation (%d per block)" % (n, n // 4),
              "- triangulations: %s" % ", ".join(s[0] for s in studies),
              "- written %s on %s" % (datetime.datetime.now().astimezone().strftime("%Y-%m-%d %H:%M %Z"), machine()),
              "- source revision: %s; tools: %s" % (revision(), args.bin or "?"),
-             "- regenerate: `make -j2 -C samples/bench-slope N=%d SEED=%s`" % (n, args.seed), "",
+             "- regenerate: `%s`" % args.command, "",
              "Runout and lateral over the blocks at rest; speed and jump height over every realization "
              "without a numerical failure. Toe: final centroid at x ≥ %g m." % args.toe, "",
              "## Lateral drift by triangulation", "",
@@ -638,7 +638,7 @@ def check_file(path, problems):
 
 def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    sub = p.add_subparsers(dest="command", required=True)
+    sub = p.add_subparsers(dest="subcommand", required=True)
     s = sub.add_parser("cdf")
     s.add_argument("summary")
     s.add_argument("--series", nargs="+", required=True)
@@ -656,7 +656,7 @@ def main():
     s = sub.add_parser("report")
     s.add_argument("studies", nargs="+", metavar="NAME=DIR")
     s.add_argument("--toe", type=float, default=36.0)
-    s.add_argument("--seed", default="1")
+    s.add_argument("--command", default="make -j2 -C samples/bench-slope", help="the command that wrote it")
     s.add_argument("--bin")
     s.add_argument("-o", "--output", required=True)
     s = sub.add_parser("verify")
@@ -666,7 +666,7 @@ def main():
     s.add_argument("--out", required=True)
     args = p.parse_args()
     {"cdf": cmd_cdf, "tables": cmd_tables, "fractions": cmd_fractions, "triangulation": cmd_triangulation,
-     "lateral-figure": cmd_lateral_figure, "report": cmd_report, "verify": cmd_verify}[args.command](args)
+     "lateral-figure": cmd_lateral_figure, "report": cmd_report, "verify": cmd_verify}[args.subcommand](args)
 
 
 if __name__ == "__main__":

@@ -65,7 +65,7 @@ STUDY = [
     ("omega=10", "contact stiffness", "alternating", ["engine.penalty_omega=10"]),
     ("omega=50", "contact stiffness", "alternating", ["engine.penalty_omega=50"]),
     ("omega=100", "contact stiffness", "alternating", ["engine.penalty_omega=100"]),
-    ("k=1e10 N/m", "contact stiffness", "alternating", ["engine.penalty_stiffness=1e10"]),
+    ("k=1e11 N/m", "contact stiffness", "alternating", ["engine.penalty_stiffness=1e11"]),
     ("oc=2", "open-close iterations", "alternating", ["engine.max_open_close_iterations=2"]),
     ("oc=4", "open-close iterations", "alternating", ["engine.max_open_close_iterations=4"]),
     ("oc=16", "open-close iterations", "alternating", ["engine.max_open_close_iterations=16"]),
@@ -244,6 +244,7 @@ def part_study(runner, n, variants):
     for (name, level, run), cpu in zip(keys, cpus):
         per.setdefault(name, {})[level] = {"run": run, "cpu": cpu, "s": samples(read_run(run))}
     ref = per["reference"]
+    default = per.get("default")
     rows = []
     for name, group, tri, sets in variants:
         levels = {}
@@ -251,12 +252,16 @@ def part_study(runner, n, variants):
             c = compare(ref[level]["s"], per[name][level]["s"])
             c["failures"] = per[name][level]["s"]["failures"]
             c["toe"] = per[name][level]["s"]["toe"]
+            # Against the defaults too: how far a setting moves the study from what a
+            # default run reports (the thresholds' sensitivity, docs/dda.md).
+            c["toe_pp_vs_default"] = (100.0 * (c["toe"] - default[level]["s"]["toe"]) if default else float("nan"))
             levels[level] = c
         cpu = sum(per[name][lv]["cpu"] for lv, _ in LEVELS)
         rows.append({"name": name, "group": group, "sets": runner.expand(sets), "triangulation": tri,
                      "ms_per_realization": 1e3 * cpu / (n * len(LEVELS)), "levels": levels,
                      "ks_max": max(levels[lv]["ks_max"] for lv, _ in LEVELS),
                      "toe_pp_max": max(abs(levels[lv]["toe_pp"]) for lv, _ in LEVELS),
+                     "toe_pp_vs_default_max": max(abs(levels[lv]["toe_pp_vs_default"]) for lv, _ in LEVELS),
                      "failures": sum(levels[lv]["failures"] for lv, _ in LEVELS)})
     return rows
 
@@ -451,17 +456,18 @@ def tables(results):
         on_front = {names[i] for i in front(pts)}
         lines.append("")
         lines.append("| setting | group | ms / realization | KS max | runout KS | lateral KS | speed KS | jump KS | "
-                     "toe energy KS | runout P95 shift | toe fraction S1/S2/S3 (Δ pp) | failures | front |")
-        lines.append("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---|")
+                     "toe energy KS | runout P95 shift | toe fraction S1/S2/S3 (Δ pp) | toe Δ to defaults (pp) | "
+                     "failures | front |")
+        lines.append("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---|")
         for r in rows:
             worst = {v: max(r["levels"][lv]["vars"][v]["ks"] for lv, _ in LEVELS) for v in VARIABLES}
             p95 = max((r["levels"][lv]["vars"]["runout"]["p95"] for lv, _ in LEVELS), key=abs)
             toe = " / ".join("%.1f (%+.1f)" % (100 * r["levels"][lv]["toe"], r["levels"][lv]["toe_pp"])
                              for lv, _ in LEVELS)
-            lines.append("| %s | %s | %.1f | %.3f | %.3f | %.3f | %.3f | %.3f | %.3f | %+.1f %% | %s | %d | %s |" % (
+            lines.append("| %s | %s | %.1f | %.3f | %.3f | %.3f | %.3f | %.3f | %.3f | %+.1f %% | %s | %.1f | %d | %s |" % (
                 r["name"], r["group"], r["ms_per_realization"], r["ks_max"], worst["runout"], worst["lateral"],
-                worst["max_speed"], worst["max_jump_height"], worst["toe_energy"], 100 * p95, toe, r["failures"],
-                "yes" if r["name"] in on_front else ""))
+                worst["max_speed"], worst["max_jump_height"], worst["toe_energy"], 100 * p95, toe,
+                r.get("toe_pp_vs_default_max", float("nan")), r["failures"], "yes" if r["name"] in on_front else ""))
     if "lod" in results:
         lines.append("")
         lines.append("| rock triangles | ms / realization | KS max | runout KS | lateral KS | speed KS | jump KS | "

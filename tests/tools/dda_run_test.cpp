@@ -249,7 +249,7 @@ TEST_F(DdaRun, ExampleScenesRun) {
 // step it documents, and a field given beside a preset wins over it.
 TEST_F(DdaRun, PresetsRunAndPrintTheirSettings) {
   const std::vector<std::pair<std::string, std::string>> documented = {
-      {"screening", "time_step: 0.002 "}, {"design", "time_step: 0.001 "}, {"research", "time_step: 0.00025 "}};
+      {"screening", "time_step: 0.002 "}, {"design", "time_step: 0.001 "}, {"research", "time_step: 0.0002 "}};
   for (const auto& [preset, line] : documented) {
     SCOPED_TRACE(preset);
     const Outcome printed = run({"-c", "scene.yaml", "--set", "engine.preset=" + preset, "--print-config"});

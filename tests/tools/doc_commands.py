@@ -50,6 +50,10 @@ EXCLUDED = [
      "50 kill-and-resume trials take minutes; the dda_run_kill_resume test runs the same script with 4"),
     (r"^bench/dda/threshold_sensitivity\.sh\b", "36 runs of 1000 realizations"),
     (r"^bench/dda/compare_runs\.py compare\b", "compares with run files of an earlier revision (BEFORE-S1.h5)"),
+    (r"^make (-j2 )?-C samples/bench-slope( check)?\s*(#.*)?$",
+     "the whole bench-slope study (about 11 minutes) and its check; the bench_slope_make test runs "
+     "the check (the study at 16 realizations per level, outputs checked)"),
+    (r"^bench/pareto/pareto\.py\b", "run time against error: about 80 runs of 500 realizations (an hour on 2 cores)"),
 ]
 
 # Commands that need a part of the build that is optional: run when it is there.

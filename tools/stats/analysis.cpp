@@ -266,6 +266,7 @@ RunResult run_result(const Run& run, const Settings& settings) {
                                          "): give the run's terrain with --set terrain=FILE");
     }
     out.terrain_file = path;
+    out.crs_wkt = ground->crs_wkt;
     out.origin_shift = {ground->origin_shift.x(), ground->origin_shift.y(), ground->origin_shift.z()};
   } else if (settings.hazard_maps && grid) {
     // Rasters without the origin shift would land in the wrong place in a GIS.

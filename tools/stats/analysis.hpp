@@ -99,6 +99,7 @@ struct RunResult {
   PlanView plan;
   std::array<double, 3> origin_shift = {0.0, 0.0, 0.0};  ///< m, added to the run's local coordinates
   std::string terrain_file;  ///< the terrain used for the shift ("" if none)
+  std::string crs_wkt;       ///< that terrain's CRS (WKT; "" if none or not known)
 };
 
 struct Analysis {

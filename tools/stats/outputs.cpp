@@ -384,10 +384,18 @@ std::vector<std::string> write_hazard_rasters(const std::string& dir, const std:
     for (const auto& [name, grid] : layers)
       for (const auto& format : settings.raster_formats) {
         const std::string path = (fs::path(dir) / (runs[r].name + "-" + name + "." + format)).string();
-        if (format == "asc")
+        const std::string& crs = a.runs[r].crs_wkt;
+        if (format == "asc") {
           io::write_esri_ascii(path, *grid);
-        else
-          io::write_geotiff(path, *grid);
+          if (!crs.empty()) {
+            // The CRS beside the grid, as GIS software looks for it.
+            const std::string prj = fs::path(path).replace_extension(".prj").string();
+            io::write_prj(prj, crs);
+            written.push_back(prj);
+          }
+        } else {
+          io::write_geotiff(path, *grid, -9999.0, crs);
+        }
         written.push_back(path);
       }
   }

@@ -407,6 +407,12 @@ Built build_terrain(const Settings& s, const std::vector<std::string>& inputs, c
   const double sigma = checked_sigma(s, settings_source);
   if (s.roughness.roughness_index) built.roughness_index = s.roughness.roughness_index;
   check_settings(s, settings_source);
+  // The CRS before the inputs: a DEM in degrees is refused before it is read.
+  std::string crs;
+  if (!s.crs.empty()) crs = io::resolve_crs(s.crs, settings_source);
+  else if (built.kind == SourceKind::dem)
+    if (const std::string declared = io::dem_crs(inputs.front()); !declared.empty())
+      crs = io::resolve_crs(declared, inputs.front());
 
   Terrain& t = built.terrain;
   switch (built.kind) {
@@ -427,6 +433,7 @@ Built build_terrain(const Settings& s, const std::vector<std::string>& inputs, c
   t.roughness.sigma = sigma;
   t.roughness.seed = s.seed;
   t.name = s.name.empty() ? default_name(s, built.kind, inputs) : s.name;
+  t.crs_wkt = crs;
   if (const std::string problem = io::terrain_problem(t); !problem.empty())
     throw InputError(settings_source, problem);
   return built;
@@ -455,6 +462,7 @@ std::string summary(const Built& built) {
   const geometry::Aabb box = t.mesh.bounds();
   out << "extent (local): x [" << num(box.lo.x()) << ", " << num(box.hi.x()) << "] m, y [" << num(box.lo.y()) << ", "
       << num(box.hi.y()) << "] m, z [" << num(box.lo.z()) << ", " << num(box.hi.z()) << "] m\n";
+  out << "CRS: " << io::crs_name(t.crs_wkt) << "\n";
   out << "origin shift: [" << num(t.origin_shift.x()) << ", " << num(t.origin_shift.y()) << ", "
       << num(t.origin_shift.z()) << "] m (added to local coordinates gives input coordinates)\n";
   out << "roughness: sigma " << num(t.roughness.sigma) << " m";

@@ -39,6 +39,10 @@ void Settings::visit(core::SettingsVisitor& v) {
            "input kind; auto: from the input extensions (.asc/.tif: dem; .xyz/.txt/.pts/.csv and .ply without "
            "faces: points; .stl/.obj/.ply/.off/.gltf/.glb: tin; no input: synthetic)");
   v.field("name", name, "terrain name recorded in the file; empty: from the inputs");
+  v.field("crs", crs,
+          "coordinate reference system of the input coordinates: EPSG:nnnn, WKT or a .prj file; empty: the "
+          "DEM's own (GeoTIFF spatial reference, or the .prj beside an .asc), none for meshes, point clouds and "
+          "synthetic slopes. Projected, in metres; geographic CRSs are refused");
   v.field("seed", seed, "-", "terrain seed: realization i of the roughness is a pure function of (seed, i)");
   v.choice("triangulation", triangulation, {"fixed", "alternating", "random"},
            "diagonal of each grid cell; fixed reproduces the reference model's one-sided cut");

@@ -20,6 +20,7 @@ struct Settings {
   /// Input kind: auto infers it from the input extensions (none: synthetic).
   std::string source = "auto";
   std::string name;                 ///< terrain name; empty: from the inputs
+  std::string crs;                  ///< EPSG:nnnn, WKT or .prj file; empty: the DEM's own
   std::uint64_t seed = 1;           ///< terrain seed: roughness realizations and random diagonals
   std::string triangulation = "alternating";  ///< fixed, alternating or random (grid terrains)
   terrain::SyntheticSlope synthetic;

@@ -4,6 +4,7 @@
 #include <cpl_error.h>
 #include <cpl_string.h>
 #include <gdal.h>
+#include <ogr_srs_api.h>
 
 #include <algorithm>
 #include <array>
@@ -17,6 +18,7 @@
 #include <mutex>
 #include <optional>
 #include <string_view>
+#include <type_traits>
 
 #include "talus/core/error.hpp"
 #include "talus/io/paths.hpp"
@@ -330,6 +332,111 @@ struct DatasetCloser {
 using DatasetPtr = std::unique_ptr<void, DatasetCloser>;
 
 }  // namespace
+
+namespace {
+
+struct SrsCloser {
+  void operator()(OGRSpatialReferenceH srs) const {
+    if (srs) OSRDestroySpatialReference(srs);
+  }
+};
+using SrsPtr = std::unique_ptr<std::remove_pointer_t<OGRSpatialReferenceH>, SrsCloser>;
+
+std::string take_string(char* text) {
+  std::string out = text ? text : "";
+  CPLFree(text);
+  return out;
+}
+
+std::string name_of(OGRSpatialReferenceH srs) {
+  const char* name = OSRGetName(srs);
+  std::string out = name && *name ? name : "unnamed";
+  const char* authority = OSRGetAuthorityName(srs, nullptr);
+  const char* code = OSRGetAuthorityCode(srs, nullptr);
+  if (authority && code) out += std::string(" (") + authority + ":" + code + ")";
+  return out;
+}
+
+// The CRS of `wkt` with EPSG codes filled in where GDAL recognises the definition (an
+// ESRI .prj names none).
+SrsPtr parse_srs(const std::string& text) {
+  SrsPtr srs(OSRNewSpatialReference(nullptr));
+  OSRSetAxisMappingStrategy(srs.get(), OAMS_TRADITIONAL_GIS_ORDER);
+  if (OSRSetFromUserInput(srs.get(), text.c_str()) != OGRERR_NONE) return nullptr;
+  if (!OSRGetAuthorityCode(srs.get(), nullptr)) OSRAutoIdentifyEPSG(srs.get());
+  return srs;
+}
+
+}  // namespace
+
+std::string dem_crs(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (ext == ".asc") {
+    for (const char* prj : {".prj", ".PRJ"}) {
+      const std::filesystem::path side = std::filesystem::path(path).replace_extension(prj);
+      std::error_code ec;
+      if (!std::filesystem::is_regular_file(side, ec)) continue;
+      std::ifstream in(side, std::ios::binary);
+      std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+      if (!in.good() && !in.eof()) throw InputError(side.string(), "cannot be read");
+      while (!text.empty() && std::isspace(static_cast<unsigned char>(text.back()))) text.pop_back();
+      if (text.empty()) throw InputError(side.string(), "is empty (a .prj file holds the CRS as WKT)");
+      return text;
+    }
+    return {};
+  }
+  QuietGdal quiet;
+  DatasetPtr ds(GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr));
+  if (!ds) throw InputError(path, "cannot be opened as a raster" + QuietGdal::last_message());
+  const char* wkt = GDALGetProjectionRef(static_cast<GDALDatasetH>(ds.get()));
+  return wkt ? std::string(wkt) : std::string();
+}
+
+std::string resolve_crs(const std::string& text, const std::string& source) {
+  QuietGdal quiet;
+  const SrsPtr srs = parse_srs(text);
+  const std::string shown = text.size() > 60 ? text.substr(0, 57) + "..." : text;
+  if (!srs)
+    throw InputError(source, "CRS '" + shown + "' is not a coordinate reference system GDAL knows (give EPSG:nnnn, "
+                             "WKT or a .prj file)" + QuietGdal::last_message());
+  const std::string name = name_of(srs.get());
+  const std::string hint =
+      "reproject the DEM to a projected CRS in metres first, e.g. gdalwarp -t_srs EPSG:32632 -tr 5 5 -r bilinear "
+      "in.tif out.tif (the UTM zone or national grid of the site)";
+  if (OSRIsGeographic(srs.get()))
+    throw InputError(source, "CRS " + name + " is geographic (degrees); Talus computes in metres: " + hint);
+  if (!OSRIsProjected(srs.get()))
+    throw InputError(source, "CRS " + name + " is not a projected CRS; Talus computes in metres: " + hint);
+  const double metres = OSRGetLinearUnits(srs.get(), nullptr);
+  if (std::abs(metres - 1.0) > 1e-9)
+    throw InputError(source, "CRS " + name + " measures in units of " + std::to_string(metres) +
+                                 " m; Talus computes in metres: " + hint);
+  char* wkt = nullptr;
+  const char* options[] = {"FORMAT=WKT2_2019", "MULTILINE=NO", nullptr};
+  if (OSRExportToWktEx(srs.get(), &wkt, options) != OGRERR_NONE)
+    throw InputError(source, "CRS " + name + " cannot be written as WKT" + QuietGdal::last_message());
+  return take_string(wkt);
+}
+
+std::string crs_name(const std::string& wkt) {
+  if (wkt.empty()) return "none";
+  QuietGdal quiet;
+  const SrsPtr srs = parse_srs(wkt);
+  return srs ? name_of(srs.get()) : "unreadable";
+}
+
+void write_prj(const std::string& path, const std::string& wkt) {
+  if (wkt.empty()) return;
+  QuietGdal quiet;
+  const SrsPtr srs = parse_srs(wkt);
+  if (!srs) throw core::RuntimeError(path + ": the CRS cannot be written as a .prj file");
+  char* esri = nullptr;
+  const char* options[] = {"FORMAT=WKT1_ESRI", nullptr};
+  if (OSRExportToWktEx(srs.get(), &esri, options) != OGRERR_NONE)
+    throw core::RuntimeError(path + ": the CRS cannot be written as a .prj file" + QuietGdal::last_message());
+  write_text_file(path, take_string(esri) + "\n");
+}
 
 DemGrid read_geotiff(const std::string& path) {
   std::error_code ec;

@@ -145,6 +145,7 @@ void write_terrain_file(const std::string& path, const Terrain& terrain, const P
     write_header(root, "terrain", kTerrainSchema, provenance);
     root.set_attr("name", terrain.name);
     root.set_attr("kind", terrain.grid ? "grid" : "tin");
+    if (!terrain.crs_wkt.empty()) root.set_attr("crs_wkt", terrain.crs_wkt);
     root.write("origin_shift", terrain.origin_shift.data(), {3}, "m");
 
     const h5::Group g_trn = root.create_group("trn");
@@ -200,6 +201,7 @@ terrain::Terrain read_terrain_file(const std::string& path, TerrainFileInfo& inf
 
   Terrain t;
   t.name = root.has_attr("name") ? root.attr_string("name") : "";
+  t.crs_wkt = root.has_attr("crs_wkt") ? root.attr_string("crs_wkt") : "";
   const std::string kind = root.attr_string("kind");
   if (kind != "grid" && kind != "tin") throw InputError(path, "unknown terrain kind '" + kind + "' (expected grid or tin)");
   const auto shift = root.read_doubles("origin_shift", {3});

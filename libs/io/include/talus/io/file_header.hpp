@@ -22,7 +22,7 @@ struct SchemaVersion {
   int major = 1;
   int minor = 0;
 };
-inline constexpr SchemaVersion kTerrainSchema{1, 0};
+inline constexpr SchemaVersion kTerrainSchema{1, 1};  // 1.1: optional crs_wkt attribute
 inline constexpr SchemaVersion kBlockSchema{1, 0};
 inline constexpr SchemaVersion kRunSchema{1, 0};
 

@@ -33,6 +33,26 @@ std::string gdal_description();
 /// True when `path` names a raster read_dem understands (.asc, .tif, .tiff, any case).
 bool is_dem_path(const std::string& path);
 
+/// The coordinate reference system a DEM file declares, as the user wrote it: a
+/// GeoTIFF's spatial reference (WKT), or the text of the `.prj` file beside an `.asc`
+/// (same name, extension .prj or .PRJ). Empty when the file declares none. Throws
+/// core::InputError naming the file when it cannot be read.
+std::string dem_crs(const std::string& path);
+
+/// A coordinate reference system given as "EPSG:nnnn", WKT (1 or 2, or ESRI's, as in
+/// `.prj` files) or a PROJ string, checked and returned as WKT. Talus computes in metres
+/// on a plane: a geographic CRS (degrees) or a projected one whose unit is not the metre
+/// is refused, with the `gdalwarp` command that reprojects a DEM. Throws
+/// core::InputError naming `source` (the file or setting the CRS came from).
+std::string resolve_crs(const std::string& text, const std::string& source);
+
+/// A short name of a CRS given as WKT, "WGS 84 / UTM zone 32N (EPSG:32632)"; "none"
+/// when `wkt` is empty.
+std::string crs_name(const std::string& wkt);
+
+/// Writes `wkt` in the ESRI form of a `.prj` file at `path` (atomic). Nothing when empty.
+void write_prj(const std::string& path, const std::string& wkt);
+
 /// Writes `dem` as an ESRI ASCII grid with xllcenter/yllcenter keys (the grid points
 /// themselves, so no half-cell arithmetic can round) and cellsize, or dx and dy when they
 /// differ. NaN is written as `nodata`. Numbers are written with the fewest digits that

@@ -112,6 +112,7 @@ struct Terrain {
   Roughness roughness;
   Vec3 origin_shift = Vec3::Zero();      ///< add to local coordinates to get the input (projected) coordinates (m)
   std::string name;                       ///< free text (e.g. "bench-slope")
+  std::string crs_wkt;                    ///< CRS of the input coordinates (WKT); empty: not known
 };
 
 /// One realization of a terrain, ready for contact queries by one realization's engine.

@@ -248,6 +248,44 @@ TEST(GeoTiff, RotatedTransformIsRefusedAndSouthUpIsFlipped) {
   for (const auto& p : {asc, rotated, south_up, no_size}) fs::remove(p);
 }
 
+TEST(Crs, ProjectedInMetresIsAcceptedAndNamed) {
+  EXPECT_EQ(crs_name(resolve_crs("EPSG:32632", "s")), "WGS 84 / UTM zone 32N (EPSG:32632)");
+  EXPECT_EQ(crs_name(resolve_crs("EPSG:2056", "s")), "CH1903+ / LV95 (EPSG:2056)");
+  // WKT and PROJ strings too; the EPSG code is found where the definition matches one.
+  EXPECT_EQ(crs_name(resolve_crs(resolve_crs("EPSG:25833", "s"), "s")), "ETRS89 / UTM zone 33N (EPSG:25833)");
+  EXPECT_NE(crs_name(resolve_crs("+proj=utm +zone=32 +datum=WGS84 +units=m +no_defs", "s")), "unreadable");
+  EXPECT_EQ(crs_name(""), "none");
+}
+
+TEST(Crs, DegreesFeetAndUnknownDefinitionsAreRefusedWithTheFix) {
+  const std::string degrees = input_error([] { resolve_crs("EPSG:4326", "dem.tif"); });
+  EXPECT_EQ(degrees.rfind("dem.tif: CRS WGS 84 (EPSG:4326) is geographic (degrees)", 0), 0u) << degrees;
+  EXPECT_NE(degrees.find("gdalwarp -t_srs EPSG:"), std::string::npos) << degrees;
+  EXPECT_EQ(degrees.find('\n'), std::string::npos);
+  EXPECT_NE(input_error([] { resolve_crs("EPSG:2263", "s"); }).find("measures in units of 0.3048"),
+            std::string::npos);
+  EXPECT_NE(input_error([] { resolve_crs("no such crs", "s"); }).find("not a coordinate reference system"),
+            std::string::npos);
+}
+
+TEST(Crs, TravelsWithGeoTiffAndPrjFiles) {
+  const std::string wkt = resolve_crs("EPSG:32632", "s");
+  const std::string tif = temp_file("crs.tif");
+  write_geotiff(tif, sample_dem(), -9999.0, wkt);
+  EXPECT_EQ(crs_name(dem_crs(tif)), "WGS 84 / UTM zone 32N (EPSG:32632)");
+  const std::string asc = temp_file("crs.asc");
+  write_esri_ascii(asc, sample_dem());
+  EXPECT_EQ(dem_crs(asc), "");  // no .prj beside it
+  const std::string prj = temp_file("crs.prj");
+  write_prj(prj, wkt);
+  // ESRI's WKT, as GIS software reads it beside an .asc.
+  EXPECT_EQ(dem_crs(asc).rfind("PROJCS[\"WGS_1984_UTM_Zone_32N\"", 0), 0u) << dem_crs(asc);
+  EXPECT_EQ(crs_name(resolve_crs(dem_crs(asc), asc)), "WGS 84 / UTM zone 32N (EPSG:32632)");
+  write_file("crs.prj", "  \n");
+  EXPECT_NE(input_error([&] { dem_crs(asc); }).find("crs.prj: is empty"), std::string::npos);
+  for (const auto& path : {tif, asc, prj}) fs::remove(path);
+}
+
 TEST(DemPath, RecognisesRasterExtensions) {
   EXPECT_TRUE(is_dem_path("a/b.asc"));
   EXPECT_TRUE(is_dem_path("B.TIF"));

@@ -142,6 +142,22 @@ TEST(TerrainFile, TinRoundTripsWithoutRoughnessIndex) {
   expect_same_terrain(t, read_terrain_file(path, info));
   EXPECT_FALSE(info.roughness_index.has_value());
   EXPECT_FALSE(h5::File::open(path).root().has("grid"));
+  EXPECT_FALSE(h5::File::open(path).root().has_attr("crs_wkt"));  // none known: none written
+  EXPECT_EQ(read_terrain_file(path).crs_wkt, "");
+  fs::remove(path);
+}
+
+TEST(TerrainFile, CrsRoundTripsAsAnAttribute) {
+  Terrain t = grid_terrain();
+  t.crs_wkt = "PROJCRS[\"WGS 84 / UTM zone 32N\",ID[\"EPSG\",32632]]";  // stored as given
+  const std::string path = temp_file("crs.h5");
+  write_terrain_file(path, t, sample_provenance());
+  EXPECT_EQ(read_terrain_file(path).crs_wkt, t.crs_wkt);
+  EXPECT_EQ(h5::File::open(path).root().attr_string("crs_wkt"), t.crs_wkt);
+  // The CRS does not change the terrain's geometry, nor its fingerprint.
+  Terrain bare = t;
+  bare.crs_wkt.clear();
+  EXPECT_EQ(terrain_fingerprint(t), terrain_fingerprint(bare));
   fs::remove(path);
 }
 

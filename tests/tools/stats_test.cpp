@@ -150,6 +150,7 @@ class Stats : public ::testing::Test {
     fs::create_directories(dir_);
     terrain::Terrain t = mc::testing::bench_terrain(0.1);
     t.origin_shift = kShift;
+    t.crs_wkt = io::resolve_crs("EPSG:32632", "test");
     io::Provenance p;
     p.tool = "test";
     io::write_terrain_file((dir_ / "terrain.h5").string(), t, p);
@@ -310,6 +311,15 @@ TEST_F(Stats, HazardRastersInTerrainCoordinates) {
   EXPECT_TRUE(std::isnan(e99.z[2]));
   const terrain::DemGrid h95 = io::read_esri_ascii((dir_ / "out-hazard/hazard/whole-height_p95.asc").string());
   EXPECT_NEAR(h95.z[16], 3.0, 0.03);
+  // Every raster carries the terrain's CRS: in the GeoTIFF, and as a .prj beside the .asc.
+  for (const char* layer : {"reach_probability", "energy_p95", "energy_p99", "height_p95", "height_p99"}) {
+    const fs::path base = dir_ / "out-hazard/hazard" / (std::string("whole-") + layer);
+    for (const char* ext : {".tif", ".asc"}) {
+      const std::string path = base.string() + ext;
+      ASSERT_TRUE(fs::exists(path)) << path;
+      EXPECT_EQ(io::crs_name(io::dem_crs(path)), "WGS 84 / UTM zone 32N (EPSG:32632)") << path;
+    }
+  }
 }
 
 TEST_F(Stats, ShardsGiveTheStatisticsOfTheWholeRun) {

@@ -259,6 +259,44 @@ TEST_F(TerrainGen, GeoTiffInputMatchesTheSameGridAsAscii) {
   EXPECT_EQ(a.mesh.triangles, b.mesh.triangles);
 }
 
+// The CRS comes from the GeoTIFF, from the .prj beside an .asc or from the setting, is
+// stored in the terrain file and printed by --summary; degrees and feet are refused.
+TEST_F(TerrainGen, CoordinateReferenceSystemIsReadStoredAndChecked) {
+  terrain::DemGrid dem;
+  dem.spec = {350002.5, 5100002.5, 5.0, 5.0, 6, 4};
+  for (std::size_t k = 0; k < 24; ++k) dem.z.push_back(800.0 - 2.0 * static_cast<double>(k % 6));
+  io::write_geotiff((dir_ / "utm.tif").string(), dem, -9999.0, io::resolve_crs("EPSG:32632", "test"));
+  const Outcome tif = run({"utm.tif", "-o", "tif.h5", "--summary"});
+  ASSERT_EQ(tif.code, 0) << tif.err;
+  EXPECT_NE(tif.out.find("CRS: WGS 84 / UTM zone 32N (EPSG:32632)"), std::string::npos) << tif.out;
+  EXPECT_EQ(io::crs_name(io::read_terrain_file((dir_ / "tif.h5").string()).crs_wkt),
+            "WGS 84 / UTM zone 32N (EPSG:32632)");
+
+  // An .asc with its .prj (ESRI WKT, as GIS software writes it), and without.
+  io::write_esri_ascii((dir_ / "utm.asc").string(), dem);
+  ASSERT_EQ(run({"utm.asc", "-o", "bare.h5"}).code, 0);
+  EXPECT_EQ(io::read_terrain_file((dir_ / "bare.h5").string()).crs_wkt, "");
+  io::write_prj((dir_ / "utm.prj").string(), io::resolve_crs("EPSG:32632", "test"));
+  ASSERT_EQ(run({"utm.asc", "-o", "asc.h5"}).code, 0);
+  EXPECT_EQ(io::crs_name(io::read_terrain_file((dir_ / "asc.h5").string()).crs_wkt),
+            "WGS 84 / UTM zone 32N (EPSG:32632)");
+  // The setting wins over the file's own.
+  ASSERT_EQ(run({"utm.asc", "--set", "crs=EPSG:25832", "-o", "set.h5"}).code, 0);
+  EXPECT_EQ(io::crs_name(io::read_terrain_file((dir_ / "set.h5").string()).crs_wkt),
+            "ETRS89 / UTM zone 32N (EPSG:25832)");
+  // The same grid with or without a CRS: the geometry does not change.
+  EXPECT_EQ(io::read_terrain_file((dir_ / "set.h5").string()).mesh.vertices,
+            io::read_terrain_file((dir_ / "bare.h5").string()).mesh.vertices);
+
+  fs::remove(dir_ / "utm.prj");
+  expect_error(run({"utm.asc", "--set", "crs=EPSG:4326", "-o", "out.h5"}), 3, "gdalwarp -t_srs");
+  expect_error(run({"utm.asc", "--set", "crs=EPSG:2263", "-o", "out.h5"}), 3, "units of 0.3048");
+  expect_error(run({"utm.asc", "--set", "crs=EPSG:999999", "-o", "out.h5"}), 3, "not a coordinate reference system");
+  write_text(dir_ / "utm.prj", "GEOGCS[\"GCS_WGS_1984\",DATUM[\"D_WGS_1984\",SPHEROID[\"WGS_1984\",6378137.0,"
+                               "298.257223563]],PRIMEM[\"Greenwich\",0.0],UNIT[\"Degree\",0.0174532925199433]]\n");
+  expect_error(run({"utm.asc", "-o", "out.h5"}), 3, "utm.asc: CRS");
+}
+
 TEST_F(TerrainGen, MaterialRasterAssignsIdsByNearestCell) {
   terrain::DemGrid dem;
   dem.spec = {0.0, 0.0, 1.0, 1.0, 5, 3};

@@ -363,7 +363,19 @@ SrsPtr parse_srs(const std::string& text) {
   SrsPtr srs(OSRNewSpatialReference(nullptr));
   OSRSetAxisMappingStrategy(srs.get(), OAMS_TRADITIONAL_GIS_ORDER);
   if (OSRSetFromUserInput(srs.get(), text.c_str()) != OGRERR_NONE) return nullptr;
-  if (!OSRGetAuthorityCode(srs.get(), nullptr)) OSRAutoIdentifyEPSG(srs.get());
+  if (OSRGetAuthorityCode(srs.get(), nullptr)) return srs;
+  // A definition without a code (an ESRI .prj): the registered CRS it matches, if GDAL
+  // is sure of one (confidence >= 90 of 100).
+  int count = 0;
+  int* confidence = nullptr;
+  OGRSpatialReferenceH* matches = OSRFindMatches(srs.get(), nullptr, &count, &confidence);
+  if (count > 0 && confidence[0] >= 90) {
+    SrsPtr best(OSRClone(matches[0]));
+    OSRSetAxisMappingStrategy(best.get(), OAMS_TRADITIONAL_GIS_ORDER);
+    srs = std::move(best);
+  }
+  OSRFreeSRSArray(matches);
+  CPLFree(confidence);
   return srs;
 }
 

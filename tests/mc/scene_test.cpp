@@ -77,6 +77,54 @@ TEST(Scene, ClassifiesStopsByZoneInOrder) {
   EXPECT_EQ(scene.classify({40.0, 3.0}, true), 4);
 }
 
+// Scene coordinates are the terrain's input coordinates (frame: input, the default): the
+// origin shift stays inside the terrain file. frame: local reads them in the shifted frame.
+TEST(Scene, CoordinatesAreTheTerrainsInputCoordinates) {
+  terrain::Terrain shifted = bench_terrain();
+  shifted.origin_shift = Vec3(2601000.0, 1180000.0, 0.0);
+  const Eigen::Vector2d shift(2601000.0, 1180000.0);
+  SceneSettings input = bench_scene();
+  for (auto& p : input.release.points) p = {p[0] + shift.x(), p[1] + shift.y()};
+  for (auto& b : input.outputs.barriers)
+    for (auto& p : b.line) p = {p[0] + shift.x(), p[1] + shift.y()};
+  for (auto& z : input.stop_zones) {
+    for (auto& x : z.x_range) x += shift.x();
+    for (auto& p : z.polygon) p = {p[0] + shift.x(), p[1] + shift.y()};
+  }
+  SceneSettings local = bench_scene();
+  local.frame = "local";
+  const auto cube = library({block::SolidKind::cube});
+  const Scene a = Scene::build(input, shifted, cube, "s");
+  const Scene b = Scene::build(local, shifted, cube, "s");
+  const Scene plain = Scene::build(bench_scene(), bench_terrain(), cube, "s");
+  // The same scene in the engine's frame, whichever way it was written.
+  ASSERT_EQ(a.barriers().size(), plain.barriers().size());
+  for (std::size_t k = 0; k < a.barriers().size(); ++k) {
+    EXPECT_EQ(a.barriers()[k].line, plain.barriers()[k].line);
+    EXPECT_EQ(b.barriers()[k].line, plain.barriers()[k].line);
+  }
+  for (const Eigen::Vector2d& p : {Eigen::Vector2d(7.0, 3.0), Eigen::Vector2d(12.0, 3.0), Eigen::Vector2d(40.0, 3.0)}) {
+    EXPECT_EQ(a.classify(p, false), plain.classify(p, false));
+    EXPECT_EQ(b.classify(p, false), plain.classify(p, false));
+  }
+  EXPECT_EQ(a.release_zone(), plain.release_zone());
+  EXPECT_EQ(b.release_zone(), plain.release_zone());
+
+  // A scene written in the shifted frame without saying so: one line that says what to do.
+  const std::string message = [&] {
+    try {
+      Scene::build(bench_scene(), shifted, cube, "scene.yaml");
+    } catch (const core::InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  }();
+  EXPECT_NE(message.find("is outside the terrain (input coordinates: x in [2601000, 2601060]"), std::string::npos)
+      << message;
+  EXPECT_NE(message.find("set frame: local"), std::string::npos) << message;
+  EXPECT_EQ(message.find('\n'), std::string::npos);
+}
+
 TEST(Scene, HazardGridCoversTheTerrain) {
   const Scene scene = Scene::build(bench_scene(), bench_terrain(), library({block::SolidKind::cube}), "s");
   const HazardGridSpec& g = scene.hazard_grid();

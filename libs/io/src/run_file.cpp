@@ -347,6 +347,7 @@ void write_info(const h5::Group& root, const RunInfo& info) {
   run.set_attr("hazard_relative_accuracy", info.hazard_relative_accuracy);
   if (!info.terrain_fingerprint.empty()) run.set_attr("terrain_fingerprint", info.terrain_fingerprint);
   if (!info.terrain_file.empty()) run.set_attr("terrain_file", info.terrain_file);
+  run.write("origin_shift", info.origin_shift.data(), {3}, "m");
 }
 
 RunInfo read_info(const h5::Group& root) {
@@ -378,6 +379,10 @@ RunInfo read_info(const h5::Group& root) {
   info.hazard_relative_accuracy = run.attr_double("hazard_relative_accuracy");
   if (run.has_attr("terrain_fingerprint")) info.terrain_fingerprint = run.attr_string("terrain_fingerprint");
   if (run.has_attr("terrain_file")) info.terrain_file = run.attr_string("terrain_file");
+  if (run.has("origin_shift")) {
+    const auto shift = run.read_doubles("origin_shift", {3});
+    info.origin_shift = {shift[0], shift[1], shift[2]};
+  }
   if (info.hazard.size < 0.0 || info.hazard.nx < 0 || info.hazard.ny < 0 ||
       !(info.hazard_relative_accuracy > 0.0 && info.hazard_relative_accuracy < 0.5))
     throw InputError(root.file_name(), "/run: invalid hazard grid");
@@ -414,6 +419,8 @@ RunInfo make_run_info(const mc::Scene& scene, const Provenance& provenance, cons
     info.barrier_lines.push_back(std::move(line));
   }
   info.hazard = scene.hazard_grid();
+  const auto& shift = scene.terrain().origin_shift;
+  info.origin_shift = {shift.x(), shift.y(), shift.z()};
   info.hazard_relative_accuracy = scene.settings().outputs.hazard_relative_accuracy;
   return info;
 }

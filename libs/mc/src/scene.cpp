@@ -73,6 +73,10 @@ void OutputSettings::visit(core::SettingsVisitor& v) {
 void SceneSettings::visit(core::SettingsVisitor& v) {
   v.field("schema_version", schema_version, "scene schema version (this build reads 1.x)");
   v.field("terrain", terrain, "terrain file (terrain-gen output)");
+  v.choice("frame", frame, {"input", "local"},
+           "frame of the scene's plan coordinates (release points, barriers, stop zones): input = the terrain's "
+           "input coordinates (those of its DEM, mesh or point cloud); local = the terrain file's shifted frame "
+           "(input minus its origin_shift)");
   v.field("block_file", block_file, "block file (block-gen output; one block or a library)");
   v.field("blocks", blocks, "names of the library's blocks to use; empty = all");
   v.choice("block_selection", block_selection, {"cycle", "weighted"},
@@ -125,7 +129,10 @@ double polygon_area(const std::vector<Eigen::Vector2d>& poly) {
   return 0.5 * a;
 }
 
-void check_release(const SceneSettings& s, const terrain::Surface& base, const std::string& source) {
+// Release points are checked in the scene's frame (`shift` takes them to the terrain's
+// local one) and reported in it.
+void check_release(const SceneSettings& s, const terrain::Surface& base, const Eigen::Vector2d& shift,
+                   const std::string& source) {
   const ReleaseSettings& r = s.release;
   const std::size_t n = r.points.size();
   if (r.kind == "point" && n != 1)
@@ -144,11 +151,21 @@ void check_release(const SceneSettings& s, const terrain::Surface& base, const s
     if (!(length > 0.0)) throw InputError(source, "release line has zero length");
   }
   const geometry::Aabb& b = base.bounds();
-  for (const auto& p : r.points)
-    if (!base.height_at(p[0], p[1]))
-      throw InputError(source, "release point " + point_text(p) + " is outside the terrain (x in [" +
-                                   format_number(b.lo.x()) + ", " + format_number(b.hi.x()) + "], y in [" +
-                                   format_number(b.lo.y()) + ", " + format_number(b.hi.y()) + "])");
+  const bool input = s.frame == "input";
+  for (const auto& p : r.points) {
+    if (base.height_at(p[0] - shift.x(), p[1] - shift.y())) continue;
+    std::string hint;
+    // A scene written for the shifted frame (the only one before `frame` existed).
+    if (input && shift.squaredNorm() > 0.0 && base.height_at(p[0], p[1]))
+      hint = "; it lies inside the terrain in its local frame (input coordinates minus the origin shift [" +
+             format_number(shift.x()) + ", " + format_number(shift.y()) +
+             "]): give the scene's coordinates in the terrain's input coordinates, or set frame: local";
+    throw InputError(source, "release point " + point_text(p) + " is outside the terrain (" +
+                                 (input ? "input" : "local") + " coordinates: x in [" +
+                                 format_number(b.lo.x() + shift.x()) + ", " + format_number(b.hi.x() + shift.x()) +
+                                 "], y in [" + format_number(b.lo.y() + shift.y()) + ", " +
+                                 format_number(b.hi.y() + shift.y()) + "])" + hint);
+  }
   if (!std::isfinite(r.height)) throw InputError(source, "release.height must be finite");
   if (r.height_reference == "lowest_point" && r.height < 0.0)
     throw InputError(source, "release.height " + format_number(r.height) +
@@ -259,8 +276,17 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
 
   scene.terrain_ = std::make_unique<terrain::Terrain>(std::move(terrain));
   scene.base_ = std::make_unique<terrain::Surface>(terrain::Surface::realize(*scene.terrain_, std::nullopt));
-  check_release(s, *scene.base_, source);
-  scene.release_zone_ = to_vectors(s.release.points);
+  // Scene coordinates in the terrain's input frame become local ones here, once.
+  const Eigen::Vector2d shift = s.frame == "input" ? Eigen::Vector2d(scene.terrain_->origin_shift.x(),
+                                                                     scene.terrain_->origin_shift.y())
+                                                   : Eigen::Vector2d::Zero();
+  auto local = [&](const std::vector<std::array<double, 2>>& points) {
+    std::vector<Eigen::Vector2d> out = to_vectors(points);
+    for (auto& p : out) p -= shift;
+    return out;
+  };
+  check_release(s, *scene.base_, shift, source);
+  scene.release_zone_ = local(s.release.points);
   const double azimuth = s.release.main_direction_deg * M_PI / 180.0;
   scene.main_direction_ = Eigen::Vector2d(std::cos(azimuth), std::sin(azimuth));
 
@@ -269,7 +295,7 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
     const std::string name = b.name.empty() ? "barrier " + std::to_string(k + 1) : b.name;
     if (b.line.size() < 2 || !finite_points(b.line))
       throw InputError(source, "barrier '" + name + "' needs at least 2 finite vertices in its line");
-    Barrier barrier{name, to_vectors(b.line), {0.0}};
+    Barrier barrier{name, local(b.line), {0.0}};
     for (std::size_t j = 1; j < barrier.line.size(); ++j) {
       const double len = (barrier.line[j] - barrier.line[j - 1]).norm();
       if (!(len > 0.0)) throw InputError(source, "barrier '" + name + "' has a zero-length segment");
@@ -286,10 +312,10 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
     if (!z.x_range.empty()) {
       if (z.x_range.size() != 2 || !(z.x_range[0] < z.x_range[1]))
         throw InputError(source, "stop zone '" + z.name + "': x_range must be [x_min, x_max] with x_min < x_max");
-      zone.x_min = z.x_range[0];
-      zone.x_max = z.x_range[1];
+      zone.x_min = z.x_range[0] - shift.x();
+      zone.x_max = z.x_range[1] - shift.x();
     } else {
-      zone.polygon = to_vectors(z.polygon);
+      zone.polygon = local(z.polygon);
       if (zone.polygon.size() < 3 || !finite_points(z.polygon) || polygon_area(zone.polygon) == 0.0)
         throw InputError(source, "stop zone '" + z.name + "': polygon needs 3 or more vertices and an area");
     }

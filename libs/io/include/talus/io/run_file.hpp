@@ -24,6 +24,10 @@ struct RunInfo {
   /// absolute when the run started; empty in files of earlier versions.
   std::string terrain_fingerprint;
   std::string terrain_file;
+  /// The terrain's origin shift (m): positions in the records, crossings, trajectories,
+  /// barrier lines and the hazard grid are local; adding it gives input coordinates. Zero
+  /// in files of earlier versions (read the terrain file's instead).
+  std::array<double, 3> origin_shift = {0.0, 0.0, 0.0};
   double hazard_relative_accuracy = 0.01; ///< of the per-cell sketches (-)
 };
 

@@ -96,6 +96,11 @@ struct OutputSettings {
 struct SceneSettings {
   std::string schema_version = kSceneSchemaVersion;
   std::string terrain;                  ///< terrain file (path, relative to the working directory)
+  /// Frame of every plan coordinate of the scene (release points, barrier lines, stop
+  /// zones): "input", the terrain's input coordinates (those of the DEM, mesh or point
+  /// cloud, e.g. projected metres); "local", the terrain file's shifted frame (input minus
+  /// the terrain's origin_shift), the frame of scenes before the setting existed.
+  std::string frame = "input";
   std::string block_file;               ///< block file (one block or a library)
   std::vector<std::string> blocks;      ///< names of the blocks to use; empty = every block
   /// "cycle": realization i uses block i mod B (equal shares); "weighted": drawn from the

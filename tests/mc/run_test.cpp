@@ -140,20 +140,24 @@ TEST(Barrier, CrossingOfAFreeFlightMatchesTheParabola) {
   EXPECT_NEAR(c.kinetic_energy, 0.5 * mass * (25.0 + g * g), 1e-9 * mass);
   // Walking along the line (toward −y) the block comes from the right (−x) to the left.
   EXPECT_EQ(c.direction, 1);
-  // The flight path at y = 10 reaches the cells of row 5 from x = 2 to beyond 7.
+  // The hazard grid lies on the DEM grid (2 m cells centred on the DEM points, from
+  // x = y = −1). The flight path at y = 10 (row 5) reaches the cells from x = 2 (column 1)
+  // to beyond 7.
+  ASSERT_DOUBLE_EQ(scene.hazard_grid().x0, -1.0);
+  ASSERT_DOUBLE_EQ(scene.hazard_grid().y0, -1.0);
   std::vector<std::int64_t> row;
   for (const auto& v : r.cells)
     if (v.cell / scene.hazard_grid().nx == 5) row.push_back(v.cell % scene.hazard_grid().nx);
   for (std::int64_t i = 1; i <= 3; ++i) EXPECT_NE(std::find(row.begin(), row.end(), i), row.end()) << i;
-  // In cell 3 (x in [6, 8), t in [0.8, 1.2)) the highest passage is at t = 0.8; the path
+  // In cell 3 (x in [5, 7), t in [0.6, 1.0)) the highest passage is at t = 0.6; the path
   // is sampled every quarter cell (0.5 m, 0.1 s of flight), so the recorded maximum lies
-  // between z(0.9) and z(0.8).
+  // between z(0.7) and z(0.6).
   bool seen = false;
   for (const auto& v : r.cells)
     if (v.cell == 5 * scene.hazard_grid().nx + 3) {
       seen = true;
-      EXPECT_LE(v.height, 10.0 - 0.5 * g * 0.64 + 1e-9);
-      EXPECT_GE(v.height, 10.0 - 0.5 * g * 0.81);
+      EXPECT_LE(v.height, 10.0 - 0.5 * g * 0.36 + 1e-9);
+      EXPECT_GE(v.height, 10.0 - 0.5 * g * 0.49);
     }
   EXPECT_TRUE(seen);
 }

@@ -126,14 +126,33 @@ TEST(Scene, CoordinatesAreTheTerrainsInputCoordinates) {
 }
 
 TEST(Scene, HazardGridCoversTheTerrain) {
+  // The bench terrain's DEM: 2 m cells, points x = 0 … 60, y = 0 … 20 (31 × 11). Hazard
+  // cells of 4 m lie on the DEM grid: they start at the DEM's own raster corner (−1, −1)
+  // and cover its 31 × 11 cells (62 m × 22 m).
   const Scene scene = Scene::build(bench_scene(), bench_terrain(), library({block::SolidKind::cube}), "s");
   const HazardGridSpec& g = scene.hazard_grid();
-  EXPECT_EQ(g.nx, 15);  // 60 m / 4 m
-  EXPECT_EQ(g.ny, 5);   // 20 m / 4 m
+  EXPECT_DOUBLE_EQ(g.x0, -1.0);
+  EXPECT_DOUBLE_EQ(g.y0, -1.0);
+  EXPECT_EQ(g.nx, 16);  // ceil(62 / 4)
+  EXPECT_EQ(g.ny, 6);   // ceil(22 / 4)
   EXPECT_EQ(g.cell(0.0, 0.0), 0);
-  EXPECT_EQ(g.cell(5.0, 4.5), 16);
-  EXPECT_EQ(g.cell(-0.1, 1.0), -1);
-  EXPECT_EQ(g.cell(1.0, 20.5), -1);
+  EXPECT_EQ(g.cell(5.0, 4.5), 17);
+  EXPECT_EQ(g.cell(-1.1, 1.0), -1);
+  EXPECT_EQ(g.cell(1.0, 23.1), -1);
+}
+
+TEST(Scene, HazardCellsOfTheDemsSizeAreItsCells) {
+  SceneSettings s = bench_scene();
+  s.outputs.hazard_cell_size = 2.0;
+  const HazardGridSpec g = Scene::build(s, bench_terrain(), library({block::SolidKind::cube}), "s").hazard_grid();
+  EXPECT_DOUBLE_EQ(g.x0, -1.0);
+  EXPECT_EQ(g.nx, 31);
+  EXPECT_EQ(g.ny, 11);
+  EXPECT_EQ(g.cell(6.0, 4.0), 2 * 31 + 3);  // the cell centred on DEM point (6, 4)
+  s.outputs.hazard_cell_size = 0.5;          // a divisor: four cells per DEM cell edge
+  EXPECT_EQ(Scene::build(s, bench_terrain(), library({block::SolidKind::cube}), "s").hazard_grid().nx, 124);
+  s.outputs.hazard_cell_size = 3.0;  // neither: refused
+  EXPECT_THROW(Scene::build(s, bench_terrain(), library({block::SolidKind::cube}), "s"), core::InputError);
 }
 
 TEST(Shard, ParsesAndSplitsRoundRobin) {

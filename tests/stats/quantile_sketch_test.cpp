@@ -32,6 +32,22 @@ TEST(QuantileSketch, RelativeErrorBoundHoldsAgainstExactOrderStatistics) {
   EXPECT_EQ(sketch.count(), values.size());
 }
 
+// The mean of the bucket representatives is within α of the exact mean (every value is
+// within α of its representative); zeros count as 0.
+TEST(QuantileSketch, MeanWithinRelativeAccuracy) {
+  const auto values = lognormal_values(20000, 5);
+  QuantileSketch sketch(0.01);
+  double sum = 0.0;
+  for (double v : values) {
+    sketch.add(v);
+    sum += v;
+  }
+  sketch.add(0.0, 20000);  // as many zeros: the mean halves
+  const double truth = sum / 40000.0;
+  EXPECT_LE(std::abs(sketch.mean() - truth), 0.01 * truth);
+  EXPECT_THROW(QuantileSketch().mean(), core::InputError);
+}
+
 // Integer counts: the merge of shards is exactly the sketch of the whole, in any order.
 TEST(QuantileSketch, MergeOfShardsEqualsWhole) {
   const auto values = lognormal_values(3000, 5);

@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <numeric>
 #include <string>
 #include <vector>
 
@@ -311,15 +312,54 @@ TEST_F(Stats, HazardRastersInTerrainCoordinates) {
   EXPECT_TRUE(std::isnan(e99.z[2]));
   const terrain::DemGrid h95 = io::read_esri_ascii((dir_ / "out-hazard/hazard/whole-height_p95.asc").string());
   EXPECT_NEAR(h95.z[16], 3.0, 0.03);
-  // Every raster carries the terrain's CRS: in the GeoTIFF, and as a .prj beside the .asc.
-  for (const char* layer : {"reach_probability", "energy_p95", "energy_p99", "height_p95", "height_p99"}) {
-    const fs::path base = dir_ / "out-hazard/hazard" / (std::string("whole-") + layer);
+  // Passages: the realizations that reached the cell; the mean of cell 0's energies
+  // 100 … 1200 J is 650 J (within the sketch's α = 1 %).
+  const terrain::DemGrid passages = io::read_geotiff((dir_ / "out-hazard/hazard/whole-passage_count.tif").string());
+  EXPECT_EQ(passages.z[0], 12.0);
+  EXPECT_EQ(passages.z[16], 4.0);
+  EXPECT_EQ(passages.z[2], 0.0);
+  const terrain::DemGrid e_mean = io::read_geotiff((dir_ / "out-hazard/hazard/whole-energy_mean.tif").string());
+  EXPECT_NEAR(e_mean.z[0], 650.0, 6.5);
+  EXPECT_NEAR(e_mean.z[16], 125.0, 1.25);  // 50, 100, 150, 200 J
+  EXPECT_TRUE(std::isnan(e_mean.z[2]));
+  // Deposits: the realizations that ended at rest, counted in the cell of their stop point.
+  std::vector<double> deposits(static_cast<std::size_t>(kGrid.nx * kGrid.ny), 0.0);
+  for (std::uint32_t i = 0; i < kRealizations; ++i) {
+    const mc::RealizationResult r = realization(i);
+    if (r.record.end != dda::EndReason::rest) continue;
+    const std::int64_t id = kGrid.cell(r.record.final_position.x(), r.record.final_position.y());
+    if (id >= 0) deposits[static_cast<std::size_t>(id)] += 1.0;  // stops beyond the grid are in no cell
+  }
+  ASSERT_GE(std::accumulate(deposits.begin(), deposits.end(), 0.0), 3.0);
+  const terrain::DemGrid deposited = io::read_geotiff((dir_ / "out-hazard/hazard/whole-deposition_count.tif").string());
+  EXPECT_EQ(deposited.z, deposits);
+  // Every raster carries the terrain's CRS (in the GeoTIFF, and as a .prj beside the .asc)
+  // and the GeoTIFFs a band description and unit.
+  const std::vector<std::pair<std::string, std::string>> layers = {
+      {"reach_probability", "1"}, {"passage_count", "count"}, {"deposition_count", "count"}, {"energy_mean", "J"},
+      {"energy_p95", "J"}, {"energy_p99", "J"}, {"height_p95", "m"}, {"height_p99", "m"}};
+  for (const auto& [layer, unit] : layers) {
+    const fs::path base = dir_ / "out-hazard/hazard" / ("whole-" + layer);
     for (const char* ext : {".tif", ".asc"}) {
       const std::string path = base.string() + ext;
       ASSERT_TRUE(fs::exists(path)) << path;
       EXPECT_EQ(io::crs_name(io::dem_crs(path)), "WGS 84 / UTM zone 32N (EPSG:32632)") << path;
     }
+    const io::BandInfo band = io::read_band_info(base.string() + ".tif");
+    EXPECT_EQ(band.unit, unit) << layer;
+    EXPECT_FALSE(band.description.empty()) << layer;
   }
+}
+
+TEST_F(Stats, EnergyRastersInKilojoulesOnRequest) {
+  ASSERT_EQ(run_fast({"whole.h5", "-o", "out-kj", "--set", "energy_unit=kJ"}).code, 0);
+  const std::string path = (dir_ / "out-kj/hazard/whole-energy_p99.tif").string();
+  EXPECT_NEAR(io::read_geotiff(path).z[0], 1.1, 0.011);  // 1100 J
+  EXPECT_EQ(io::read_band_info(path).unit, "kJ");
+  EXPECT_EQ(io::read_band_info((dir_ / "out-kj/hazard/whole-height_p99.tif").string()).unit, "m");
+  const Outcome bad = run_fast({"whole.h5", "-o", "out-bad-unit", "--set", "energy_unit=MJ"});
+  EXPECT_NE(bad.code, 0);
+  EXPECT_NE(bad.err.find("energy_unit: 'MJ' is not one of: J, kJ"), std::string::npos) << bad.err;
 }
 
 TEST_F(Stats, ShardsGiveTheStatisticsOfTheWholeRun) {

@@ -278,7 +278,7 @@ RunResult run_result(const Run& run, const Settings& settings) {
                                               " is missing: give it with --set terrain=FILE (or --set "
                                               "hazard_maps=false)");
   }
-  if (settings.hazard_maps && grid) out.hazard = hazard_maps(run.file, out.origin_shift);
+  if (settings.hazard_maps && grid) out.hazard = hazard_maps(run.file, out.origin_shift, settings.energy_unit);
   const auto& shift = out.origin_shift;
   PlanView& plan = out.plan;
   // Terrains of millions of points are left out of the plan view (the plot would not show them).
@@ -310,25 +310,54 @@ RunResult run_result(const Run& run, const Settings& settings) {
 
 }  // namespace
 
-HazardMaps hazard_maps(const io::RunFile& run, const std::array<double, 3>& origin_shift) {
+const HazardLayer& HazardMaps::layer(const std::string& name) const {
+  for (const auto& l : layers)
+    if (l.name == name) return l;
+  throw std::out_of_range("no hazard layer " + name);
+}
+
+HazardMaps hazard_maps(const io::RunFile& run, const std::array<double, 3>& origin_shift,
+                       const std::string& energy_unit) {
   const mc::HazardGridSpec& g = run.info.hazard;
-  HazardMaps maps{raster_like(g, origin_shift, 0.0), raster_like(g, origin_shift, kNaN),
-                  raster_like(g, origin_shift, kNaN), raster_like(g, origin_shift, kNaN),
-                  raster_like(g, origin_shift, kNaN)};
+  const double to_unit = energy_unit == "kJ" ? 1e-3 : 1.0;
+  HazardMaps maps;
+  const auto add = [&](const char* name, const std::string& description, const std::string& unit, double fill) {
+    maps.layers.push_back({name, {description, unit}, raster_like(g, origin_shift, fill)});
+    return &maps.layers.back().grid.z;
+  };
+  maps.layers.reserve(8);
+  auto& reach = *add("reach_probability", "reach probability: realizations whose path reached the cell / realizations",
+                     "1", 0.0);
+  auto& passages = *add("passage_count", "passage count: realizations whose path reached the cell", "count", 0.0);
+  auto& deposits = *add("deposition_count", "deposition count: realizations that came to rest with the centroid in the cell",
+                        "count", 0.0);
+  auto& e_mean = *add("energy_mean", "mean over the passages of the largest kinetic energy in the cell", energy_unit, kNaN);
+  auto& e95 = *add("energy_p95", "P95 over the passages of the largest kinetic energy in the cell", energy_unit, kNaN);
+  auto& e99 = *add("energy_p99", "P99 over the passages of the largest kinetic energy in the cell", energy_unit, kNaN);
+  auto& h95 = *add("height_p95", "P95 over the passages of the largest passing height in the cell", "m", kNaN);
+  auto& h99 = *add("height_p99", "P99 over the passages of the largest passing height in the cell", "m", kNaN);
   const double n = static_cast<double>(run.data.records.size());
   for (const auto& [id, cell] : run.data.hazard.cells()) {
-    if (id < 0 || static_cast<std::size_t>(id) >= maps.reach_probability.z.size())
+    if (id < 0 || static_cast<std::size_t>(id) >= reach.size())
       throw core::InputError("hazard", "cell " + std::to_string(id) + " outside the hazard grid");
     const auto k = static_cast<std::size_t>(id);
-    maps.reach_probability.z[k] = static_cast<double>(cell.reach) / n;
+    reach[k] = static_cast<double>(cell.reach) / n;
+    passages[k] = static_cast<double>(cell.reach);
     if (!cell.energy.empty()) {
-      maps.energy_p95.z[k] = cell.energy.quantile(0.95);
-      maps.energy_p99.z[k] = cell.energy.quantile(0.99);
+      e_mean[k] = to_unit * cell.energy.mean();
+      e95[k] = to_unit * cell.energy.quantile(0.95);
+      e99[k] = to_unit * cell.energy.quantile(0.99);
     }
     if (!cell.height.empty()) {
-      maps.height_p95.z[k] = cell.height.quantile(0.95);
-      maps.height_p99.z[k] = cell.height.quantile(0.99);
+      h95[k] = cell.height.quantile(0.95);
+      h99[k] = cell.height.quantile(0.99);
     }
+  }
+  // Stop points of the realizations that ended at rest (the run's local frame, as the grid).
+  for (const auto& rec : run.data.records) {
+    if (rec.end != dda::EndReason::rest) continue;
+    const std::int64_t id = g.cell(rec.final_position.x(), rec.final_position.y());
+    if (id >= 0 && static_cast<std::size_t>(id) < deposits.size()) deposits[static_cast<std::size_t>(id)] += 1.0;
   }
   return maps;
 }

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "settings.hpp"
+#include "talus/io/raster.hpp"
 #include "talus/io/run_file.hpp"
 #include "talus/stats/convergence.hpp"
 #include "talus/stats/sample.hpp"
@@ -78,10 +79,20 @@ struct Comparison {
 };
 
 /// Hazard rasters of a run in terrain coordinates (grid points = cell centres).
+/// One hazard raster: its file-name part, GDAL band description and unit, and values on
+/// the run's hazard grid (grid points = cell centres in terrain coordinates).
+struct HazardLayer {
+  std::string name;
+  io::BandInfo band;
+  terrain::DemGrid grid;
+};
+
+/// The hazard rasters of a run, in this order: reach_probability, passage_count,
+/// deposition_count, energy_mean, energy_p95, energy_p99, height_p95, height_p99.
 struct HazardMaps {
-  terrain::DemGrid reach_probability;  ///< realizations reaching the cell / realizations (-)
-  terrain::DemGrid energy_p95, energy_p99;  ///< J, NaN where no block passed
-  terrain::DemGrid height_p95, height_p99;  ///< m, NaN where no block passed
+  std::vector<HazardLayer> layers;
+  /// The layer of that name (throws std::out_of_range when there is none).
+  const HazardLayer& layer(const std::string& name) const;
 };
 
 /// What is drawn in the plan view of a run, in terrain coordinates.
@@ -116,6 +127,8 @@ VariableSummary summarize(std::string name, std::string unit, std::vector<double
 
 /// The hazard rasters of a run: reach probability and P95/P99 of the per-cell sketches,
 /// cell centres shifted by `origin_shift` (x, y). Exposed for tests.
-HazardMaps hazard_maps(const io::RunFile& run, const std::array<double, 3>& origin_shift);
+/// The hazard rasters of a run; energies in `energy_unit` ("J" or "kJ").
+HazardMaps hazard_maps(const io::RunFile& run, const std::array<double, 3>& origin_shift,
+                       const std::string& energy_unit = "J");
 
 }  // namespace talus::stats_tool

@@ -269,15 +269,19 @@ void write_run(const Group& g, const Run& run, const RunResult& r) {
   g.write("origin_shift", r.origin_shift.data(), {3}, "m");
   if (r.hazard) {
     const Group h = g.create_group("hazard");
-    const auto& spec = r.hazard->reach_probability.spec;
+    const auto& spec = r.hazard->layers.front().grid.spec;
     h.set_attr("x0", spec.x0);
     h.set_attr("y0", spec.y0);
     h.set_attr("cell_size", spec.dx);
-    write_grid(h, "reach_probability", r.hazard->reach_probability, "-");
-    write_grid(h, "energy_p95", r.hazard->energy_p95, "J");
-    write_grid(h, "energy_p99", r.hazard->energy_p99, "J");
-    write_grid(h, "height_p95", r.hazard->height_p95, "m");
-    write_grid(h, "height_p99", r.hazard->height_p99, "m");
+    std::vector<std::string> names;
+    for (const auto& layer : r.hazard->layers) {
+      names.push_back(layer.name);
+      // HDF5 unit attributes use "-" for dimensionless values and "" for counts.
+      const std::string& u = layer.band.unit;
+      write_grid(h, layer.name, layer.grid, u == "1" ? "-" : u == "count" ? "" : u);
+      h.set_dataset_attr(layer.name, "description", layer.band.description);
+    }
+    h.write_strings("layers", names);
   }
   const PlanView& p = r.plan;
   if (!p.terrain_x.empty()) {
@@ -377,13 +381,10 @@ std::vector<std::string> write_hazard_rasters(const std::string& dir, const std:
   for (std::size_t r = 0; r < runs.size(); ++r) {
     if (!a.runs[r].hazard) continue;
     fs::create_directories(dir);
-    const HazardMaps& m = *a.runs[r].hazard;
-    const std::pair<const char*, const terrain::DemGrid*> layers[] = {
-        {"reach_probability", &m.reach_probability}, {"energy_p95", &m.energy_p95}, {"energy_p99", &m.energy_p99},
-        {"height_p95", &m.height_p95}, {"height_p99", &m.height_p99}};
-    for (const auto& [name, grid] : layers)
+    for (const HazardLayer& layer : a.runs[r].hazard->layers)
       for (const auto& format : settings.raster_formats) {
-        const std::string path = (fs::path(dir) / (runs[r].name + "-" + name + "." + format)).string();
+        const terrain::DemGrid* grid = &layer.grid;
+        const std::string path = (fs::path(dir) / (runs[r].name + "-" + layer.name + "." + format)).string();
         const std::string& crs = a.runs[r].crs_wkt;
         if (format == "asc") {
           io::write_esri_ascii(path, *grid);
@@ -394,7 +395,7 @@ std::vector<std::string> write_hazard_rasters(const std::string& dir, const std:
             written.push_back(prj);
           }
         } else {
-          io::write_geotiff(path, *grid, -9999.0, crs);
+          io::write_geotiff(path, *grid, -9999.0, crs, layer.band);
         }
         written.push_back(path);
       }

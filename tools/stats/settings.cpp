@@ -22,6 +22,7 @@ void Settings::visit(core::SettingsVisitor& v) {
   v.field("terrain", terrain, "terrain file (origin shift, plan view); empty = the one the run names");
   v.field("hazard_maps", hazard_maps, "write hazard rasters from the per-cell accumulators");
   v.field("raster_formats", raster_formats, "raster formats: asc (ESRI ASCII grid), tif (GeoTIFF)");
+  v.field("energy_unit", energy_unit, "unit of the energy rasters: J or kJ");
   v.field("plots", plots, "draw plots with the talus-plot helper (Python 3, matplotlib, h5py)");
   v.field("plot_formats", plot_formats, "plot formats: png, svg");
   v.field("plot_trajectories", plot_trajectories, "", "trajectories drawn in a plan view at most");
@@ -62,6 +63,7 @@ void Settings::validate() const {
     if (!std::isfinite(d)) throw core::InputError("settings", "reach_distances must be finite");
   require_subset(raster_formats, {"asc", "tif"}, "raster_formats");
   require_subset(plot_formats, {"png", "svg"}, "plot_formats");
+  require_subset({energy_unit}, {"J", "kJ"}, "energy_unit");
 }
 
 }  // namespace talus::stats_tool

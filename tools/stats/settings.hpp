@@ -41,6 +41,7 @@ struct Settings {
   bool hazard_maps = true;
   /// Raster formats among "asc" (ESRI ASCII grid) and "tif" (GeoTIFF).
   std::vector<std::string> raster_formats = {"asc", "tif"};
+  std::string energy_unit = "J";  ///< unit of the energy rasters: J or kJ
   /// Plots through the talus-plot helper (Python 3 with matplotlib and h5py).
   bool plots = true;
   /// Plot formats among "png" and "svg".

@@ -512,7 +512,8 @@ DemGrid read_geotiff(const std::string& path) {
   return dem;
 }
 
-void write_geotiff(const std::string& path, const DemGrid& dem, double nodata, const std::string& crs_wkt) {
+void write_geotiff(const std::string& path, const DemGrid& dem, double nodata, const std::string& crs_wkt,
+                   const BandInfo& info) {
   const auto& s = dem.spec;
   if (s.nx < 1 || s.ny < 1 || dem.z.size() != s.point_count())
     throw core::RuntimeError(path + ": cannot write an empty or inconsistent grid");
@@ -535,6 +536,8 @@ void write_geotiff(const std::string& path, const DemGrid& dem, double nodata, c
   if (ok && !crs_wkt.empty()) ok = GDALSetProjection(h, crs_wkt.c_str()) == CE_None;
   GDALRasterBandH band = GDALGetRasterBand(h, 1);
   ok = ok && GDALSetRasterNoDataValue(band, nodata) == CE_None;
+  if (ok && !info.description.empty()) GDALSetDescription(band, info.description.c_str());
+  if (ok && !info.unit.empty()) ok = GDALSetRasterUnitType(band, info.unit.c_str()) == CE_None;
   std::vector<double> rows(dem.z.size());
   for (std::int32_t r = 0; r < s.ny; ++r)
     for (std::int32_t i = 0; i < s.nx; ++i) {
@@ -548,6 +551,21 @@ void write_geotiff(const std::string& path, const DemGrid& dem, double nodata, c
   if (CPLGetLastErrorType() >= CE_Failure)
     throw core::RuntimeError(path + ": cannot write GeoTIFF" + QuietGdal::last_message());
   out.commit();
+}
+
+BandInfo read_band_info(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec))
+    throw InputError(path, "cannot open file (missing or not a regular file)");
+  QuietGdal quiet;
+  DatasetPtr ds(GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr));
+  if (!ds) throw InputError(path, "cannot read raster" + QuietGdal::last_message());
+  const auto h = static_cast<GDALDatasetH>(ds.get());
+  if (GDALGetRasterCount(h) < 1) throw InputError(path, "raster has no band");
+  GDALRasterBandH band = GDALGetRasterBand(h, 1);
+  const char* description = GDALGetDescription(band);
+  const char* unit = GDALGetRasterUnitType(band);
+  return {description ? description : "", unit ? unit : ""};
 }
 
 bool is_dem_path(const std::string& path) {

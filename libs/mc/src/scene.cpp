@@ -329,11 +329,34 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
     throw InputError(source, "outputs.hazard_relative_accuracy must be in (0, 0.5)");
   if (cell > 0.0) {
     const geometry::Aabb& b = scene.base_->bounds();
-    scene.hazard_.x0 = b.lo.x();
-    scene.hazard_.y0 = b.lo.y();
+    double nx = 0.0, ny = 0.0;
+    const auto& dem = scene.terrain_->grid;
+    if (dem && dem->dx == dem->dy) {
+      // On the DEM grid: a cell of the DEM's own size is centred on a DEM point (the
+      // rasters have the DEM's origin, cell and size); multiples and divisors of it share
+      // the DEM cells' edges. Other sizes would put the rasters off the grid.
+      const double d = dem->dx;
+      const double up = std::round(cell / d), down = std::round(d / cell);
+      const bool multiple = up >= 1.0 && std::abs(cell - up * d) <= 1e-9 * cell;
+      const bool divisor = down >= 1.0 && std::abs(cell * down - d) <= 1e-9 * d;
+      if (!multiple && !divisor)
+        throw InputError(source, "outputs.hazard_cell_size " + format_number(cell) +
+                                     " m is neither a multiple nor a divisor of the DEM cell (" + format_number(d) +
+                                     " m): hazard rasters lie on the DEM grid; give e.g. " + format_number(d / 2) +
+                                     ", " + format_number(d) + " or " + format_number(2 * d) + " m");
+      scene.hazard_.x0 = dem->x0 - 0.5 * d;
+      scene.hazard_.y0 = dem->y0 - 0.5 * d;
+      nx = std::ceil(dem->nx * d / cell - 1e-9);
+      ny = std::ceil(dem->ny * d / cell - 1e-9);
+    } else {
+      // A TIN (or a grid of unequal spacings): cells from the lower-left corner of its plan
+      // bounds.
+      scene.hazard_.x0 = b.lo.x();
+      scene.hazard_.y0 = b.lo.y();
+      nx = std::ceil((b.hi.x() - b.lo.x()) / cell);
+      ny = std::ceil((b.hi.y() - b.lo.y()) / cell);
+    }
     scene.hazard_.size = cell;
-    const double nx = std::ceil((b.hi.x() - b.lo.x()) / cell);
-    const double ny = std::ceil((b.hi.y() - b.lo.y()) / cell);
     if (nx * ny > 1e8)
       throw InputError(source, "outputs.hazard_cell_size " + format_number(cell) + " m gives more than 1e8 cells");
     scene.hazard_.nx = std::max(1, static_cast<std::int32_t>(nx));

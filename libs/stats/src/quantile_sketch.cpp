@@ -50,6 +50,13 @@ double QuantileSketch::quantile(double p) const {
   return 2.0 * std::pow(gamma_, buckets_.rbegin()->first) / (gamma_ + 1.0);
 }
 
+double QuantileSketch::mean() const {
+  if (count_ == 0) throw core::InputError("quantile sketch", "mean of an empty sketch");
+  double sum = 0.0;
+  for (const auto& [index, n] : buckets_) sum += static_cast<double>(n) * (2.0 * std::pow(gamma_, index) / (gamma_ + 1.0));
+  return sum / static_cast<double>(count_);
+}
+
 QuantileSketch QuantileSketch::from_buckets(double relative_accuracy, double min_value, std::uint64_t zero_count,
                                             const std::vector<std::int32_t>& indices,
                                             const std::vector<std::uint64_t>& counts) {

@@ -59,10 +59,21 @@ void write_prj(const std::string& path, const std::string& wkt);
 /// read back to the same double, so a write–read round trip is exact. Atomic.
 void write_esri_ascii(const std::string& path, const terrain::DemGrid& dem, double nodata = -9999.0);
 
+/// What a raster band is: its description (GDAL's band description, shown by GIS
+/// software as the band name) and its unit (GDAL's unit type, e.g. "J", "m", "1").
+struct BandInfo {
+  std::string description;
+  std::string unit;
+};
+
 /// Writes `dem` as a north-up, DEFLATE-compressed Float64 GeoTIFF; NaN is written as
 /// `nodata` and declared as the band's nodata value. `crs_wkt` (optional) is stored as the
-/// spatial reference. A write–read round trip is exact. Atomic (io::AtomicOutput).
+/// spatial reference, `band` (optional) as the band's description and unit. A write–read
+/// round trip is exact. Atomic (io::AtomicOutput).
 void write_geotiff(const std::string& path, const terrain::DemGrid& dem, double nodata = -9999.0,
-                   const std::string& crs_wkt = {});
+                   const std::string& crs_wkt = {}, const BandInfo& band = {});
+
+/// The description and unit of a raster's first band ("" where none is set).
+BandInfo read_band_info(const std::string& path);
 
 }  // namespace talus::io

@@ -31,6 +31,9 @@ class QuantileSketch {
   /// The p-quantile (p in [0, 1]) of the values added, within relative error α (the value
   /// of rank ⌊p·(n − 1)⌋ among the sorted values, 0-based). Throws if empty.
   double quantile(double p) const;
+  /// The mean of the values added, each taken as its bucket's representative (so within
+  /// relative error α of the true mean; values ≤ min_value as 0). Throws if empty.
+  double mean() const;
 
   double relative_accuracy() const { return alpha_; }
   double min_value() const { return min_value_; }

@@ -38,6 +38,17 @@ bool inside_polygon(const std::vector<Eigen::Vector2d>& poly, const Eigen::Vecto
   return inside;
 }
 
+// Whether p lies over or under the triangle in plan (the triangle counter-clockwise
+// seen from above, as every upward-facing terrain triangle is).
+bool inside_plan(const TerrainPatch::Triangle& tri, const Vec3& p) {
+  for (int k = 0; k < 3; ++k) {
+    const Vec3& a = tri.p[k];
+    const Vec3& b = tri.p[(k + 1) % 3];
+    if ((b.x() - a.x()) * (p.y() - a.y()) - (b.y() - a.y()) * (p.x() - a.x()) < 0.0) return false;
+  }
+  return true;
+}
+
 // Closest points of segments p0-p1 and q0-q1: parameters s (on p) and t (on q) of the
 // infinite lines; callers keep only crossings strictly inside both segments.
 bool line_parameters(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1, double& s, double& t) {
@@ -159,9 +170,15 @@ void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& wo
       if (prune && !contains(tbox, p)) continue;
       const double gap = (p - tri.p[0]).dot(tri.normal);
       if (gap >= ds || gap <= -depth) continue;
-      if (e0.cross(p - tri.p[0]).dot(tri.normal) < 0.0 || e1.cross(p - tri.p[1]).dot(tri.normal) < 0.0 ||
-          e2.cross(p - tri.p[2]).dot(tri.normal) < 0.0)
-        continue;
+      // Inside the triangle's normal prism; or, for ground that faces up, above or below
+      // it in plan. In a concave valley (a slope meeting a steeper face) a vertex that has
+      // crossed the valley line lies under the steep face in plan but outside the normal
+      // prisms of both faces: without the plan test neither holds it and it sinks into
+      // the steep face unresisted.
+      const bool in_prism = e0.cross(p - tri.p[0]).dot(tri.normal) >= 0.0 &&
+                            e1.cross(p - tri.p[1]).dot(tri.normal) >= 0.0 &&
+                            e2.cross(p - tri.p[2]).dot(tri.normal) >= 0.0;
+      if (!in_prism && !(tri.normal.z() > 0.0 && inside_plan(tri, p))) continue;
       // A vertex over a shared edge of two coplanar triangles is one contact, not two.
       bool duplicate = false;
       for (std::size_t k = first; k < out.size(); ++k)

@@ -356,6 +356,50 @@ TEST_F(TerrainGen, SurveyedTinYUpOneFilePerMaterial) {
   EXPECT_EQ(grid.grid->ny, 5);
 }
 
+// A TIN whose footprint is not a rectangle (an L: the quadrant x > 5, y > 5 of a 10 m
+// square is missing) resamples to a TIN of the grid triangles over it: nothing is made up
+// over the missing quadrant beyond the cells cut by its border.
+TEST_F(TerrainGen, TinOfIrregularFootprintResamplesInsideIt) {
+  std::string obj;
+  for (int j = 0; j <= 2; ++j)
+    for (int i = 0; i <= 2; ++i)
+      obj += "v " + std::to_string(5 * i) + " " + std::to_string(5 * j) + " " + std::to_string(0.1 * 5 * i + 0.05 * 5 * j) + "\n";
+  // Vertex (i, j) is 1 + i + 3j; squares (0,0), (1,0), (0,1) of 5 m.
+  for (const auto& [i, j] : std::vector<std::pair<int, int>>{{0, 0}, {1, 0}, {0, 1}}) {
+    const int a = 1 + i + 3 * j, b = a + 1, c = a + 4, d = a + 3;
+    obj += "f " + std::to_string(a) + " " + std::to_string(b) + " " + std::to_string(c) + "\n";
+    obj += "f " + std::to_string(a) + " " + std::to_string(c) + " " + std::to_string(d) + "\n";
+  }
+  write_text(dir_ / "ell.obj", obj);
+  const Outcome r = run({"ell.obj", "--set", "tin.mode=resample", "--set", "tin.cell_size=1", "-o", "ell.h5"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("footprint is not a rectangle: 25 of 121 grid points lie off it"), std::string::npos) << r.err;
+  const terrain::Terrain t = io::read_terrain_file((dir_ / "ell.h5").string());
+  EXPECT_FALSE(t.grid.has_value());
+  // 75 whole cells (150 triangles), and of the one cell at the missing quadrant's corner
+  // with three corners on the TIN, the triangle of those corners if the cut gives it.
+  EXPECT_GE(t.mesh.triangles.size(), 150u);
+  EXPECT_LE(t.mesh.triangles.size(), 151u);
+  EXPECT_EQ(t.mesh.vertices.size(), 121u - 25u);
+  double area = 0.0;
+  for (const auto& tri : t.mesh.triangles) {
+    const auto& a = t.mesh.vertices[tri[0]];
+    const auto& b = t.mesh.vertices[tri[1]];
+    const auto& c = t.mesh.vertices[tri[2]];
+    area += 0.5 * ((b - a).cross(c - a)).z();
+  }
+  EXPECT_GE(area, 75.0 - 1e-9);
+  EXPECT_LE(area, 75.5 + 1e-9);
+  // Grid points, on the surveyed plane.
+  for (const auto& v : t.mesh.vertices) {
+    const double x = v.x() + t.origin_shift.x(), y = v.y() + t.origin_shift.y(), z = v.z() + t.origin_shift.z();
+    EXPECT_EQ(x, std::round(x));
+    EXPECT_EQ(y, std::round(y));
+    EXPECT_NEAR(z, 0.1 * x + 0.05 * y, 1e-12);
+    EXPECT_FALSE(x > 5.0 && y > 5.0) << x << " " << y;
+  }
+}
+
 TEST_F(TerrainGen, PointCloudIsTriangulated) {
   write_text(dir_ / "cloud.xyz", "# x y z\n0 0 1\n4,0,2\n4 3 3 255 0 0\n0 3 4\n\n2 1.5 2.5\n");
   const Outcome r = run({"cloud.xyz", "-o", "cloud.h5"});

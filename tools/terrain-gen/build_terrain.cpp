@@ -296,6 +296,9 @@ Terrain terrain_from_dem(const Settings& s, SourceKind kind, const std::vector<s
 }
 
 // A grid of tin.cell_size sampling the highest point of a TIN, with the TIN's materials.
+// A TIN whose footprint is not a rectangle leaves grid points without data inside the
+// trimmed border: the result is then a TIN of the grid triangles with data at every corner
+// (the same cut; nothing invented outside the survey).
 Terrain resample_tin(const Terrain& tin, const Settings& s, const std::string& source,
                      const std::string& settings_source) {
   const terrain::Surface surface = terrain::Surface::realize(tin, std::nullopt);
@@ -312,7 +315,18 @@ Terrain resample_tin(const Terrain& tin, const Settings& s, const std::string& s
   spec.nx = static_cast<std::int32_t>(nx);
   spec.ny = static_cast<std::int32_t>(ny);
   const DemGrid dem = terrain::trim_nodata(terrain::resample_to_grid(surface, spec));
-  Terrain t = terrain::build_grid_terrain(dem, diagonal_of(s.triangulation), s.seed, source);
+  if (dem.z.empty())
+    throw InputError(settings_source, "tin.cell_size " + format_number(spec.dx) + " m: no grid point lies on the TIN");
+  const auto missing = static_cast<std::size_t>(std::count_if(dem.z.begin(), dem.z.end(), [](double z) { return std::isnan(z); }));
+  Terrain t;
+  if (missing == 0) {
+    t = terrain::build_grid_terrain(dem, diagonal_of(s.triangulation), s.seed, source);
+  } else {
+    t = terrain::build_grid_tin(dem, diagonal_of(s.triangulation), s.seed, source);
+    core::log_warn(source + ": the TIN's footprint is not a rectangle: " + std::to_string(missing) + " of " +
+                   std::to_string(dem.z.size()) + " grid points lie off it; resampled as a TIN of the " +
+                   std::to_string(t.mesh.triangles.size()) + " grid triangles inside it");
+  }
   t.materials = tin.materials;
   t.origin_shift = tin.origin_shift;
   carry_tin_materials(t, surface);

@@ -186,6 +186,29 @@ Terrain build_grid_terrain(const DemGrid& dem, Diagonal diagonal, std::uint64_t 
   return terrain;
 }
 
+Terrain build_grid_tin(const DemGrid& dem, Diagonal diagonal, std::uint64_t seed, const std::string& source) {
+  // The full grid's triangles (NODATA filled with 0 only to build them), then the ones
+  // with data at every corner.
+  DemGrid filled = dem;
+  for (double& z : filled.z)
+    if (std::isnan(z)) z = 0.0;
+  const Terrain grid = build_grid_terrain(filled, diagonal, seed, source);
+  std::vector<std::int32_t> renumbered(dem.z.size(), -1);
+  geometry::TriangleMesh mesh;
+  for (std::size_t k = 0; k < dem.z.size(); ++k)
+    if (!std::isnan(dem.z[k])) {
+      renumbered[k] = static_cast<std::int32_t>(mesh.vertices.size());
+      mesh.vertices.push_back(grid.mesh.vertices[k]);
+    }
+  for (const auto& t : grid.mesh.triangles) {
+    const std::int32_t a = renumbered[static_cast<std::size_t>(t[0])], b = renumbered[static_cast<std::size_t>(t[1])],
+                       c = renumbered[static_cast<std::size_t>(t[2])];
+    if (a >= 0 && b >= 0 && c >= 0) mesh.triangles.push_back({a, b, c});
+  }
+  if (mesh.triangles.empty()) throw core::InputError(source, "no grid cell has data at three corners");
+  return build_tin_terrain({mesh}, {"ground"}, source);
+}
+
 DemGrid resample_to_grid(const Surface& surface, const GridSpec& spec) {
   DemGrid out;
   out.spec = spec;

@@ -68,6 +68,13 @@ Terrain build_tin_terrain(const std::vector<geometry::TriangleMesh>& parts,
 /// coordinates, points sharing the same (x, y) (naming both) or all points collinear.
 Terrain build_delaunay_terrain(const std::vector<geometry::Vec3>& points, const std::string& source);
 
+/// A DEM with NODATA (NaN) points, e.g. a TIN of irregular footprint sampled on a grid, as
+/// a TIN of its grid triangles: the triangles of build_grid_terrain (the same cut by
+/// `diagonal` and `seed`) whose three corners have data, the points without data and
+/// every triangle touching one left out (vertices renumbered in grid order). One default
+/// material. Throws core::InputError(source, …) when no triangle remains.
+Terrain build_grid_tin(const DemGrid& dem, Diagonal diagonal, std::uint64_t seed, const std::string& source);
+
 /// Samples `surface` on the lattice `spec`: z = height_at(x, y), NaN where the vertical
 /// misses the surface (so trim_nodata / crop_dem can clean the border).
 DemGrid resample_to_grid(const Surface& surface, const GridSpec& spec);

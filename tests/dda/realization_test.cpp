@@ -173,6 +173,41 @@ TEST(DdaContacts, VertexBelowTheGroundInPlanIsHeld) {
   }
 }
 
+// A terrain vertex inside a convex block deeper than the search distance is held by the
+// face it is least deep under, even where it is no spike (here a node of flat ground under
+// a cube sunk into it); within the search distance the block's own vertices carry it.
+TEST(DdaContacts, TerrainVertexDeepInsideIsHeldByTheNearestFace) {
+  terrain::DemGrid dem;
+  dem.spec = {0.0, 0.0, 1.0, 1.0, 7, 7};
+  dem.z.assign(dem.spec.point_count(), 0.0);
+  const terrain::Terrain t = terrain::build_grid_terrain(dem, terrain::Diagonal::alternating, 1, "flat");
+  const terrain::Surface surface = terrain::Surface::realize(t, std::nullopt);
+  const Model m = Model::build(Settings{}, testing::cube(1.0));
+  for (const double sunk : {0.005, 0.03}) {
+    detail::Pose pose;
+    pose.centre = Vec3(3.2, 3.3, 0.5 - sunk);  // node (3, 3) under the bottom face
+    std::vector<Vec3> world;
+    for (const Vec3& v : m.vertices) world.push_back(pose.centre + pose.map * v);
+    TerrainPatch patch;
+    std::vector<Contact> found;
+    detail::detect_contacts(m, surface, pose, world, 0.01, 0.1, patch, found);
+    const auto node = std::find_if(found.begin(), found.end(), [&](const Contact& c) {
+      return c.kind == ContactKind::face_vertex && c.terrain_feature == static_cast<std::int64_t>(dem.spec.index(3, 3));
+    });
+    if (sunk < 0.01) {
+      EXPECT_EQ(node, found.end());
+    } else {
+      ASSERT_NE(node, found.end());
+      EXPECT_NEAR(node->gap, -sunk, 1e-12);
+      EXPECT_NEAR(node->normal.z(), 1.0, 1e-12);
+    }
+    // The four bottom vertices are held either way.
+    EXPECT_EQ(std::count_if(found.begin(), found.end(),
+                            [](const Contact& c) { return c.kind == ContactKind::vertex_face && c.gap < 0.0; }),
+              4);
+  }
+}
+
 // Runouts of n realizations of the bench slope on one DOF path.
 std::vector<double> runouts(const terrain::Terrain& t, const char* dof, int n, std::int64_t max_steps) {
   Settings set;

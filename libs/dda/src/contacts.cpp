@@ -216,6 +216,8 @@ void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& wo
     }
     return falls_away;
   };
+  const bool convex =
+      std::all_of(model.edges.begin(), model.edges.end(), [](const BlockEdge& e) { return e.convex; });
   for (const TerrainPatch::Vertex& tv : patch.vertices) {
     if (prune && !contains(reach, tv.p)) continue;
     const Vec3 qb = pose.inverse_map * (tv.p - pose.centre);
@@ -230,7 +232,26 @@ void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& wo
       best = static_cast<int>(f);
       best_gap = gap;
     }
-    if (best < 0) continue;
+    if (best < 0) {
+      // A terrain vertex that is no spike towards any face but lies inside a convex block
+      // deeper than the search distance (how far features approach in one step) has
+      // slipped past the other contacts (e.g. a ridge node under a block edge that runs
+      // along a grid line, where the edge–edge tests see parallel edges): it is held by
+      // the face it is least deep under, the shortest way out. Found deep, the contact
+      // takes that depth as its offset (carry_contacts), so it stops the vertex going
+      // further in without pushing it out with energy no force stored.
+      if (!convex) continue;
+      double least = -std::numeric_limits<double>::infinity();
+      for (std::size_t f = 0; f < model.faces.size(); ++f) {
+        const BlockFace& face = model.faces[f];
+        const double gap = face.normal.dot(qb) - face.offset;
+        if (gap > least) {
+          least = gap;
+          best = static_cast<int>(f);
+        }
+      }
+      if (!(least < -ds && least > -depth)) continue;
+    }
     const BlockFace& face = model.faces[best];
     const Vec3 foot_body = qb - (face.normal.dot(qb) - face.offset) * face.normal;
     Contact c;

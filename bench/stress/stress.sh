@@ -45,7 +45,7 @@ Options:
                             and runs/ are rewritten
   --jobs N                  dda-run processes at once, one thread each (default nproc)
   --groups LIST             only these case groups (comma-separated): size, shape,
-                            terrain, impact, landing, numerics, analytic
+                            terrain, impact, landing, numerics, analytic, regression
   --markdown                print the tables as Markdown (for docs/benchmarks.md)
 Environment: TALUS_PYTHON (default /usr/bin/python3, needs numpy and h5py);
 TALUS_SKIP_STRESS=1 makes the script exit 77 at once (CTest reports the test skipped).
@@ -102,7 +102,7 @@ mkdir -p "$inputs" "$out/cases" "$out/runs"
 want_group() { [ -z "$groups" ] || [[ ",$groups," == *",$1,"* ]]; }
 for g in ${groups//,/ }; do
   case $g in
-    size|shape|terrain|impact|landing|numerics|analytic) ;;
+    size|shape|terrain|impact|landing|numerics|analytic|regression) ;;
     *) echo "stress.sh: unknown group '$g' in --groups (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -551,6 +551,40 @@ if want_group analytic; then
       stochastic.friction=false stochastic.lateral_tilt=false engine.trajectory_interval=0.001
   fi
 fi
+
+# --- regression: single realizations of the full suite that once ended in a numerical
+# failure or broke an invariant, re-run in every mode (dda-run --shard K/N runs
+# realization K of the case's N, with the case's own seed, the hash of its original
+# GROUP/NAME). Each line: original group/name, realization, realizations of the case.
+queue_realization() {
+  local origin=$1 k=$2 total=$3
+  shift 3
+  want_group regression || return 0
+  ncase=$((ncase + 1))
+  local id seed name
+  id=$(printf '%03d' "$ncase")
+  seed=$(printf '%s' "$origin" | cksum | cut -d' ' -f1)
+  name="${origin#*/}-$k"
+  mkdir -p "$out/runs/regression"
+  {
+    for kv in "$@" "realizations=$total" "seed=$seed"; do printf -- '--set\n%s\n' "$kv"; done
+    printf -- '--shard\n%s/%s\n' "$k" "$total"
+  } > "$out/cases/$id.args"
+  local run="$out/runs/regression/$name.h5"
+  printf '{"id": "%s", "group": "regression", "name": "%s", "realizations": 1, "seed": %s, "run": "%s", "analytic": null}\n' \
+    "$id" "$name" "$seed" "$run" > "$out/cases/$id.json"
+  echo "$run" > "$out/cases/$id.run"
+}
+# A locked contact's shear spring held 43 J of a 38.9 J gain at rest (the energy limiter
+# relaxed only the normal springs).
+queue_realization shape/icosahedron-S3 183 200 terrain="$I/bench-S3.h5" block_file="$I/shapes.h5" \
+  "blocks=[icosahedron]" release.kind=line "$line_bench" release.height=2.5
+# A re-sticking contact was pre-stretched with the force of a transient iterate: 847 J
+# in one step of a block at rest, 0.64 J of it left as height.
+queue_realization shape/octahedron-S3 96 200 terrain="$I/bench-S3.h5" block_file="$I/shapes.h5" \
+  "blocks=[octahedron]" release.kind=line "$line_bench" release.height=2.5
+queue_realization terrain/dem-spikes 39 200 terrain="$I/dem-spikes.h5" block_file="$I/platonic.h5" \
+  release.kind=line 'release.points=[[2,3],[2,27]]'
 
 [ $ncase -gt 0 ] || { echo "stress.sh: no case selected (--groups '$groups')" >&2; exit 2; }
 

@@ -102,17 +102,48 @@ void limit_energy(const Model& model, State& s, double energy_start) {
   s.energy_removed += from_motion;
   // A gain larger than the motion holds sits in the normal springs: their compression is
   // relaxed (the accepted penetration grows) until they hold no more than was there.
-  const double rest = excess - from_motion;
+  double rest = excess - from_motion;
   if (!(rest > 0.0)) return;
   const double p = model.stiffness;
   double normal_energy = 0.0;
   for (const Contact& c : s.contacts) normal_energy += 0.5 * p * c.spring_gap * c.spring_gap;
-  if (!(normal_energy > 0.0)) return;
-  const double keep = std::sqrt(std::max(0.0, normal_energy - rest) / normal_energy);
-  for (Contact& c : s.contacts) c.spring_gap *= keep;
-  const double removed = normal_energy * (1.0 - keep * keep);
-  s.stored_energy -= removed;
-  s.energy_removed += removed;
+  if (normal_energy > 0.0) {
+    const double keep = std::sqrt(std::max(0.0, normal_energy - rest) / normal_energy);
+    for (Contact& c : s.contacts) c.spring_gap *= keep;
+    const double removed = normal_energy * (1.0 - keep * keep);
+    s.stored_energy -= removed;
+    s.energy_removed += removed;
+    rest -= removed;
+  }
+  // What is left sits in the shear springs of locked contacts: their anchors slip towards
+  // the block (friction work) until the springs hold no more than was there.
+  if (!(rest > 0.0)) return;
+  const double ps = p / model.settings.shear_stiffness_ratio;
+  double shear_energy = 0.0;
+  for (const Contact& c : s.contacts)
+    if (c.anchored && std::isfinite(c.spring_shear)) shear_energy += 0.5 * c.spring_shear * c.spring_shear / ps;
+  if (shear_energy > 0.0) {
+    const double keep = std::sqrt(std::max(0.0, shear_energy - rest) / shear_energy);
+    const Pose pose = pose_of(model, s);
+    for (Contact& c : s.contacts) {
+      if (!c.anchored || !std::isfinite(c.spring_shear)) continue;
+      const Vec3 sv = pose.centre + pose.map * c.body_anchor - c.ground_anchor;
+      c.ground_anchor += (1.0 - keep) * (sv - c.normal * c.normal.dot(sv));
+      c.spring_shear *= keep;
+    }
+    const double removed = shear_energy * (1.0 - keep * keep);
+    s.stored_energy -= removed;
+    s.energy_removed += removed;
+    rest -= removed;
+  }
+  // And what is left after that raised the block: the rise is taken back (a settled
+  // block's step lifted it 1.6 µm, 0.04 J, with no motion or spring left to take it
+  // from). The next step's contacts take the lowered pose's extra depth as accepted
+  // penetration (carry_contacts), so it is not pushed out again.
+  if (!(rest > 0.0) || !(model.settings.gravity > 0.0)) return;
+  s.position.z() -= rest / (model.mass * model.settings.gravity);
+  update_world_vertices(model, s);
+  s.energy_removed += rest;
 }
 
 void end_with(State& s, EndReason reason) {

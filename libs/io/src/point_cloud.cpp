@@ -15,6 +15,7 @@
 #include <sstream>
 #include <string_view>
 
+#include "las_reader.hpp"
 #include "mesh_text_readers.hpp"
 #include "talus/core/error.hpp"
 #include "talus/io/paths.hpp"
@@ -428,7 +429,11 @@ std::vector<geometry::Vec3> read_point_cloud(const std::string& path, const Poin
   std::vector<geometry::Vec3> points;
   if (ext == ".ply") points = read_ply(path, options, false).points;
   else if (is_text_cloud_extension(ext)) points = read_text_cloud(path, options);
-  else throw core::InputError(path, "unknown point cloud extension '" + ext + "' (use .xyz, .txt, .pts, .csv or .ply)");
+  else if (detail::is_las_extension(ext)) {
+    points = detail::read_las(path, options.las_classes);
+    for (geometry::Vec3& p : points) p = place(p.x(), p.y(), p.z(), options);
+  } else
+    throw core::InputError(path, "unknown point cloud extension '" + ext + "' (use .xyz, .txt, .pts, .csv, .las or .ply)");
   if (points.empty()) throw core::InputError(path, "empty point cloud: no points");
   check_coordinates(points, path, "point");
   return points;
@@ -436,7 +441,7 @@ std::vector<geometry::Vec3> read_point_cloud(const std::string& path, const Poin
 
 bool is_point_cloud_file(const std::string& path) {
   const std::string ext = lower_extension(path);
-  if (is_text_cloud_extension(ext)) return true;
+  if (is_text_cloud_extension(ext) || detail::is_las_extension(ext)) return true;
   if (ext != ".ply") return false;
   std::ifstream in(path, std::ios::binary);
   if (!in) return false;
@@ -447,6 +452,11 @@ bool is_point_cloud_file(const std::string& path) {
   } catch (const core::InputError&) {
     return false;
   }
+}
+
+DeclaredCrs point_cloud_crs(const std::string& path) {
+  if (detail::is_las_extension(lower_extension(path))) return detail::las_crs(path);
+  return {};
 }
 
 namespace detail {

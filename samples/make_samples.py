@@ -15,6 +15,8 @@ byte for byte (Python's own seeded generator, fixed decimals, no third-party mod
   terrain/face.obj              projected coordinates): upper bench, overhanging face,
   terrain/scree.stl             scree apron (ASCII STL)
   terrain/ground.xyz            LiDAR ground points of a 35 degree slope (x y z per line)
+  terrain/ground.las            LiDAR survey of such a slope: ground, vegetation and noise
+                                returns (LAS 1.2, format 1, EPSG:2056 in its GeoTIFF keys)
   blocks/boulder.xyz            points on a boulder's surface (x y z per line, metres)
   blocks/boulder_scan.ply       photogrammetric boulder scan in millimetres, y up, with one
                                 hole and three flipped faces (for the repair settings)
@@ -245,6 +247,52 @@ def ground_points():
     return out.getvalue().encode()
 
 
+def ground_las():
+    """An airborne-like LiDAR survey of the same kind of slope as ground.xyz (35 degrees,
+    falling east, with a terrace), as LAS 1.2, point data record format 1, 1 cm
+    quantization, CH1903+/LV95 in its GeoTIFF keys: 1200 ground returns (class 2), 300
+    returns of shrubs and trees 0.5 to 12 m above the ground (classes 3 to 5) and 20 low
+    noise returns 2 to 8 m below it (class 7). No two points share x and y."""
+    rng = random.Random(1212)
+    e0, n0 = EAST0 + 250.0, NORTH0 + 330.0
+
+    def ground_z(x, y):
+        z = 900.0 - x * math.tan(math.radians(35.0)) + 3.0 * math.exp(-((x - 30.0) / 3.0) ** 2)
+        return z + 0.6 * math.sin(y / 6.0)
+
+    points, taken = [], set()
+    kinds = [(1200, 2, 0.0, 0.0), (100, 3, 0.5, 2.0), (100, 4, 2.0, 5.0), (100, 5, 5.0, 12.0), (20, 7, -8.0, -2.0)]
+    for count, cls, lo, hi in kinds:
+        made = 0
+        while made < count:
+            ix, iy = round(rng.uniform(0.0, 60.0) * 100), round(rng.uniform(0.0, 40.0) * 100)
+            if (ix, iy) in taken:
+                continue
+            taken.add((ix, iy))
+            x, y = ix / 100.0, iy / 100.0
+            dz = rng.uniform(-0.05, 0.05) if cls == 2 else rng.uniform(lo, hi)
+            points.append((ix, iy, round((ground_z(x, y) + dz) * 100), cls))
+            made += 1
+    scale, offset = (0.01, 0.01, 0.01), (e0, n0, 0.0)
+    # GeoTIFF key directory: projected, CH1903+ / LV95 (EPSG:2056), metres.
+    keys = [1, 1, 0, 3, 1024, 0, 1, 1, 3072, 0, 1, 2056, 3076, 0, 1, 9001]
+    vlr_data = struct.pack("<%dH" % len(keys), *keys)
+    vlr = struct.pack("<H16sHH32s", 0, b"LASF_Projection", 34735, len(vlr_data), b"GeoTIFF GeoKeyDirectoryTag")
+    vlr += vlr_data
+    offset_to_points = 227 + len(vlr)
+    xs = [p[0] * scale[0] + offset[0] for p in points]
+    ys = [p[1] * scale[1] + offset[1] for p in points]
+    zs = [p[2] * scale[2] + offset[2] for p in points]
+    header = struct.pack("<4sHHIHH8s", b"LASF", 0, 0, 0, 0, 0, bytes(8))
+    header += struct.pack("<BB32s32sHHHIIBHI5I", 1, 2, b"samples/make_samples.py", b"samples/make_samples.py",
+                          1, 2024, 227, offset_to_points, 1, 1, 28, len(points), len(points), 0, 0, 0, 0)
+    header += struct.pack("<3d3d6d", *scale, *offset, max(xs), min(xs), max(ys), min(ys), max(zs), min(zs))
+    assert len(header) == 227
+    records = b"".join(struct.pack("<iiiHBBbBHd", ix, iy, iz, 0, 0b00001001, cls, 0, 0, 1, 0.0)
+                       for ix, iy, iz, cls in points)
+    return header + vlr + records
+
+
 # --- rocks ----------------------------------------------------------------------------------
 
 def icosphere(levels):
@@ -356,6 +404,7 @@ FILES = {
     "terrain/face.obj": face,
     "terrain/scree.stl": scree,
     "terrain/ground.xyz": ground_points,
+    "terrain/ground.las": ground_las,
     "blocks/boulder.xyz": boulder_cloud,
     "blocks/boulder_scan.ply": boulder_scan,
 }

@@ -22,6 +22,7 @@ import hashlib
 import os
 import re
 import shutil
+import struct
 import subprocess
 import sys
 import tempfile
@@ -102,6 +103,21 @@ def write(path, text):
         f.write(text)
 
 
+def las_bytes(points, compressed=False):
+    """A LAS 1.2 file of point data record format 1 (28-byte records), scale 0.01 m and
+    offset 0, holding `points` as (x, y, z, class)."""
+    header = bytearray(227)
+    header[0:4] = b"LASF"
+    header[24:26] = bytes([1, 2])
+    struct.pack_into("<HII", header, 94, 227, 227, 0)  # header size, offset to points, VLRs
+    header[104] = 1 | (0x80 if compressed else 0)
+    struct.pack_into("<HI", header, 105, 28, len(points))
+    struct.pack_into("<6d", header, 131, 0.01, 0.01, 0.01, 0.0, 0.0, 0.0)
+    records = b"".join(struct.pack("<iiiHBB", round(x * 100), round(y * 100), round(z * 100), 0, 0, c) + bytes(12)
+                       for x, y, z, c in points)
+    return bytes(header) + records
+
+
 def make_fixtures(bin_dir, root):
     """Valid inputs every case starts from (built with the tools themselves)."""
     os.makedirs(root)
@@ -119,6 +135,13 @@ def make_fixtures(bin_dir, root):
     write(os.path.join(root, "nan.xyz"), "0 0 0\n1 0 0\nnan 1 0\n0 0 1\n")
     write(os.path.join(root, "two.xyz"), "0 0 0\n1 0 0\n")
     write(os.path.join(root, "empty.obj"), "")
+    ground = [(0, 0, 0, 2), (1, 0, 0, 2), (0, 1, 0, 2), (1, 1, 0.5, 2), (0.5, 0.5, 3, 5)]
+    for name, data in (("ground.las", las_bytes(ground)), ("ground.laz", las_bytes(ground)),
+                       ("packed.las", las_bytes(ground, compressed=True)), ("cut.las", las_bytes(ground)[:-30])):
+        with open(os.path.join(root, name), "wb") as f:
+            f.write(data)
+    write(os.path.join(root, "short.csv"), '"X","Y","Z","Intensity"\n0,0,0,1\n1,0\n')
+    write(os.path.join(root, "columns.csv"), "Easting,Northing,Height\n0,0,0\n")
     write(os.path.join(root, "notes.txt"), "not a run file\n")
     dem = DEM_ASC.splitlines()
     write(os.path.join(root, "high.asc"), "\n".join(dem[:7] + ["3 2 1e308 0"] + dem[8:]) + "\n")
@@ -221,6 +244,17 @@ CASES = [
     (["terrain-gen", "far.asc", "-o", "x.h5"], BAD_INPUT, ["far.asc", "[-1e9, 1e9] m"]),
     (["terrain-gen", "huge.obj", "-o", "x.h5"], BAD_INPUT, ["huge.obj", "vertex", "[-1e9, 1e9] m"]),
     (["terrain-gen", "missing.asc", "-o", "x.h5"], BAD_INPUT, ["missing.asc"]),
+    (["terrain-gen", "ground.laz", "-o", "x.h5"], BAD_INPUT,
+     ["ground.laz", "LAZ is compressed", "las2las -i in.laz -o out.las", "pdal translate in.laz out.las"]),
+    (["terrain-gen", "packed.las", "-o", "x.h5"], BAD_INPUT, ["packed.las", "compressed (LAZ)", "decompress"]),
+    (["terrain-gen", "cut.las", "-o", "x.h5"], BAD_INPUT, ["cut.las", "truncated LAS file", "declares 5 points"]),
+    (["terrain-gen", "ground.las", "--set", "tin.las_classes=[9]", "-o", "x.h5"], BAD_INPUT,
+     ["ground.las", "no point of class 9", "2 (4 points), 5 (1 point)"]),
+    (["terrain-gen", "ground.las", "--set", "tin.las_classes=[256]", "-o", "x.h5"], BAD_INPUT,
+     ["tin.las_classes", "256", "0 to 255"]),
+    (["terrain-gen", "short.csv", "-o", "x.h5"], BAD_INPUT, ["short.csv", "line 3", "2 columns, expected at least 3"]),
+    (["terrain-gen", "columns.csv", "-o", "x.h5"], BAD_INPUT, ["columns.csv", "line 1", "header naming the X, Y and Z"]),
+    (["block-gen", "ground.laz", "-o", "x.h5"], BAD_INPUT, ["ground.laz", "LAZ is compressed"]),
     (["terrain-gen", "-c", "missing.yaml", "-o", "x.h5"], BAD_INPUT, ["missing.yaml"]),
     (["terrain-gen", "-c", "bad.yaml", "-o", "x.h5"], BAD_INPUT, ["bad.yaml:", "YAML"]),
     (["block-gen", "huge.obj", "-o", "x.h5"], BAD_INPUT, ["huge.obj", "vertex 1", "[-1e9, 1e9] m"]),

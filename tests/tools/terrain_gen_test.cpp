@@ -14,6 +14,7 @@
 #include "talus/io/raster.hpp"
 #include "talus/io/terrain_file.hpp"
 #include "talus/terrain/terrain.hpp"
+#include "../support/las_writer.hpp"
 #include "tool_run.hpp"
 
 namespace talus {
@@ -411,6 +412,110 @@ TEST_F(TerrainGen, PointCloudIsTriangulated) {
   write_text(dir_ / "bad.xyz", "0 0 1\n1 x 2\n");
   const Outcome bad = run({"bad.xyz", "-o", "bad.h5"});
   expect_error(bad, 3, "bad.xyz: line 2: expected x y z numbers", "bad.h5");
+}
+
+// A LAS 1.4 survey (format 6) in CH1903+/LV95: a 5 x 4 grid of ground returns (class 2)
+// on a plane falling east, and three returns of vegetation (class 5) 15 m above it. With
+// tin.las_classes [2] the TIN is the ground's alone; the WKT record gives the CRS.
+TEST_F(TerrainGen, LasPointCloudBuildsTheGroundTin) {
+  testing::LasTestFile f;
+  f.minor = 4;
+  f.format = 6;
+  f.scale = {0.01, 0.01, 0.01};
+  f.offset = {2601000.0, 1180000.0, 0.0};
+  for (std::int32_t j = 0; j < 4; ++j)
+    for (std::int32_t i = 0; i < 5; ++i) f.points.push_back({250 + 100 * i, 330 + 100 * j, 90000 - 50 * i, 2});
+  for (std::int32_t k = 0; k < 3; ++k) f.points.push_back({300 + 100 * k, 380 + 100 * k, 91500 - 50 * k, 5});
+  const std::string wkt = io::resolve_crs("EPSG:2056", "test");
+  f.records = {{"LASF_Projection", 2112, wkt + std::string(1, '\0'), true}};
+  write_text(dir_ / "survey.las", testing::las_bytes(f));
+
+  const Outcome r = run({"survey.las", "--set", "tin.las_classes=[2]", "-o", "ground.h5", "--summary"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.err, "");
+  EXPECT_NE(r.out.find("CRS: " + io::crs_name(wkt)), std::string::npos) << r.out;
+  io::TerrainFileInfo info;
+  const terrain::Terrain t = io::read_terrain_file((dir_ / "ground.h5").string(), info);
+  EXPECT_FALSE(t.grid.has_value());
+  EXPECT_EQ(t.name, "survey");
+  EXPECT_EQ(io::crs_name(t.crs_wkt), io::crs_name(wkt));
+  // Projected coordinates: shifted by the lower-left corner rounded down to 1 km.
+  EXPECT_EQ(t.origin_shift, geometry::Vec3(2601000, 1180000, 0));
+  ASSERT_EQ(t.mesh.vertices.size(), 20u);
+  EXPECT_EQ(t.mesh.triangles.size(), 24u);  // 4 x 3 cells, two triangles each
+  for (const auto& v : t.mesh.vertices) {
+    // Ground points only: x = 2.5 .. 6.5 m, z = 900 − 0.5 (x − 2.5) m.
+    EXPECT_NEAR(v.z(), 900.0 - 0.5 * (v.x() - 2.5), 1e-9) << v.transpose();
+    EXPECT_GE(v.x(), 2.5 - 1e-9);
+    EXPECT_LE(v.x(), 6.5 + 1e-9);
+  }
+  EXPECT_NE(info.provenance.settings_yaml.find("las_classes: [2]"), std::string::npos)
+      << info.provenance.settings_yaml;
+
+  // Every class: the vegetation returns are vertices too.
+  ASSERT_EQ(run({"survey.las", "-o", "all.h5"}).code, 0);
+  EXPECT_EQ(io::read_terrain_file((dir_ / "all.h5").string()).mesh.vertices.size(), 23u);
+
+  // Errors: one line, exit 3, nothing written.
+  expect_error(run({"survey.las", "--set", "tin.las_classes=[9]", "-o", "out.h5"}), 3,
+               "survey.las: no point of class 9 among its 23 points; its classes: 2 (20 points), 5 (3 points)");
+  expect_error(run({"survey.las", "--set", "tin.las_classes=[2.5]", "-o", "out.h5"}), 3,
+               "tin.las_classes: 2.5 is not a LAS classification code (an integer from 0 to 255)");
+  write_text(dir_ / "survey.laz", testing::las_bytes(f));
+  expect_error(run({"survey.laz", "-o", "out.h5"}), 3,
+               "survey.laz: LAZ is compressed LAS, which Talus does not read: decompress it first, e.g. las2las -i "
+               "in.laz -o out.las (LAStools) or pdal translate in.laz out.las (PDAL)");
+  fs::remove(dir_ / "survey.laz");
+  std::string cut = testing::las_bytes(f);
+  cut.resize(375 + 30 * 22 + 10);  // 22 whole records and a piece of the 23rd
+  write_text(dir_ / "cut.las", cut);
+  expect_error(run({"cut.las", "-o", "out.h5"}), 3,
+               "cut.las: truncated LAS file: the header declares 23 points of 30 bytes from byte 375, the file holds 22");
+  fs::remove(dir_ / "cut.las");
+  // A cloud in degrees (GeoTIFF keys of WGS 84) is refused with the command that reprojects it.
+  testing::LasTestFile degrees = f;
+  degrees.records = {{"LASF_Projection", 34735, testing::geokey_directory({{1024, 2}, {2048, 4326}}), false}};
+  write_text(dir_ / "degrees.las", testing::las_bytes(degrees));
+  expect_error(run({"degrees.las", "-o", "out.h5"}), 3,
+               "degrees.las: CRS WGS 84 (EPSG:4326) is geographic (degrees); Talus computes in metres: reproject the "
+               "point cloud to a projected CRS in metres first, e.g. pdal translate in.las out.las reprojection "
+               "--filters.reprojection.out_srs=EPSG:32632");
+  // The crs setting wins over the file's own.
+  ASSERT_EQ(run({"degrees.las", "--set", "crs=EPSG:2056", "-o", "set.h5"}).code, 0);
+  EXPECT_EQ(io::crs_name(io::read_terrain_file((dir_ / "set.h5").string()).crs_wkt), io::crs_name(wkt));
+  // Two clouds in different CRSs.
+  testing::LasTestFile utm = f;
+  utm.records = {{"LASF_Projection", 34735, testing::geokey_directory({{1024, 1}, {3072, 32632}}), false}};
+  write_text(dir_ / "utm.las", testing::las_bytes(utm));
+  expect_error(run({"survey.las", "utm.las", "-o", "out.h5"}), 3, "utm.las: CRS WGS 84 / UTM zone 32N (EPSG:32632) differs from");
+}
+
+// Text clouds with a header line: PDAL's text writer output, columns in any order.
+TEST_F(TerrainGen, HeadedTextCloudsAreTriangulated) {
+  write_text(dir_ / "pdal.csv", "\"X\",\"Y\",\"Z\",\"Intensity\",\"Classification\"\n0,0,1,10,2\n4,0,2,10,2\n"
+                                "4,3,3,10,2\n0,3,4,10,2\n2,1.5,2.5,10,2\n");
+  write_text(dir_ / "zxy.txt", "Z X Y\n1 0 0\n2 4 0\n3 4 3\n4 0 3\n2.5 2 1.5\n");
+  for (const std::string input : {"pdal.csv", "zxy.txt"}) {
+    const std::string output = fs::path(input).stem().string() + ".h5";
+    const Outcome r = run({input, "-o", output});
+    ASSERT_EQ(r.code, 0) << input << ": " << r.err;
+    const terrain::Terrain t = io::read_terrain_file((dir_ / output).string());
+    EXPECT_EQ(t.mesh.vertices.size(), 5u) << input;
+    EXPECT_EQ(t.mesh.triangles.size(), 4u) << input;
+    EXPECT_EQ(t.mesh.vertices[2], geometry::Vec3(4, 3, 3)) << input;
+  }
+  // The class filter is for LAS files: a text cloud is read whole, with a warning.
+  const Outcome warned = run({"pdal.csv", "--set", "tin.las_classes=[2]", "-o", "warned.h5"});
+  ASSERT_EQ(warned.code, 0) << warned.err;
+  EXPECT_NE(warned.err.find("pdal.csv: tin.las_classes selects LAS points by class; this file has no classes and "
+                            "is read whole"),
+            std::string::npos) << warned.err;
+  write_text(dir_ / "short.csv", "\"X\",\"Y\",\"Z\"\n0,0,1\n4,0\n");
+  expect_error(run({"short.csv", "-o", "out.h5"}), 3,
+               "short.csv: line 3: 2 columns, expected at least 3 (the header on line 1 puts X, Y, Z in columns 1, 2, 3)");
+  write_text(dir_ / "names.csv", "E,N,H\n0,0,1\n");
+  expect_error(run({"names.csv", "-o", "out.h5"}), 3,
+               "names.csv: line 1: expected x y z numbers or a header naming the X, Y and Z columns, got 'E,N,H'");
 }
 
 TEST_F(TerrainGen, ExampleConfigsAreValid) {

@@ -91,8 +91,8 @@ int main(int argc, char** argv) {
   spec.name = "block-gen";
   spec.summary = "Build a block library (validated polyhedra with exact properties) from meshes, point clouds "
                  "and named solids; 'block-gen info FILE' prints a block file";
-  spec.inputs_doc = "mesh files (.obj .stl .ply .off .gltf ...) or point clouds (.xyz .txt .pts .csv, PLY without "
-                    "faces), one block each; or 'info FILE.h5 ...'";
+  spec.inputs_doc = "mesh files (.obj .stl .ply .off .gltf ...) or point clouds (.xyz .txt .pts .csv, LAS .las, PLY "
+                    "without faces), one block each; or 'info FILE.h5 ...'";
   spec.set_example = "inputs.scale=0.001";
   spec.settings = [&settings](core::SettingsVisitor& v) { settings.visit(v); };
   spec.options = {{"--info", "print the properties of every block of a block file and exit", &info_option},

@@ -42,7 +42,7 @@ void BlockSettings::visit(core::SettingsVisitor& v) {
            {"none", "tetrahedron", "cube", "octahedron", "dodecahedron", "icosahedron", "box", "ellipsoid", "rock"},
            "named solid (none when the block comes from mesh or cloud)");
   v.field("mesh", mesh, "mesh file (OBJ, STL, PLY, OFF, glTF ...), relative to the working directory");
-  v.field("cloud", cloud, "point cloud file (.xyz/.txt/.pts/.csv or PLY)");
+  v.field("cloud", cloud, "point cloud file (.xyz/.txt/.pts/.csv, .las or PLY)");
   v.bounded("volume", volume, "m^3",
             "target volume: solids are scaled to it (default 1 for Platonic solids and rocks); a mesh or cloud is "
             "scaled about its centroid only when given",

@@ -275,6 +275,10 @@ void check_settings(const Settings& s, const std::string& settings_source) {
     throw InputError(settings_source, "tin.cell_size must be > 0, got " + format_number(s.tin.cell_size));
   if (!(s.tin.scale > 0.0))
     throw InputError(settings_source, "tin.scale must be > 0, got " + format_number(s.tin.scale));
+  for (double c : s.tin.las_classes)
+    if (!(c >= 0.0 && c <= 255.0 && c == std::floor(c)))
+      throw InputError(settings_source, "tin.las_classes: " + format_number(c) +
+                                            " is not a LAS classification code (an integer from 0 to 255)");
 }
 
 // A grid TRN from a DEM file or the synthetic slope.
@@ -364,19 +368,51 @@ Terrain terrain_from_meshes(const Settings& s, const std::vector<std::string>& i
   return s.tin.mode == "resample" ? resample_tin(tin, s, source, settings_source) : tin;
 }
 
+bool is_las(const std::string& path) {
+  const std::string ext = io::lower_extension(path);
+  return ext == ".las" || ext == ".laz";
+}
+
+// The CRS the point clouds declare (LAS files do), checked; clouds declaring different
+// CRSs are refused. Empty when none declares one.
+std::string declared_cloud_crs(const std::vector<std::string>& inputs) {
+  std::string crs, from;
+  for (const auto& input : inputs) {
+    const io::DeclaredCrs declared = io::point_cloud_crs(input);
+    if (!declared.problem.empty())
+      core::log_warn(input + ": " + declared.problem + "; give the crs setting to record the CRS in the terrain file");
+    if (declared.text.empty()) continue;
+    const std::string wkt = io::resolve_crs(declared.text, input, io::CrsData::point_cloud);
+    if (crs.empty()) {
+      crs = wkt;
+      from = input;
+    } else if (wkt != crs && io::crs_name(wkt) != io::crs_name(crs)) {
+      throw InputError(input, "CRS " + io::crs_name(wkt) + " differs from " + io::crs_name(crs) + " of " + from +
+                                  ": reproject the point clouds to one CRS");
+    }
+  }
+  return crs;
+}
+
 // A TIN by Delaunay triangulation of point clouds.
 Terrain terrain_from_points(const Settings& s, const std::vector<std::string>& inputs,
                             const std::string& settings_source) {
-  const io::PointCloudOptions options{.scale = s.tin.scale, .up = up_axis(s)};
+  io::PointCloudOptions options;
+  options.scale = s.tin.scale;
+  options.up = up_axis(s);
+  for (double c : s.tin.las_classes) options.las_classes.push_back(static_cast<int>(c));
   const Window w = window_of(s.crop, settings_source);
   std::vector<Vec3> points;
   PlanBounds b;
-  for (const auto& input : inputs)
+  for (const auto& input : inputs) {
+    if (!s.tin.las_classes.empty() && !is_las(input))
+      core::log_warn(input + ": tin.las_classes selects LAS points by class; this file has no classes and is read whole");
     for (const Vec3& p : io::read_point_cloud(input, options)) {
       if (!w.contains(p.x(), p.y())) continue;
       b.add(p.x(), p.y());
       points.push_back(p);
     }
+  }
   const std::string source = inputs.size() == 1 ? inputs.front() : "points";
   if (points.empty()) throw InputError(source, "no point lies in the crop window");
   // Delaunay runs on shifted coordinates: that is where the precision matters.
@@ -423,10 +459,14 @@ Built build_terrain(const Settings& s, const std::vector<std::string>& inputs, c
   check_settings(s, settings_source);
   // The CRS before the inputs: a DEM in degrees is refused before it is read.
   std::string crs;
-  if (!s.crs.empty()) crs = io::resolve_crs(s.crs, settings_source);
-  else if (built.kind == SourceKind::dem)
+  const io::CrsData data = built.kind == SourceKind::points ? io::CrsData::point_cloud : io::CrsData::raster;
+  if (!s.crs.empty()) crs = io::resolve_crs(s.crs, settings_source, data);
+  else if (built.kind == SourceKind::dem) {
     if (const std::string declared = io::dem_crs(inputs.front()); !declared.empty())
       crs = io::resolve_crs(declared, inputs.front());
+  } else if (built.kind == SourceKind::points) {
+    crs = declared_cloud_crs(inputs);
+  }
 
   Terrain& t = built.terrain;
   switch (built.kind) {

@@ -42,8 +42,8 @@ int main(int argc, char** argv) {
   spec.summary = "Build a terrain file (TRN/TIN, materials, roughness) from a DEM, meshes, points or a synthetic slope";
   spec.inputs_doc =
       "DEM (.asc, .tif), meshes (.stl .obj .ply .off .gltf; one file per material), or point clouds "
-      "(.xyz .txt .pts .csv, .ply without faces); none for a synthetic slope; or a terrain file (.h5) to "
-      "inspect with --summary / --export-mesh";
+      "(.xyz .txt .pts .csv, with or without a header line naming X, Y, Z; uncompressed LAS .las; .ply without "
+      "faces); none for a synthetic slope; or a terrain file (.h5) to inspect with --summary / --export-mesh";
   spec.set_example = "roughness.sigma=0.2";
   spec.settings = [&settings](core::SettingsVisitor& v) { settings.visit(v); };
   spec.flags = {{"--summary", "print a summary of the built terrain (kind, sizes, extent, materials, roughness)",

@@ -16,6 +16,9 @@ void Settings::Tin::visit(core::SettingsVisitor& v) {
   v.choice("up_axis", up_axis, {"z", "y"}, "input axis that points up in meshes and point clouds");
   v.bounded("scale", scale, "-", "factor applied to mesh and point coordinates (0.001 for millimetres)",
             core::Range::positive(1e6));
+  v.field("las_classes", las_classes, "-",
+          "LAS files: keep only the points of these ASPRS classification codes, integers 0 to 255 (2 ground, 3-5 "
+          "vegetation, 6 building, 7 low noise, 9 water); [2] keeps the ground; empty: every point");
 }
 
 void Settings::Origin::visit(core::SettingsVisitor& v) {
@@ -36,13 +39,14 @@ void Settings::Roughness::visit(core::SettingsVisitor& v) {
 
 void Settings::visit(core::SettingsVisitor& v) {
   v.choice("source", source, {"auto", "synthetic", "dem", "tin", "points"},
-           "input kind; auto: from the input extensions (.asc/.tif: dem; .xyz/.txt/.pts/.csv and .ply without "
-           "faces: points; .stl/.obj/.ply/.off/.gltf/.glb: tin; no input: synthetic)");
+           "input kind; auto: from the input extensions (.asc/.tif: dem; .xyz/.txt/.pts/.csv, .las and .ply "
+           "without faces: points; .stl/.obj/.ply/.off/.gltf/.glb: tin; no input: synthetic)");
   v.field("name", name, "terrain name recorded in the file; empty: from the inputs");
   v.field("crs", crs,
           "coordinate reference system of the input coordinates: EPSG:nnnn, WKT or a .prj file; empty: the "
-          "DEM's own (GeoTIFF spatial reference, or the .prj beside an .asc), none for meshes, point clouds and "
-          "synthetic slopes. Projected, in metres; geographic CRSs are refused");
+          "DEM's own (GeoTIFF spatial reference, or the .prj beside an .asc) or the LAS file's (WKT or GeoTIFF "
+          "EPSG code), none for meshes, text point clouds and synthetic slopes. Projected, in metres; "
+          "geographic CRSs are refused");
   v.field("seed", seed, "-", "terrain seed: realization i of the roughness is a pure function of (seed, i)");
   v.choice("triangulation", triangulation, {"fixed", "alternating", "random"},
            "diagonal of each grid cell; fixed reproduces the reference model's one-sided cut");

@@ -20,7 +20,7 @@ struct Settings {
   /// Input kind: auto infers it from the input extensions (none: synthetic).
   std::string source = "auto";
   std::string name;                 ///< terrain name; empty: from the inputs
-  std::string crs;                  ///< EPSG:nnnn, WKT or .prj file; empty: the DEM's own
+  std::string crs;                  ///< EPSG:nnnn, WKT or .prj file; empty: the DEM's or LAS file's own
   std::uint64_t seed = 1;           ///< terrain seed: roughness realizations and random diagonals
   std::string triangulation = "alternating";  ///< fixed, alternating or random (grid terrains)
   terrain::SyntheticSlope synthetic;
@@ -36,6 +36,7 @@ struct Settings {
     double cell_size = 1.0;     ///< m, grid spacing when resampling
     std::string up_axis = "z";  ///< z or y: which input axis points up
     double scale = 1.0;         ///< -, multiplies input coordinates (0.001 for mm)
+    std::vector<double> las_classes;  ///< ASPRS classes of the LAS points kept (2: ground); empty: all
     void visit(core::SettingsVisitor& v);
   } tin;
 

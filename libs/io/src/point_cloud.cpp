@@ -10,8 +10,12 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
+#include <optional>
 #include <sstream>
+#include <string_view>
 
+#include "las_reader.hpp"
 #include "mesh_text_readers.hpp"
 #include "talus/core/error.hpp"
 #include "talus/io/paths.hpp"
@@ -30,28 +34,137 @@ geometry::Vec3 place(double x, double y, double z, const PointCloudOptions& opti
   return q * options.scale;
 }
 
+// Columns of a text cloud line: runs of spaces, tabs and commas separate them, and a column
+// may be quoted ("X" or 'X', as in the header lines PDAL writes).
+void split_columns(std::string_view line, std::vector<std::string_view>& columns) {
+  columns.clear();
+  const auto separator = [](char c) { return c == ' ' || c == '\t' || c == ',' || c == '\r'; };
+  std::size_t i = 0;
+  while (i < line.size()) {
+    if (separator(line[i])) {
+      ++i;
+      continue;
+    }
+    if (line[i] == '"' || line[i] == '\'') {
+      const std::size_t close = line.find(line[i], i + 1);
+      const std::size_t end = close == std::string_view::npos ? line.size() : close;
+      columns.push_back(line.substr(i + 1, end - i - 1));
+      i = end + 1;
+      continue;
+    }
+    const std::size_t start = i;
+    while (i < line.size() && !separator(line[i])) ++i;
+    columns.push_back(line.substr(start, i - start));
+  }
+}
+
+// The number a column holds, if all of it is one. Columns end at a separator, a quote or
+// the end of the line, where strtod stops too.
+std::optional<double> column_number(std::string_view column) {
+  if (column.empty()) return std::nullopt;
+  char* end = nullptr;
+  const double v = std::strtod(column.data(), &end);
+  if (end != column.data() + column.size()) return std::nullopt;
+  return v;
+}
+
+std::string lower(std::string_view text) {
+  std::string out(text);
+  std::transform(out.begin(), out.end(), out.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return out;
+}
+
+// A line for a message: at most 60 characters, without the line end.
+std::string quoted_line(std::string_view line) {
+  while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.remove_suffix(1);
+  return "'" + (line.size() > 60 ? std::string(line.substr(0, 57)) + "..." : std::string(line)) + "'";
+}
+
+// The columns of X, Y and Z a header line names (any letter case), or an error naming the
+// file and line.
+std::array<std::size_t, 3> header_columns(const std::vector<std::string_view>& columns, std::string_view line,
+                                          const std::string& where) {
+  constexpr std::size_t none = std::numeric_limits<std::size_t>::max();
+  std::array<std::size_t, 3> slot{none, none, none};
+  for (std::size_t k = 0; k < columns.size(); ++k) {
+    const std::string name = lower(columns[k]);
+    if (name.size() != 1 || name[0] < 'x' || name[0] > 'z') continue;
+    std::size_t& s = slot[static_cast<std::size_t>(name[0] - 'x')];
+    if (s != none)
+      throw core::InputError(where, "the header names column " + std::string(1, static_cast<char>(std::toupper(name[0]))) +
+                                        " twice (columns " + std::to_string(s + 1) + " and " + std::to_string(k + 1) +
+                                        ")");
+    s = k;
+  }
+  if (slot[0] == none && slot[1] == none && slot[2] == none)
+    throw core::InputError(where, "expected x y z numbers or a header naming the X, Y and Z columns, got " +
+                                      quoted_line(line));
+  std::string missing;
+  for (std::size_t c = 0; c < 3; ++c)
+    if (slot[c] == none) missing += std::string(missing.empty() ? "" : " or ") + static_cast<char>('X' + c);
+  if (!missing.empty()) throw core::InputError(where, "the header " + quoted_line(line) + " names no " + missing + " column");
+  return slot;
+}
+
 std::vector<geometry::Vec3> read_text_cloud(const std::string& path, const PointCloudOptions& options) {
   std::ifstream in(path);
   if (!in) throw core::InputError(path, "cannot open point cloud file");
   std::vector<geometry::Vec3> points;
   std::string line;
   std::size_t number = 0;
+  // Set by a header line: the columns of x, y and z, the header's line, the columns a row needs.
+  std::optional<std::array<std::size_t, 3>> header;
+  std::size_t header_line = 0, needed = 0;
+  bool first = true;
+  std::vector<std::string_view> columns;
   while (std::getline(in, line)) {
     ++number;
-    std::replace(line.begin(), line.end(), ',', ' ');
-    std::replace(line.begin(), line.end(), '\t', ' ');
-    const auto first = line.find_first_not_of(" \r");
-    if (first == std::string::npos || line[first] == '#' || line.compare(first, 2, "//") == 0) continue;
-    const char* p = line.c_str();
+    if (number == 1 && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);  // UTF-8 byte order mark
+    const auto start = line.find_first_not_of(" \t\r");
+    if (start == std::string::npos || line[start] == '#' || line.compare(start, 2, "//") == 0) continue;
+    const std::string where = path + ": line " + std::to_string(number);
+    if (first) {
+      first = false;
+      split_columns(line, columns);
+      if (columns.empty() || !column_number(columns.front())) {
+        header = header_columns(columns, line, where);
+        header_line = number;
+        needed = 1 + std::max({(*header)[0], (*header)[1], (*header)[2]});
+        continue;
+      }
+    }
     std::array<double, 3> xyz{};
-    for (double& v : xyz) {
-      char* end = nullptr;
-      v = std::strtod(p, &end);
-      if (end == p) throw core::InputError(path, "line " + std::to_string(number) + ": expected x y z numbers");
-      p = end;
+    if (header) {
+      split_columns(line, columns);
+      if (columns.size() < needed)
+        throw core::InputError(where, std::to_string(columns.size()) + " columns, expected at least " +
+                                          std::to_string(needed) + " (the header on line " +
+                                          std::to_string(header_line) + " puts X, Y, Z in columns " +
+                                          std::to_string((*header)[0] + 1) + ", " + std::to_string((*header)[1] + 1) +
+                                          ", " + std::to_string((*header)[2] + 1) + ")");
+      for (std::size_t c = 0; c < 3; ++c) {
+        const std::string_view column = columns[(*header)[c]];
+        const std::optional<double> v = column_number(column);
+        if (!v)
+          throw core::InputError(where, std::string(1, static_cast<char>('X' + c)) + " (column " +
+                                            std::to_string((*header)[c] + 1) + ") is not a number: '" +
+                                            std::string(column) + "'");
+        xyz[c] = *v;
+      }
+    } else {
+      // No header: x y z are the first three numbers (further columns are ignored).
+      std::replace(line.begin(), line.end(), ',', ' ');
+      std::replace(line.begin(), line.end(), '\t', ' ');
+      const char* p = line.c_str();
+      for (double& v : xyz) {
+        char* end = nullptr;
+        v = std::strtod(p, &end);
+        if (end == p) throw core::InputError(where, "expected x y z numbers");
+        p = end;
+      }
     }
     if (!std::isfinite(xyz[0]) || !std::isfinite(xyz[1]) || !std::isfinite(xyz[2]))
-      throw core::InputError(path, "line " + std::to_string(number) + ": non-finite coordinate");
+      throw core::InputError(where, "non-finite coordinate");
     points.push_back(place(xyz[0], xyz[1], xyz[2], options));
   }
   return points;
@@ -316,7 +429,11 @@ std::vector<geometry::Vec3> read_point_cloud(const std::string& path, const Poin
   std::vector<geometry::Vec3> points;
   if (ext == ".ply") points = read_ply(path, options, false).points;
   else if (is_text_cloud_extension(ext)) points = read_text_cloud(path, options);
-  else throw core::InputError(path, "unknown point cloud extension '" + ext + "' (use .xyz, .txt, .pts, .csv or .ply)");
+  else if (detail::is_las_extension(ext)) {
+    points = detail::read_las(path, options.las_classes);
+    for (geometry::Vec3& p : points) p = place(p.x(), p.y(), p.z(), options);
+  } else
+    throw core::InputError(path, "unknown point cloud extension '" + ext + "' (use .xyz, .txt, .pts, .csv, .las or .ply)");
   if (points.empty()) throw core::InputError(path, "empty point cloud: no points");
   check_coordinates(points, path, "point");
   return points;
@@ -324,7 +441,7 @@ std::vector<geometry::Vec3> read_point_cloud(const std::string& path, const Poin
 
 bool is_point_cloud_file(const std::string& path) {
   const std::string ext = lower_extension(path);
-  if (is_text_cloud_extension(ext)) return true;
+  if (is_text_cloud_extension(ext) || detail::is_las_extension(ext)) return true;
   if (ext != ".ply") return false;
   std::ifstream in(path, std::ios::binary);
   if (!in) return false;
@@ -335,6 +452,11 @@ bool is_point_cloud_file(const std::string& path) {
   } catch (const core::InputError&) {
     return false;
   }
+}
+
+DeclaredCrs point_cloud_crs(const std::string& path) {
+  if (detail::is_las_extension(lower_extension(path))) return detail::las_crs(path);
+  return {};
 }
 
 namespace detail {

@@ -405,7 +405,7 @@ std::string dem_crs(const std::string& path) {
   return wkt ? std::string(wkt) : std::string();
 }
 
-std::string resolve_crs(const std::string& text, const std::string& source) {
+std::string resolve_crs(const std::string& text, const std::string& source, CrsData data) {
   QuietGdal quiet;
   const SrsPtr srs = parse_srs(text);
   const std::string shown = text.size() > 60 ? text.substr(0, 57) + "..." : text;
@@ -414,8 +414,11 @@ std::string resolve_crs(const std::string& text, const std::string& source) {
                              "WKT or a .prj file)" + QuietGdal::last_message());
   const std::string name = name_of(srs.get());
   const std::string hint =
-      "reproject the DEM to a projected CRS in metres first, e.g. gdalwarp -t_srs EPSG:32632 -tr 5 5 -r bilinear "
-      "in.tif out.tif (the UTM zone or national grid of the site)";
+      data == CrsData::point_cloud
+          ? "reproject the point cloud to a projected CRS in metres first, e.g. pdal translate in.las out.las "
+            "reprojection --filters.reprojection.out_srs=EPSG:32632 (the UTM zone or national grid of the site)"
+          : "reproject the DEM to a projected CRS in metres first, e.g. gdalwarp -t_srs EPSG:32632 -tr 5 5 -r "
+            "bilinear in.tif out.tif (the UTM zone or national grid of the site)";
   if (OSRIsGeographic(srs.get()))
     throw InputError(source, "CRS " + name + " is geographic (degrees); Talus computes in metres: " + hint);
   if (!OSRIsProjected(srs.get()))

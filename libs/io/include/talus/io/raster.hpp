@@ -39,12 +39,16 @@ bool is_dem_path(const std::string& path);
 /// core::InputError naming the file when it cannot be read.
 std::string dem_crs(const std::string& path);
 
+/// What a CRS describes, for the command a refusal suggests to reproject it.
+enum class CrsData { raster, point_cloud };
+
 /// A coordinate reference system given as "EPSG:nnnn", WKT (1 or 2, or ESRI's, as in
 /// `.prj` files) or a PROJ string, checked and returned as WKT. Talus computes in metres
 /// on a plane: a geographic CRS (degrees) or a projected one whose unit is not the metre
-/// is refused, with the `gdalwarp` command that reprojects a DEM. Throws
-/// core::InputError naming `source` (the file or setting the CRS came from).
-std::string resolve_crs(const std::string& text, const std::string& source);
+/// is refused, with the command that reprojects the data (`gdalwarp` for a DEM, `pdal
+/// translate` for a point cloud). Throws core::InputError naming `source` (the file or
+/// setting the CRS came from).
+std::string resolve_crs(const std::string& text, const std::string& source, CrsData data = CrsData::raster);
 
 /// A short name of a CRS given as WKT, "WGS 84 / UTM zone 32N (EPSG:32632)"; "none"
 /// when `wkt` is empty.

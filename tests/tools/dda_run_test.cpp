@@ -247,7 +247,7 @@ TEST_F(DdaRun, ReleaseAndBarriersFromVectorFiles) {
   ASSERT_FALSE(from_file.data.crossings.empty());
   EXPECT_EQ(from_file.data.crossings, single.data.crossings);
   // The run records the file it read among its inputs (a changed file is another run).
-  EXPECT_NE(from_file.info.provenance.inputs.find("barriers.geojson (outputs.barriers[0].file, layer '', 1 features, "
+  EXPECT_NE(from_file.info.provenance.inputs.find("barriers.geojson (outputs.barriers[0].file, its only layer, 1 features, "
                                                   "fingerprint "),
             std::string::npos)
       << from_file.info.provenance.inputs;

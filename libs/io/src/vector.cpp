@@ -337,7 +337,8 @@ std::vector<mc::PlanFeature> read_plan_features(const VectorRequest& request, co
 mc::SceneVectors read_scene_vectors(const mc::SceneSettings& settings, const std::string& terrain_crs_wkt) {
   mc::SceneVectors out;
   auto record = [&out](const VectorRequest& r, const std::vector<mc::PlanFeature>& features) {
-    out.inputs += r.path + " (" + r.key + ", layer '" + r.layer + "', " + std::to_string(features.size()) +
+    out.inputs += r.path + " (" + r.key + ", " + (r.layer.empty() ? std::string("its only layer") : "layer '" + r.layer + "'") +
+                  ", " + std::to_string(features.size()) +
                   " features, fingerprint " + fingerprint(features) + ")\n";
   };
   const mc::ReleaseSettings& rel = settings.release;

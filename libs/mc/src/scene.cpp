@@ -67,7 +67,7 @@ void BarrierSettings::visit(core::SettingsVisitor& v) {
           "and CRS): one barrier per line; empty = line");
   v.field("layer", layer, "layer of the vector file; empty = its only layer");
   v.field("name_field", name_field,
-          "text field naming each line of the file; empty = name (or the layer's name) numbered by feature");
+          "text field naming each line of the file; empty = name (else layer, else the file's stem), numbered by feature");
 }
 
 void StopZoneSettings::visit(core::SettingsVisitor& v) {

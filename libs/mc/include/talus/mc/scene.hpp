@@ -88,7 +88,7 @@ struct BarrierSettings {
   /// and CRS). Empty: `line`.
   std::string file{};
   std::string layer{};     ///< the file's layer; empty: its only layer
-  /// Text field naming each line; empty: `name` (or the layer's name) numbered by feature.
+  /// Text field naming each line; empty: `name` (else `layer`, else the file's stem), numbered by feature.
   std::string name_field{};
   void visit(core::SettingsVisitor& v);
 };

@@ -180,6 +180,17 @@ TEST_F(VectorFiles, WrittenLayersReadBackExactlyWithTheirCrs) {
   std::size_t files = 0;
   for (const auto& entry : fs::directory_iterator(dir_)) files += entry.path().filename().string()[0] == '.' ? 100 : 1;
   EXPECT_EQ(files, 2u);
+  // A terrain without a CRS gives layers in the GeoPackage's undefined Cartesian SRS
+  // (metres in an unknown frame), not its undefined geographic one (degrees).
+  write_vector_file(file("plain.gpkg"), "gpkg", {points}, "");
+  GDALDatasetH ds = GDALOpenEx(file("plain.gpkg").c_str(), GDAL_OF_VECTOR, nullptr, nullptr, nullptr);
+  ASSERT_NE(ds, nullptr);
+  OGRSpatialReferenceH none = OGR_L_GetSpatialRef(GDALDatasetGetLayer(ds, 0));
+  if (none) {
+    EXPECT_STREQ(OSRGetName(none), "Undefined Cartesian SRS");
+    EXPECT_FALSE(OSRIsGeographic(none));
+  }
+  GDALClose(ds);
 }
 
 // Which of the disjoint features (their parts' rings, local frame) holds `p`; -1 for none.
@@ -408,6 +419,12 @@ TEST_F(VectorFiles, BadFilesAreRefusedWithOneLineNamingTheFile) {
   terrain::Terrain t = lv95_terrain();
   t.crs_wkt.clear();
   EXPECT_NO_THROW(mc::Scene::build(s, t, mc::testing::library({block::SolidKind::cube}), "s", read_scene_vectors(s, "")));
+  // Nor does a GeoPackage layer in its "Undefined Cartesian SRS" (as stats writes for a
+  // terrain without a CRS) against a terrain with one.
+  VectorLayer line{"line", VectorGeometry::line_string_z, {}, {}};
+  line.features.push_back({{{20.0 + kShift.x(), 2.0 + kShift.y(), 0.0}, {20.0 + kShift.x(), 6.0 + kShift.y(), 0.0}}, {}});
+  write_vector_file(file("undefined.gpkg"), "gpkg", {line}, "");
+  EXPECT_EQ(error_of(release_scene(file("undefined.gpkg"), "line")), "");
 }
 
 }  // namespace

@@ -123,6 +123,16 @@ void write_vector_file(const std::string& path, const std::string& format, const
     }
     if (transaction && GDALDatasetCommitTransaction(h) != OGRERR_NONE) throw fail("cannot write layer '" + layer.name + "'");
   }
+  if (gpkg && !srs) {
+    // Without a CRS GDAL registers the layers as "Undefined geographic SRS" (srs_id 0),
+    // which a GIS takes for degrees; the GeoPackage's undefined Cartesian SRS (-1) says
+    // what the coordinates are: metres in an unknown plane frame.
+    for (const char* sql : {"UPDATE gpkg_geometry_columns SET srs_id = -1", "UPDATE gpkg_contents SET srs_id = -1"}) {
+      OGRLayerH result = GDALDatasetExecuteSQL(h, sql, nullptr, nullptr);
+      if (result) GDALDatasetReleaseResultSet(h, result);
+    }
+    if (CPLGetLastErrorType() >= CE_Failure) throw fail("cannot mark the layers as without CRS");
+  }
   ds.reset();  // closing flushes the file
   if (CPLGetLastErrorType() >= CE_Failure) throw fail("cannot write the file");
   out.commit();
@@ -201,6 +211,13 @@ std::vector<OGRGeometryH> parts_of(OGRGeometryH g, const std::string& kind, std:
     wrong = std::string("is a ") + OGRGeometryTypeToName(type) + ", not a " + accepted(kind);
   }
   return parts;
+}
+
+// A GeoPackage's placeholders for "no CRS" (srs_id -1, undefined Cartesian, and 0,
+// undefined geographic), as GDAL reports them: no CRS to compare.
+bool undefined_crs(OGRSpatialReferenceH srs) {
+  const char* name = OSRGetName(srs);
+  return OSRIsLocal(srs) || (name && std::string(name).rfind("Undefined ", 0) == 0);
 }
 
 // "EPSG:2056", or a description when the CRS has no code.
@@ -315,7 +332,7 @@ std::vector<mc::PlanFeature> read_plan_features(const VectorRequest& request, co
   // A layer in another CRS would put the zones in the wrong place: refused, not reprojected
   // (the user chooses how; ogr2ogr does it in one line).
   OGRSpatialReferenceH layer_srs = OGR_L_GetSpatialRef(layer);
-  if (layer_srs && !terrain_crs_wkt.empty()) {
+  if (layer_srs && !undefined_crs(layer_srs) && !terrain_crs_wkt.empty()) {
     const gdal::SrsPtr terrain = gdal::parse_srs(terrain_crs_wkt);
     const gdal::SrsPtr mine = gdal::identified(layer_srs);
     if (terrain && mine && !OSRIsSame(terrain.get(), mine.get())) {

@@ -206,7 +206,7 @@ std::vector<ReleaseFeature> local_release_features(const ReleaseSettings& r, con
 std::vector<Barrier> file_barriers(const BarrierSettings& b, const std::vector<PlanFeature>& read,
                                    const Eigen::Vector2d& shift) {
   if (read.empty()) throw InputError(b.file, "holds no barrier lines");
-  std::string base = b.name.empty() ? (b.layer.empty() ? std::filesystem::path(b.file).stem().string() : b.layer) : b.name;
+  const std::string base = b.name.empty() ? (b.layer.empty() ? std::filesystem::path(b.file).stem().string() : b.layer) : b.name;
   std::vector<Barrier> out;
   for (std::size_t k = 0; k < read.size(); ++k) {
     const PlanFeature& f = read[k];

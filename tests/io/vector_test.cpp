@@ -303,6 +303,22 @@ TEST_F(VectorFiles, LineAndPointFeaturesAreDrawnInProportionToTheirWeights) {
   expect_binomial(count, {1.0, 1.0, 1.0, 1.0}, n);
 }
 
+TEST_F(VectorFiles, CurvedZonesBecomeLineSegments) {
+  // A circle of radius 3 m around local (24, 10) drawn as a CurvePolygon: every point lies
+  // in it, and in its 90-gon inscribed in the circle.
+  const std::string path = file("circle.gpkg");
+  write_layer(path, "GPKG", "circle", 2056,
+              {{"CURVEPOLYGON (CIRCULARSTRING (" + at(21, 10) + ", " + at(27, 10) + ", " + at(21, 10) + "))", {}, ""}});
+  const mc::Scene scene = build(release_scene(path, "polygon"));
+  ASSERT_EQ(scene.release_features().size(), 1u);
+  EXPECT_GE(scene.release_features()[0].parts[0][0].size(), 90u);
+  const terrain::Surface ground = scene.base_surface().realization(std::nullopt);
+  for (std::uint32_t i = 0; i < 200; ++i) {
+    const Eigen::Vector2d p = mc::draw_release(scene, ground, i).release.position.head<2>();
+    EXPECT_LE((p - Eigen::Vector2d(24.0, 10.0)).norm(), 3.0) << i;
+  }
+}
+
 TEST_F(VectorFiles, OneFeatureDrawsAsTheSameInlineZone) {
   // A file holding the inline polygon of a scene gives the same release of every
   // realization, bit for bit: one feature of one part draws as the inline zone does.

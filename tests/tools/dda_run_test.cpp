@@ -258,6 +258,12 @@ TEST_F(DdaRun, ReleaseAndBarriersFromVectorFiles) {
   ASSERT_EQ(release.code, 0) << release.err;
   const io::RunFile released = load("vector-release.h5");
   ASSERT_EQ(released.data.records.size(), 6u);
+  // The feature and point draws are functions of the realization: any thread count.
+  ASSERT_EQ(run({"-c", "scene.yaml", "--set", "release={kind: line, file: zones.gpkg, weight_field: weight}",
+                 "--threads", "1", "-o", "vector-release-1.h5"})
+                .code,
+            0);
+  expect_same_run(released, load("vector-release-1.h5"));
   for (const auto& r : released.data.records) {
     const Vec3& p = r.release_position;
     EXPECT_TRUE((p.x() == 26.0 && p.y() >= 4.0 && p.y() <= 8.0) || (p.x() == 27.0 && p.y() >= 12.0 && p.y() <= 16.0))

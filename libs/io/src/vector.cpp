@@ -25,6 +25,13 @@ struct FeatureCloser {
 };
 using FeaturePtr = std::unique_ptr<std::remove_pointer_t<OGRFeatureH>, FeatureCloser>;
 
+struct GeometryCloser {
+  void operator()(OGRGeometryH g) const {
+    if (g) OGR_G_DestroyGeometry(g);
+  }
+};
+using GeometryPtr = std::unique_ptr<std::remove_pointer_t<OGRGeometryH>, GeometryCloser>;
+
 OGRwkbGeometryType geometry_type(VectorGeometry g) {
   switch (g) {
     case VectorGeometry::point: return wkbPoint;
@@ -302,6 +309,14 @@ std::vector<mc::PlanFeature> read_plan_features(const VectorRequest& request, co
     OGRGeometryH g = OGR_F_GetGeometryRef(f.get());
     if (!g) bad("has no geometry");
     if (OGR_G_IsEmpty(g)) bad("has an empty geometry");
+    // Arcs (CircularString, CurvePolygon, MultiSurface … as GIS drawing tools make them)
+    // become line segments, GDAL's default of one per 4 degrees of arc.
+    GeometryPtr linear;
+    if (OGR_G_HasCurveGeometry(g, TRUE)) {
+      linear.reset(OGR_G_GetLinearGeometry(g, 0.0, nullptr));
+      if (!linear) bad("has a curved geometry GDAL cannot turn into line segments");
+      g = linear.get();
+    }
     std::string wrong;
     const std::vector<OGRGeometryH> parts = parts_of(g, request.kind, wrong);
     if (!wrong.empty()) bad(wrong + " (" + request.key + " takes " + accepted(request.kind) + " features)");

@@ -270,6 +270,22 @@ TEST_F(DdaRun, ReleaseAndBarriersFromVectorFiles) {
         << r.realization << ": " << p.transpose();
   }
 
+  // A run killed half-way does not resume after its release file changed (same name, same
+  // settings, other zones): the run's inputs record the geometry read.
+  const std::string zones = "release={kind: line, file: zones.gpkg, weight_field: weight}";
+  ASSERT_EQ(run({"-c", "scene.yaml", "--set", zones, "-o", "vector-resumed.h5"}, "TALUS_DDA_RUN_ABORT_AFTER_CHUNKS=1").code,
+            137);
+  fs::copy_file(dir_ / "zones.gpkg", dir_ / "zones-kept.gpkg");
+  io::VectorLayer moved{"release", io::VectorGeometry::line_string_z, {{"weight", io::FieldType::real}}, {}};
+  moved.features.push_back({{{25.0, 4.0, 0.0}, {25.0, 8.0, 0.0}}, {3.0}});
+  io::write_vector_file((dir_ / "zones.gpkg").string(), "gpkg", {moved}, "");
+  const Outcome changed = run({"-c", "scene.yaml", "--set", zones, "--resume", "-o", "vector-resumed.h5"});
+  EXPECT_EQ(changed.code, 3);
+  EXPECT_NE(changed.err.find("other settings or inputs"), std::string::npos) << changed.err;
+  fs::rename(dir_ / "zones-kept.gpkg", dir_ / "zones.gpkg");
+  ASSERT_EQ(run({"-c", "scene.yaml", "--set", zones, "--resume", "-o", "vector-resumed.h5"}).code, 0);
+  expect_same_run(released, load("vector-resumed.h5"));
+
   // Bad files: one line naming the file, exit code 3, no output.
   const std::vector<std::pair<std::string, std::string>> bad = {
       {"release={kind: line, file: nowhere.gpkg}", "dda-run: error: nowhere.gpkg: cannot open file"},

@@ -10,6 +10,8 @@ byte for byte (Python's own seeded generator, fixed decimals, no third-party mod
 
   quickstart/dem.asc            120 x 60 m slope (ESRI ASCII, 2 m cells, projected coordinates)
   quickstart/rock-scan.ply      scanned-like rock, 1 m^3, 320 triangles (ASCII PLY, metres, z up)
+  quickstart/release-zones.geojson  two release zones on the cliff band with weights, and
+  quickstart/fences.geojson     a fence and a ditch edge, as drawn in a GIS (GeoJSON, LV95)
   terrain/site-dem.tif          800 x 700 m hillside (GeoTIFF, 10 m cells, CH1903+/LV95)
   terrain/bench-floor.obj       quarry survey, one file per ground material (y up,
   terrain/face.obj              projected coordinates): upper bench, overhanging face,
@@ -69,6 +71,47 @@ def quickstart_dem():
         row = [z_of((i + 0.5) * cell, y) + rng.uniform(-0.03, 0.03) for i in range(ncols)]
         out.write(" ".join(fmt(v, 2) for v in row) + "\n")
     return out.getvalue().encode()
+
+
+def geojson(name, features):
+    """A GeoJSON FeatureCollection in CH1903+/LV95, one feature per line. The "crs" member
+    (GeoJSON 2008) says so: without it a GeoJSON file is WGS 84 by definition (RFC 7946)
+    and dda-run refuses it for a terrain in LV95."""
+    def coords(c):
+        if isinstance(c[0], (int, float)):
+            return "[" + fmt(c[0], 1) + ", " + fmt(c[1], 1) + "]"
+        return "[" + ", ".join(coords(x) for x in c) + "]"
+    lines = []
+    for properties, kind, c in features:
+        props = ", ".join('"%s": %s' % (k, ('"%s"' % v) if isinstance(v, str) else fmt(v, 1))
+                          for k, v in properties)
+        lines.append('{"type": "Feature", "properties": {%s}, "geometry": {"type": "%s", "coordinates": %s}}'
+                     % (props, kind, coords(c)))
+    return ('{"type": "FeatureCollection", "name": "%s",\n'
+            '"crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::2056"}},\n'
+            '"features": [\n%s\n]}\n' % (name, ",\n".join(lines))).encode()
+
+
+def quickstart_release_zones():
+    """Two release zones on the cliff band of quickstart/dem.asc (x 2-7 m from its west
+    edge): the northern one, a pentagon across the gully, sheds twice as many blocks as
+    the southern rectangle (field "weight", relative)."""
+    def ring(points):
+        return [[EAST0 + x, NORTH0 + y] for x, y in points + points[:1]]
+    return geojson("release-zones", [
+        ([("name", "north"), ("weight", 2.0)], "Polygon", [ring([(2, 34), (6, 33), (7, 44), (6, 54), (2, 52)])]),
+        ([("name", "south"), ("weight", 1.0)], "Polygon", [ring([(2, 8), (6, 8), (6, 24), (2, 24)])]),
+    ])
+
+
+def quickstart_fences():
+    """The fence of my-scene.yaml at x = 70 m, and a ditch edge along the talus toe."""
+    def line(points):
+        return [[EAST0 + x, NORTH0 + y] for x, y in points]
+    return geojson("fences", [
+        ([("name", "ditch")], "LineString", line([(42, 1), (44, 30), (42, 59)])),
+        ([("name", "fence")], "LineString", line([(70, 0), (70, 60)])),
+    ])
 
 
 def site_profile(north):
@@ -399,6 +442,8 @@ def boulder_scan():
 FILES = {
     "quickstart/dem.asc": quickstart_dem,
     "quickstart/rock-scan.ply": rock_scan,
+    "quickstart/release-zones.geojson": quickstart_release_zones,
+    "quickstart/fences.geojson": quickstart_fences,
     "terrain/site-dem.tif": site_dem,
     "terrain/bench-floor.obj": bench_floor,
     "terrain/face.obj": face,

@@ -159,6 +159,9 @@ def make_fixtures(bin_dir, root):
     write(os.path.join(root, "mesh-block.yaml"), "blocks:\n  - mesh: cube.obj\n")
     write(os.path.join(root, "schema.yaml"), 'schema_version: "9.0"\n' + SCENE_YAML)
     write(os.path.join(root, "outside.yaml"), SCENE_YAML.replace("[[3.0, 5.0]]", "[[300.0, 5.0]]"))
+    # A release line as a vector file (docs/dda-run.md, "Release zones and barriers from vector files").
+    write(os.path.join(root, "zones.geojson"), '{"type": "FeatureCollection", "features": [{"type": "Feature", '
+          '"properties": {"w": -1}, "geometry": {"type": "LineString", "coordinates": [[3, 4], [3, 6]]}}]}\n')
     os.makedirs(os.path.join(root, "sub"))
 
     def tool(*args):
@@ -215,6 +218,8 @@ CASES = [
     (["dda-run", "-c", "scene.yaml", "-o", "t.h5"], USAGE, ["-o t.h5", "terrain"]),
     (["dda-run", "-c", "scene.yaml", "-o", "./b.h5"], USAGE, ["-o ./b.h5", "block file"]),
     (["dda-run", "-c", "scene.yaml", "-o", "scene.yaml"], USAGE, ["-o scene.yaml", "settings file"]),
+    (["dda-run", "-c", "scene.yaml", "--set", "release={kind: line, file: zones.geojson}", "-o", "zones.geojson"], USAGE,
+     ["-o zones.geojson", "vector file (key release.file)"]),
     (["dda-run", "-c", "scene.yaml", "--set", "terrain=sub/../t.h5", "-o", "t.h5"], USAGE, ["-o t.h5", "terrain"]),
     (["dda-run", "merge", "run.h5", "-o", "run.h5"], USAGE, ["-o run.h5", "the input run.h5"]),
     (["dda-run", "merge", "run.h5", "-o", "hard.h5"], USAGE, ["-o hard.h5", "the input run.h5"]),
@@ -290,6 +295,16 @@ CASES = [
     (["dda-run", "-c", "scene.yaml", "--set", "block_file=t.h5", "-o", "x.h5"], BAD_INPUT, ["t.h5"]),
     (["dda-run", "-c", "schema.yaml", "-o", "x.h5"], BAD_INPUT, ["schema.yaml", "9.0"]),
     (["dda-run", "-c", "outside.yaml", "-o", "x.h5"], BAD_INPUT, ["outside.yaml", "outside the terrain"]),
+    (["dda-run", "-c", "scene.yaml", "--set", "release={kind: line, file: nowhere.gpkg}", "-o", "x.h5"], BAD_INPUT,
+     ["nowhere.gpkg", "cannot open file"]),
+    (["dda-run", "-c", "scene.yaml", "--set", "release={kind: polygon, file: zones.geojson}", "-o", "x.h5"], BAD_INPUT,
+     ["zones.geojson", "feature 0 is a Line String, not a Polygon or MultiPolygon"]),
+    (["dda-run", "-c", "scene.yaml", "--set", "release={kind: line, file: zones.geojson, weight_field: weight}", "-o",
+      "x.h5"], BAD_INPUT, ["zones.geojson", "has no field 'weight'"]),
+    (["dda-run", "-c", "scene.yaml", "--set", "release={kind: line, file: zones.geojson, weight_field: w}", "-o",
+      "x.h5"], BAD_INPUT, ["zones.geojson", "feature 0 has weight -1"]),
+    (["dda-run", "-c", "scene.yaml", "--set", "outputs.barriers=[{file: zones.geojson, layer: fences}]", "-o", "x.h5"],
+     BAD_INPUT, ["zones.geojson", "has no layer 'fences'"]),
     (["dda-run", "merge", "t.h5", "-o", "x.h5"], BAD_INPUT, ["t.h5"]),
     (["stats", "--set", "plots=false", "missing.h5", "-o", "s"], BAD_INPUT, ["missing.h5"]),
     (["stats", "--set", "plots=false", "notes.txt", "-o", "s"], BAD_INPUT, ["notes.txt"]),

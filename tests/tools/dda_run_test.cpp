@@ -17,6 +17,7 @@
 #include "talus/io/block_file.hpp"
 #include "talus/io/run_file.hpp"
 #include "talus/io/terrain_file.hpp"
+#include "talus/io/vector.hpp"
 
 namespace talus {
 namespace {
@@ -219,6 +220,87 @@ TEST_F(DdaRun, BadScenesAreRefusedWithOneLine) {
   EXPECT_EQ(no_output.code, 2);
   EXPECT_NE(no_output.err.find("no output file given"), std::string::npos) << no_output.err;
   EXPECT_EQ(run({"merge", "-o", "bad.h5"}).code, 2);  // no shard given
+}
+
+// The toe barrier of kScene as a GeoJSON file (the bench terrain has no CRS and no
+// shift), and two release lines with weights 3 and 1 as a GeoPackage.
+void write_vector_inputs(const fs::path& dir) {
+  std::ofstream(dir / "barriers.geojson") << R"({"type": "FeatureCollection", "features": [
+  {"type": "Feature", "properties": {"label": "toe"},
+   "geometry": {"type": "LineString", "coordinates": [[36, 0], [36, 20]]}}]})";
+  io::VectorLayer lines{"release", io::VectorGeometry::line_string_z, {{"weight", io::FieldType::real}}, {}};
+  lines.features.push_back({{{26.0, 4.0, 0.0}, {26.0, 8.0, 0.0}}, {3.0}});
+  lines.features.push_back({{{27.0, 12.0, 0.0}, {27.0, 16.0, 0.0}}, {1.0}});
+  io::write_vector_file((dir / "zones.gpkg").string(), "gpkg", {lines}, "");
+}
+
+TEST_F(DdaRun, ReleaseAndBarriersFromVectorFiles) {
+  write_vector_inputs(dir_);
+  // The toe read from a file: the same crossings, bit for bit, as the inline line.
+  const Outcome barrier = run({"-c", "scene.yaml", "--set", "outputs.barriers=[{file: barriers.geojson, name_field: label}]",
+                               "-o", "vector-barrier.h5"});
+  ASSERT_EQ(barrier.code, 0) << barrier.err;
+  const io::RunFile single = load("single.h5"), from_file = load("vector-barrier.h5");
+  EXPECT_EQ(from_file.info.barriers, single.info.barriers);
+  EXPECT_EQ(from_file.info.barrier_lines, single.info.barrier_lines);
+  expect_same_run(single, from_file);
+  ASSERT_FALSE(from_file.data.crossings.empty());
+  EXPECT_EQ(from_file.data.crossings, single.data.crossings);
+  // The run records the file it read among its inputs (a changed file is another run).
+  EXPECT_NE(from_file.info.provenance.inputs.find("barriers.geojson (outputs.barriers[0].file, its only layer, 1 features, "
+                                                  "fingerprint "),
+            std::string::npos)
+      << from_file.info.provenance.inputs;
+
+  // Release lines from a GeoPackage: every block starts on one of them.
+  const Outcome release = run({"-c", "scene.yaml", "--set", "release={kind: line, file: zones.gpkg, weight_field: weight}",
+                               "-o", "vector-release.h5"});
+  ASSERT_EQ(release.code, 0) << release.err;
+  const io::RunFile released = load("vector-release.h5");
+  ASSERT_EQ(released.data.records.size(), 6u);
+  // The feature and point draws are functions of the realization: any thread count.
+  ASSERT_EQ(run({"-c", "scene.yaml", "--set", "release={kind: line, file: zones.gpkg, weight_field: weight}",
+                 "--threads", "1", "-o", "vector-release-1.h5"})
+                .code,
+            0);
+  expect_same_run(released, load("vector-release-1.h5"));
+  for (const auto& r : released.data.records) {
+    const Vec3& p = r.release_position;
+    EXPECT_TRUE((p.x() == 26.0 && p.y() >= 4.0 && p.y() <= 8.0) || (p.x() == 27.0 && p.y() >= 12.0 && p.y() <= 16.0))
+        << r.realization << ": " << p.transpose();
+  }
+
+  // A run killed half-way does not resume after its release file changed (same name, same
+  // settings, other zones): the run's inputs record the geometry read.
+  const std::string zones = "release={kind: line, file: zones.gpkg, weight_field: weight}";
+  ASSERT_EQ(run({"-c", "scene.yaml", "--set", zones, "-o", "vector-resumed.h5"}, "TALUS_DDA_RUN_ABORT_AFTER_CHUNKS=1").code,
+            137);
+  fs::copy_file(dir_ / "zones.gpkg", dir_ / "zones-kept.gpkg");
+  io::VectorLayer moved{"release", io::VectorGeometry::line_string_z, {{"weight", io::FieldType::real}}, {}};
+  moved.features.push_back({{{25.0, 4.0, 0.0}, {25.0, 8.0, 0.0}}, {3.0}});
+  io::write_vector_file((dir_ / "zones.gpkg").string(), "gpkg", {moved}, "");
+  const Outcome changed = run({"-c", "scene.yaml", "--set", zones, "--resume", "-o", "vector-resumed.h5"});
+  EXPECT_EQ(changed.code, 3);
+  EXPECT_NE(changed.err.find("other settings or inputs"), std::string::npos) << changed.err;
+  fs::rename(dir_ / "zones-kept.gpkg", dir_ / "zones.gpkg");
+  ASSERT_EQ(run({"-c", "scene.yaml", "--set", zones, "--resume", "-o", "vector-resumed.h5"}).code, 0);
+  expect_same_run(released, load("vector-resumed.h5"));
+
+  // Bad files: one line naming the file, exit code 3, no output.
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"release={kind: line, file: nowhere.gpkg}", "dda-run: error: nowhere.gpkg: cannot open file"},
+      {"release={kind: line, file: zones.gpkg, layer: zones}", "dda-run: error: zones.gpkg: has no layer 'zones' (it has: release)"},
+      {"release={kind: polygon, file: zones.gpkg}", "dda-run: error: zones.gpkg: layer 'release', feature 1 is a Line String"},
+      {"release={kind: line, file: zones.gpkg, weight_field: w}", "dda-run: error: zones.gpkg: layer 'release' has no field 'w'"},
+      {"outputs.barriers=[{file: barriers.geojson, name_field: name}]", "dda-run: error: barriers.geojson: layer 'barriers' has no field 'name'"},
+  };
+  for (const auto& [set, message] : bad) {
+    const Outcome r = run({"-c", "scene.yaml", "--set", set, "-o", "bad.h5"});
+    EXPECT_EQ(r.code, 3) << r.err;
+    EXPECT_EQ(r.err.rfind(message, 0), 0u) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(fs::exists(dir_ / "bad.h5"));
+  }
 }
 
 TEST_F(DdaRun, ExampleScenesRun) {

@@ -65,6 +65,7 @@ OPTIONAL = [
 # to that line). {n} is --realizations. Only to shorten long runs: nothing else changes.
 OVERRIDES = [
     ("README.md", r"dda-run -c my-scene\.yaml", "--set realizations={n}"),
+    ("README.md", r"dda-run -c my-zones\.yaml", "--set realizations={n}"),
     ("docs/dda-run.md", r"^\s*dda-run -c ", "--set realizations={n}"),
     ("docs/benchmarks.md", r"dda-run -c samples/bench-slope/scene\.yaml", "--set realizations={n}"),
     ("docs/benchmarks.md", r"bench_bullet_peer ", "-n {n}"),

@@ -1,8 +1,11 @@
 // End-to-end tests of the stats executable on small run files written with the run-file
 // writer (values known in advance): tables against independently computed numbers, hazard
-// rasters in terrain coordinates, shards against the whole run, comparisons, plots, and
-// bad inputs (missing, corrupt, empty, incompatible run files; no plotting library).
+// rasters and vector layers in terrain coordinates, shards against the whole run,
+// comparisons, plots, and bad inputs (missing, corrupt, empty, incompatible run files; no plotting library).
+#include <gdal.h>
 #include <gtest/gtest.h>
+#include <ogr_api.h>
+#include <ogr_srs_api.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -11,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <map>
 #include <numeric>
 #include <string>
 #include <vector>
@@ -449,6 +453,149 @@ TEST_F(Stats, WithoutMatplotlibPlotsFailWithOneLine) {
   EXPECT_FALSE(fs::exists(dir_ / "out-noplots" / "plots"));
 }
 
+// A vector file's layer, opened with OGR; closes the file when it goes.
+class OgrLayer {
+ public:
+  OgrLayer(const fs::path& path, const std::string& layer) {
+    GDALAllRegister();
+    ds_ = GDALOpenEx(path.string().c_str(), GDAL_OF_VECTOR, nullptr, nullptr, nullptr);
+    if (ds_) layer_ = layer.empty() ? GDALDatasetGetLayer(ds_, 0) : GDALDatasetGetLayerByName(ds_, layer.c_str());
+  }
+  ~OgrLayer() {
+    if (ds_) GDALClose(ds_);
+  }
+  OgrLayer(const OgrLayer&) = delete;
+  OgrLayer& operator=(const OgrLayer&) = delete;
+  OGRLayerH get() const { return layer_; }
+  // Every feature: its field values by name and its geometry's vertices.
+  struct Feature {
+    std::map<std::string, std::string> text;
+    std::map<std::string, double> real;
+    std::vector<std::array<double, 3>> vertices;
+  };
+  std::vector<Feature> features() const {
+    std::vector<Feature> out;
+    OGR_L_ResetReading(layer_);
+    while (OGRFeatureH f = OGR_L_GetNextFeature(layer_)) {
+      Feature& x = out.emplace_back();
+      for (int k = 0; k < OGR_F_GetFieldCount(f); ++k) {
+        const std::string name = OGR_Fld_GetNameRef(OGR_F_GetFieldDefnRef(f, k));
+        x.text[name] = OGR_F_IsFieldSetAndNotNull(f, k) ? OGR_F_GetFieldAsString(f, k) : "null";
+        x.real[name] = OGR_F_IsFieldSetAndNotNull(f, k) ? OGR_F_GetFieldAsDouble(f, k) : std::nan("");
+      }
+      if (OGRGeometryH g = OGR_F_GetGeometryRef(f))
+        for (int k = 0; k < OGR_G_GetPointCount(g); ++k)
+          x.vertices.push_back({OGR_G_GetX(g, k), OGR_G_GetY(g, k), OGR_G_GetZ(g, k)});
+      OGR_F_Destroy(f);
+    }
+    return out;
+  }
+
+ private:
+  GDALDatasetH ds_ = nullptr;
+  OGRLayerH layer_ = nullptr;
+};
+
+// Every layer carries the terrain's CRS.
+void expect_terrain_crs(const OgrLayer& layer, const std::string& what) {
+  OGRSpatialReferenceH srs = OGR_L_GetSpatialRef(layer.get());
+  ASSERT_NE(srs, nullptr) << what;
+  OGRSpatialReferenceH expected = OSRNewSpatialReference(nullptr);
+  OSRImportFromEPSG(expected, 32632);
+  EXPECT_TRUE(OSRIsSame(srs, expected)) << what;
+  OSRDestroySpatialReference(expected);
+}
+
+TEST_F(Stats, VectorLayersInTerrainCoordinatesWithTheTerrainsCrs) {
+  const Outcome o = run_fast({"whole.h5", "-o", "out-vector"});
+  ASSERT_EQ(o.code, 0) << o.err;
+  const fs::path gpkg = dir_ / "out-vector" / "vector" / "whole.gpkg";
+  ASSERT_TRUE(fs::exists(gpkg));
+  const io::RunFile run = io::read_run_file((dir_ / "whole.h5").string());
+  const char* const blocks[] = {"cube", "octahedron"};
+  const char* const classes[] = {"bench 1", "slope", "run-out", "other", "out of domain"};
+
+  // Stop points: one per realization (failed ones too), at the final centroid + shift,
+  // exactly; the record's values as attributes.
+  const OgrLayer stops(gpkg, "stop_points");
+  ASSERT_NE(stops.get(), nullptr);
+  expect_terrain_crs(stops, "stop_points");
+  const auto points = stops.features();
+  ASSERT_EQ(points.size(), kRealizations);
+  for (std::uint32_t i = 0; i < kRealizations; ++i) {
+    const mc::Record& r = run.data.records[i];
+    const auto& f = points[i];
+    EXPECT_EQ(f.real.at("realization"), i);
+    ASSERT_EQ(f.vertices.size(), 1u);
+    EXPECT_EQ(f.vertices[0][0], r.final_position.x() + kShift.x()) << i;
+    EXPECT_EQ(f.vertices[0][1], r.final_position.y() + kShift.y()) << i;
+    EXPECT_EQ(f.vertices[0][2], r.final_position.z() + kShift.z()) << i;
+    EXPECT_EQ(f.text.at("block"), blocks[i % 2]);
+    EXPECT_EQ(f.text.at("end_reason"), dda::to_string(end_of(i)));
+    EXPECT_EQ(f.text.at("stop_class"), classes[i % 5]);
+    EXPECT_EQ(f.real.at("runout"), r.runout);
+    EXPECT_EQ(f.real.at("lateral"), r.lateral);
+    EXPECT_EQ(f.real.at("max_speed"), r.max_speed);
+    EXPECT_EQ(f.real.at("max_jump_height"), r.max_jump_height);
+    EXPECT_EQ(f.real.at("max_kinetic_energy"), r.max_kinetic_energy);
+  }
+
+  // Barrier crossings: the first crossing of the toe by each even realization, on the
+  // line 10 m from its first vertex (36, 0) in the run's frame.
+  const OgrLayer crossings(gpkg, "barrier_crossings");
+  ASSERT_NE(crossings.get(), nullptr);
+  expect_terrain_crs(crossings, "barrier_crossings");
+  const auto hits = crossings.features();
+  ASSERT_EQ(hits.size(), kRealizations / 2);
+  for (std::size_t k = 0; k < hits.size(); ++k) {
+    const auto i = static_cast<std::uint32_t>(2 * k);
+    const auto& f = hits[k];
+    EXPECT_EQ(f.real.at("realization"), i);
+    EXPECT_EQ(f.text.at("barrier"), "toe");
+    EXPECT_EQ(f.text.at("block"), "cube");
+    EXPECT_EQ(f.real.at("passing_height"), 0.2 * (i + 1));  // not the second crossing's 99 m
+    EXPECT_EQ(f.real.at("kinetic_energy"), 500.0 * (i + 1));
+    EXPECT_EQ(f.real.at("speed"), 0.0);
+    EXPECT_EQ(f.real.at("time"), 3.0);
+    ASSERT_EQ(f.vertices.size(), 1u);
+    EXPECT_EQ(f.vertices[0][0], 36.0 + kShift.x());
+    EXPECT_EQ(f.vertices[0][1], 10.0 + kShift.y());
+  }
+
+  // Trajectories: a 3-D line of the three samples of each realization.
+  const OgrLayer paths(gpkg, "trajectories");
+  ASSERT_NE(paths.get(), nullptr);
+  expect_terrain_crs(paths, "trajectories");
+  const auto lines = paths.features();
+  ASSERT_EQ(lines.size(), kRealizations);
+  for (std::uint32_t i = 0; i < kRealizations; ++i) {
+    ASSERT_EQ(lines[i].vertices.size(), 3u);
+    EXPECT_EQ(lines[i].text.at("end_reason"), dda::to_string(end_of(i)));
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_EQ(lines[i].vertices[k][0], 1.0 + k * 5.0 + kShift.x());
+      EXPECT_EQ(lines[i].vertices[k][1], 10.0 + kShift.y());
+      EXPECT_EQ(lines[i].vertices[k][2], 30.0 - k * 5.0 + kShift.z());
+    }
+  }
+
+  // GeoJSON: one file per layer, the same coordinates to the last bit.
+  ASSERT_EQ(run_fast({"whole.h5", "-o", "out-vector", "--set", "vector_format=geojson"}).code, 0);
+  EXPECT_FALSE(fs::exists(gpkg));  // this run's outputs only
+  for (const char* layer : {"stop_points", "barrier_crossings", "trajectories"}) {
+    const OgrLayer json(dir_ / "out-vector" / "vector" / ("whole-" + std::string(layer) + ".geojson"), "");
+    ASSERT_NE(json.get(), nullptr) << layer;
+    expect_terrain_crs(json, layer);
+  }
+  const auto json_points = OgrLayer(dir_ / "out-vector" / "vector" / "whole-stop_points.geojson", "").features();
+  ASSERT_EQ(json_points.size(), points.size());
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    EXPECT_EQ(json_points[k].vertices, points[k].vertices) << k;
+    EXPECT_EQ(json_points[k].real.at("max_kinetic_energy"), points[k].real.at("max_kinetic_energy")) << k;
+  }
+  ASSERT_EQ(run_fast({"whole.h5", "-o", "out-vector", "--set", "vector_format=none"}).code, 0);
+  EXPECT_FALSE(fs::exists(dir_ / "out-vector" / "vector" / "whole-stop_points.geojson"));
+}
+
 TEST_F(Stats, BadInputsGiveOneLineErrors) {
   expect_one_line_error(run_fast({"missing.h5", "-o", "out-bad"}), 3, "missing.h5");
   expect_one_line_error(run_fast({"corrupt.h5", "-o", "out-bad"}), 3, "corrupt.h5");
@@ -462,15 +609,23 @@ TEST_F(Stats, BadInputsGiveOneLineErrors) {
   expect_one_line_error(run_fast({"whole.h5", "-o", "out-bad", "--set", "names=[a, b]"}), 3, "2 names for 1 runs");
   expect_one_line_error(run_fast({"whole.h5", "-o", "out-bad", "--set", "terrain=nowhere.h5"}), 3,
                         "terrain file 'nowhere.h5'");
+  // Vector layers need the terrain's CRS and origin shift as much as the rasters.
+  expect_one_line_error(
+      run_fast({"whole.h5", "-o", "out-bad", "--set", "terrain=nowhere.h5", "--set", "hazard_maps=false"}), 3,
+      "terrain file 'nowhere.h5' is missing: give it with --set terrain=FILE (or --set vector_format=none)");
   expect_one_line_error(run_fast({"whole.h5", "-o", "corrupt.h5"}), 2, "not a directory");
   expect_one_line_error(run_fast({"whole.h5"}), 2, "-o");
   EXPECT_FALSE(fs::exists(dir_ / "out-bad"));
   const Outcome partial = run_fast({"part-0.h5", "part-2.h5", "-o", "out-partial", "--set", "allow_partial=true"});
   EXPECT_EQ(partial.code, 0) << partial.err;
   EXPECT_NE(partial.err.find("warning: run 'part': the shards given hold 8 of 12"), std::string::npos) << partial.err;
-  // Without the terrain the statistics still come out when the rasters are not asked for.
-  EXPECT_EQ(run_fast({"whole.h5", "-o", "out-noterrain", "--set", "terrain=nowhere.h5", "--set", "hazard_maps=false"}).code,
+  // Without the terrain the statistics still come out when rasters and vector layers are
+  // not asked for.
+  EXPECT_EQ(run_fast({"whole.h5", "-o", "out-noterrain", "--set", "terrain=nowhere.h5", "--set", "hazard_maps=false",
+                      "--set", "vector_format=none"})
+                .code,
             0);
+  EXPECT_FALSE(fs::exists(dir_ / "out-noterrain" / "vector"));
 }
 
 }  // namespace

@@ -25,6 +25,7 @@
 #include "talus/io/paths.hpp"
 #include "talus/io/run_file.hpp"
 #include "talus/io/terrain_file.hpp"
+#include "talus/io/vector.hpp"
 #include "talus/io/xdmf.hpp"
 #include "talus/mc/runner.hpp"
 #include "talus/mc/scene.hpp"
@@ -229,10 +230,12 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
   terrain::Terrain terrain = io::read_terrain_file(settings.terrain);
   const std::string fingerprint = io::terrain_fingerprint(terrain);
   const auto library = io::read_block_file(settings.block_file);
-  const mc::Scene scene = mc::Scene::build(settings, std::move(terrain), library, source);
+  // Release zones and barrier lines from vector files, checked against the terrain's CRS.
+  const mc::SceneVectors vectors = io::read_scene_vectors(settings, terrain.crs_wkt);
+  const mc::Scene scene = mc::Scene::build(settings, std::move(terrain), library, source, vectors);
 
   io::Provenance provenance = inv.provenance("dda-run", settings.seed);
-  provenance.inputs = settings.terrain + "\n" + settings.block_file + "\n";
+  provenance.inputs = settings.terrain + "\n" + settings.block_file + "\n" + vectors.inputs;
   io::RunInfo info = io::make_run_info(scene, provenance, shard);
   info.terrain_fingerprint = fingerprint;
   info.terrain_file = std::filesystem::absolute(settings.terrain).lexically_normal().string();
@@ -403,6 +406,11 @@ int main(int argc, char** argv) {
     std::vector<io::NamedPath> inputs = inv.named_inputs();
     inputs.push_back({"terrain file (key terrain)", settings.terrain});
     inputs.push_back({"block file (key block_file)", settings.block_file});
+    if (!settings.release.file.empty()) inputs.push_back({"vector file (key release.file)", settings.release.file});
+    for (std::size_t k = 0; k < settings.outputs.barriers.size(); ++k)
+      if (!settings.outputs.barriers[k].file.empty())
+        inputs.push_back({"vector file (key outputs.barriers[" + std::to_string(k) + "].file)",
+                          settings.outputs.barriers[k].file});
     std::vector<io::NamedPath> outputs = {{"-o", inv.output},
                                           {"journal of -o", io::run_journal_path(inv.output)},
                                           {"lock file of -o", io::lock_path(inv.output)},

@@ -252,7 +252,11 @@ RunResult run_result(const Run& run, const Settings& settings) {
   RunResult out;
   const auto& info = run.file.info;
   const bool grid = info.hazard.size > 0.0 && info.hazard.nx > 0 && info.hazard.ny > 0;
-  const bool need_terrain = (settings.hazard_maps && grid) || settings.plots;
+  // Rasters and vector layers without the origin shift and CRS would be misplaced or
+  // unreferenced in a GIS: they need the terrain.
+  const bool rasters = settings.hazard_maps && grid;
+  const bool vectors = settings.vector_format != "none";
+  const bool need_terrain = rasters || vectors || settings.plots;
   const std::string path = terrain_path_of(run, settings);
   std::optional<terrain::Terrain> ground;
   if (need_terrain && !path.empty() && std::filesystem::exists(path)) {
@@ -268,15 +272,16 @@ RunResult run_result(const Run& run, const Settings& settings) {
     out.terrain_file = path;
     out.crs_wkt = ground->crs_wkt;
     out.origin_shift = {ground->origin_shift.x(), ground->origin_shift.y(), ground->origin_shift.z()};
-  } else if (settings.hazard_maps && grid) {
-    // Rasters without the origin shift would land in the wrong place in a GIS.
+  } else if (rasters || vectors) {
+    const std::string without = rasters && vectors ? "--set hazard_maps=false --set vector_format=none"
+                                : rasters          ? "--set hazard_maps=false"
+                                                   : "--set vector_format=none";
     throw core::InputError(run.files.front(),
                            path.empty() ? "the run names no terrain file: give it with --set terrain=FILE "
-                                          "(or --set hazard_maps=false)"
+                                          "(or " + without + ")"
                                         : "terrain file '" + path + "'" +
                                               (settings.terrain.empty() ? " named by the run" : "") +
-                                              " is missing: give it with --set terrain=FILE (or --set "
-                                              "hazard_maps=false)");
+                                              " is missing: give it with --set terrain=FILE (or " + without + ")");
   }
   if (settings.hazard_maps && grid) out.hazard = hazard_maps(run.file, out.origin_shift, settings.energy_unit);
   const auto& shift = out.origin_shift;

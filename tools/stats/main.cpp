@@ -1,5 +1,5 @@
-// stats: distributions, convergence, comparisons, barrier CDFs, hazard rasters and plots
-// from dda-run run files. See docs/stats.md.
+// stats: distributions, convergence, comparisons, barrier CDFs, hazard rasters, vector layers
+// and plots from dda-run run files. See docs/stats.md.
 #include <cstdio>
 #include <filesystem>
 #include <map>
@@ -22,7 +22,7 @@ namespace fs = std::filesystem;
 
 // The files stats writes into the output directory, and its subdirectories.
 const char* const kOutputFiles[] = {"summary.csv", "convergence.csv", "comparison.csv", "table.csv", "summary.h5"};
-const char* const kOutputDirs[] = {"hazard", "plots"};
+const char* const kOutputDirs[] = {"hazard", "plots", "vector"};
 
 // "stats/" and "./stats/" name the directory "stats": a trailing separator is dropped.
 fs::path directory_path(const std::string& dir) {
@@ -50,7 +50,7 @@ void check_outputs(const cli::Invocation& inv, const stats_tool::Settings& setti
   io::check_outputs_distinct(inputs, outputs);
 }
 
-// The files in stats' own subdirectories of `dir` (hazard/, plots/) with their times.
+// The files in stats' own subdirectories of `dir` (hazard/, vector/, plots/) with their times.
 std::map<fs::path, fs::file_time_type> owned_files(const fs::path& dir) {
   std::map<fs::path, fs::file_time_type> files;
   std::error_code ec;
@@ -97,7 +97,7 @@ int main(int argc, char** argv) {
   bool print_table = false;
   cli::ToolSpec spec;
   spec.name = "stats";
-  spec.summary = "CDFs, quantiles, convergence, comparisons, barrier CDFs, hazard rasters and plots of run files";
+  spec.summary = "CDFs, quantiles, convergence, comparisons, barrier CDFs, hazard rasters, vector layers and plots of run files";
   spec.inputs_doc = "run files of dda-run: whole runs and/or shards of runs (shards of one run are joined)";
   spec.min_inputs = 1;
   spec.set_example = "plots=false";
@@ -126,6 +126,8 @@ int main(int argc, char** argv) {
       const auto rasters = stats_tool::write_hazard_rasters((dir / "hazard").string(), runs, analysis, settings);
       core::log_info("wrote " + std::to_string(rasters.size()) + " hazard rasters");
     }
+    const auto layers = stats_tool::write_vector_layers((dir / "vector").string(), runs, analysis, settings);
+    if (!layers.empty()) core::log_info("wrote " + std::to_string(layers.size()) + " vector files");
     if (settings.plots) {
       const fs::path plots = dir / "plots";
       fs::create_directories(plots);

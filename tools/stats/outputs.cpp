@@ -11,8 +11,12 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <limits>
+#include <map>
+#include <set>
 
 #include "talus/core/error.hpp"
+#include "talus/dda/state.hpp"
 #include "talus/io/atomic_output.hpp"
 #include "talus/io/hdf5.hpp"
 #include "talus/io/raster.hpp"
@@ -22,6 +26,8 @@ namespace talus::stats_tool {
 namespace fs = std::filesystem;
 
 namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // The shortest text that reads back to the same double ("inf", "nan" for those).
 std::string number(double x) {
@@ -399,6 +405,143 @@ std::vector<std::string> write_hazard_rasters(const std::string& dir, const std:
         }
         written.push_back(path);
       }
+  }
+  return written;
+}
+
+namespace {
+
+// The plan point `position` metres along a polyline from its first vertex (a barrier
+// crossing's position); the last vertex beyond its end.
+std::array<double, 2> point_along(const std::vector<std::array<double, 2>>& line, double position) {
+  double walked = 0.0;
+  for (std::size_t k = 1; k < line.size(); ++k) {
+    const double dx = line[k][0] - line[k - 1][0], dy = line[k][1] - line[k - 1][1];
+    const double len = std::hypot(dx, dy);
+    if (position <= walked + len || k + 1 == line.size()) {
+      const double f = len > 0.0 ? std::clamp((position - walked) / len, 0.0, 1.0) : 0.0;
+      return {line[k - 1][0] + f * dx, line[k - 1][1] + f * dy};
+    }
+    walked += len;
+  }
+  return line.empty() ? std::array<double, 2>{kNaN, kNaN} : line.back();
+}
+
+std::string name_at(const std::vector<std::string>& names, std::int64_t index) {
+  return index >= 0 && static_cast<std::size_t>(index) < names.size() ? names[static_cast<std::size_t>(index)]
+                                                                       : std::to_string(index);
+}
+
+}  // namespace
+
+std::vector<io::VectorLayer> vector_layers(const Run& run, const RunResult& result) {
+  using io::FieldType;
+  const auto& info = run.file.info;
+  const auto& data = run.file.data;
+  const auto& shift = result.origin_shift;
+  std::map<std::uint32_t, const mc::Record*> record_of;
+  for (const auto& r : data.records) record_of[r.realization] = &r;
+  const auto block_of = [&](std::uint32_t realization) -> io::FieldValue {
+    const auto it = record_of.find(realization);
+    if (it == record_of.end()) return std::monostate{};
+    return name_at(info.blocks, it->second->block);
+  };
+  const auto end_of = [&](std::uint32_t realization) -> io::FieldValue {
+    const auto it = record_of.find(realization);
+    if (it == record_of.end()) return std::monostate{};
+    return std::string(dda::to_string(it->second->end));
+  };
+  std::vector<io::VectorLayer> layers;
+
+  // Every realization where its centroid ended (failed ones too: end_reason tells them).
+  io::VectorLayer& stops = layers.emplace_back();
+  stops.name = "stop_points";
+  stops.geometry = io::VectorGeometry::point_z;
+  stops.fields = {{"realization", FieldType::integer},     {"block", FieldType::text},
+                  {"end_reason", FieldType::text},         {"stop_class", FieldType::text},
+                  {"runout", FieldType::real},             {"lateral", FieldType::real},
+                  {"max_speed", FieldType::real},          {"max_jump_height", FieldType::real},
+                  {"max_kinetic_energy", FieldType::real}, {"time", FieldType::real}};
+  for (const auto& r : data.records) {
+    const geometry::Vec3& p = r.final_position;
+    stops.features.push_back(
+        {{{p.x() + shift[0], p.y() + shift[1], p.z() + shift[2]}},
+         {static_cast<std::int64_t>(r.realization), name_at(info.blocks, r.block), std::string(dda::to_string(r.end)),
+          name_at(info.stop_classes, r.stop_class), r.runout, r.lateral, r.max_speed, r.max_jump_height,
+          r.max_kinetic_energy, r.time}});
+  }
+
+  // The first crossing of each barrier by each realization, as the statistics use it.
+  io::VectorLayer& crossings = layers.emplace_back();
+  crossings.name = "barrier_crossings";
+  crossings.geometry = io::VectorGeometry::point;
+  crossings.fields = {{"realization", FieldType::integer}, {"block", FieldType::text},
+                      {"end_reason", FieldType::text},     {"barrier", FieldType::text},
+                      {"position", FieldType::real},       {"time", FieldType::real},
+                      {"passing_height", FieldType::real}, {"speed", FieldType::real},
+                      {"kinetic_energy", FieldType::real}, {"direction", FieldType::integer}};
+  std::set<std::pair<std::uint32_t, std::int32_t>> seen;
+  for (const auto& c : data.crossings) {
+    if (!seen.insert({c.realization, c.barrier}).second) continue;  // rows are in time order per realization
+    std::array<double, 2> xy = {kNaN, kNaN};
+    if (c.barrier >= 0 && static_cast<std::size_t>(c.barrier) < info.barrier_lines.size())
+      xy = point_along(info.barrier_lines[static_cast<std::size_t>(c.barrier)], c.position);
+    crossings.features.push_back({{{xy[0] + shift[0], xy[1] + shift[1], 0.0}},
+                                  {static_cast<std::int64_t>(c.realization), block_of(c.realization),
+                                   end_of(c.realization), name_at(info.barriers, c.barrier), c.position, c.time,
+                                   c.height, c.velocity.norm(), c.kinetic_energy,
+                                   static_cast<std::int64_t>(c.direction)}});
+  }
+
+  // One 3-D polyline per realization of its sampled centroid positions.
+  if (!data.trajectories.empty()) {
+    io::VectorLayer& paths = layers.emplace_back();
+    paths.name = "trajectories";
+    paths.geometry = io::VectorGeometry::line_string_z;
+    paths.fields = {{"realization", FieldType::integer}, {"block", FieldType::text}, {"end_reason", FieldType::text},
+                    {"points", FieldType::integer},      {"duration", FieldType::real}};
+    std::size_t k = 0;
+    const auto& t = data.trajectories;
+    while (k < t.size()) {
+      const std::uint32_t i = t[k].realization;
+      io::VectorFeature f;
+      const double start = t[k].sample.time;
+      double end = start;
+      for (; k < t.size() && t[k].realization == i; ++k) {
+        const geometry::Vec3& p = t[k].sample.position;
+        // A point off the engine's finite states (a failed step) would void the line.
+        if (!p.allFinite()) continue;
+        f.vertices.push_back({p.x() + shift[0], p.y() + shift[1], p.z() + shift[2]});
+        end = t[k].sample.time;
+      }
+      const auto points = static_cast<std::int64_t>(f.vertices.size());
+      if (points < 2) f.vertices.clear();  // a line needs two points: no geometry
+      f.values = {static_cast<std::int64_t>(i), block_of(i), end_of(i), points, end - start};
+      paths.features.push_back(std::move(f));
+    }
+  }
+  return layers;
+}
+
+std::vector<std::string> write_vector_layers(const std::string& dir, const std::vector<Run>& runs, const Analysis& a,
+                                             const Settings& settings) {
+  std::vector<std::string> written;
+  if (settings.vector_format == "none") return written;
+  fs::create_directories(dir);
+  for (std::size_t r = 0; r < runs.size(); ++r) {
+    const std::vector<io::VectorLayer> layers = vector_layers(runs[r], a.runs[r]);
+    const std::string& crs = a.runs[r].crs_wkt;
+    if (settings.vector_format == "gpkg") {
+      const std::string path = (fs::path(dir) / (runs[r].name + ".gpkg")).string();
+      io::write_vector_file(path, "gpkg", layers, crs);
+      written.push_back(path);
+      continue;
+    }
+    for (const auto& layer : layers) {
+      const std::string path = (fs::path(dir) / (runs[r].name + "-" + layer.name + ".geojson")).string();
+      io::write_vector_file(path, "geojson", {layer}, crs);
+      written.push_back(path);
+    }
   }
   return written;
 }

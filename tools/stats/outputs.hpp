@@ -5,6 +5,7 @@
 
 #include "analysis.hpp"
 #include "talus/io/file_header.hpp"
+#include "talus/io/vector.hpp"
 
 namespace talus::stats_tool {
 
@@ -26,6 +27,16 @@ void write_summary_file(const std::string& path, const std::vector<Run>& runs, c
 /// Writes the hazard rasters of each run into `dir` (RUN-reach_probability.asc …); returns the paths.
 std::vector<std::string> write_hazard_rasters(const std::string& dir, const std::vector<Run>& runs,
                                               const Analysis& analysis, const Settings& settings);
+
+/// Writes the vector layers of each run into `dir` (docs/stats.md, "Vector layers"):
+/// stop points, first barrier crossings and, when the run holds them, trajectories, in
+/// terrain coordinates with the terrain's CRS, as RUN.gpkg or RUN-LAYER.geojson
+/// (settings.vector_format); returns the paths.
+std::vector<std::string> write_vector_layers(const std::string& dir, const std::vector<Run>& runs,
+                                             const Analysis& analysis, const Settings& settings);
+
+/// The layers of one run as write_vector_layers writes them (exposed for tests).
+std::vector<io::VectorLayer> vector_layers(const Run& run, const RunResult& result);
 
 /// The Python interpreter of the plot helper: $TALUS_PYTHON, else /usr/bin/python3.
 std::string python_interpreter();

@@ -23,6 +23,9 @@ void Settings::visit(core::SettingsVisitor& v) {
   v.field("hazard_maps", hazard_maps, "write hazard rasters from the per-cell accumulators");
   v.field("raster_formats", raster_formats, "raster formats: asc (ESRI ASCII grid), tif (GeoTIFF)");
   v.field("energy_unit", energy_unit, "unit of the energy rasters: J or kJ");
+  v.choice("vector_format", vector_format, {"gpkg", "geojson", "none"},
+           "vector layers of each run (stop points, first barrier crossings, trajectories; m, m/s, J, s): "
+           "gpkg = one GeoPackage per run, geojson = one GeoJSON file per layer, none");
   v.field("plots", plots, "draw plots with the talus-plot helper (Python 3, matplotlib, h5py)");
   v.field("plot_formats", plot_formats, "plot formats: png, svg");
   v.field("plot_trajectories", plot_trajectories, "", "trajectories drawn in a plan view at most");

@@ -42,6 +42,9 @@ struct Settings {
   /// Raster formats among "asc" (ESRI ASCII grid) and "tif" (GeoTIFF).
   std::vector<std::string> raster_formats = {"asc", "tif"};
   std::string energy_unit = "J";  ///< unit of the energy rasters: J or kJ
+  /// Vector layers of each run (stop points, first barrier crossings, trajectories):
+  /// "gpkg" (one GeoPackage per run), "geojson" (one GeoJSON file per layer) or "none".
+  std::string vector_format = "gpkg";
   /// Plots through the talus-plot helper (Python 3 with matplotlib and h5py).
   bool plots = true;
   /// Plot formats among "png" and "svg".

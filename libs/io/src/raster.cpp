@@ -1,10 +1,6 @@
 #include "talus/io/raster.hpp"
 
-#include <cpl_conv.h>
-#include <cpl_error.h>
 #include <cpl_string.h>
-#include <gdal.h>
-#include <ogr_srs_api.h>
 
 #include <algorithm>
 #include <array>
@@ -15,7 +11,6 @@
 #include <fstream>
 #include <limits>
 #include <memory>
-#include <mutex>
 #include <optional>
 #include <string_view>
 #include <type_traits>
@@ -23,6 +18,7 @@
 #include "talus/core/error.hpp"
 #include "talus/io/paths.hpp"
 #include "talus/io/atomic_output.hpp"
+#include "gdal_support.hpp"
 
 namespace talus::io {
 namespace {
@@ -291,95 +287,20 @@ void write_esri_ascii(const std::string& path, const DemGrid& dem, double nodata
 
 namespace {
 
-void register_gdal() {
-  static std::once_flag once;
-  std::call_once(once, [] { GDALAllRegister(); });
-}
+using gdal::DatasetPtr;
+using gdal::name_of;
+using gdal::parse_srs;
+using gdal::SrsPtr;
+using gdal::take_string;
+using QuietGdal = gdal::Quiet;
 
 }  // namespace
 
 std::string gdal_description() {
-  register_gdal();
+  gdal::register_drivers();
   const bool gtiff = GDALGetDriverByName("GTiff") != nullptr;
   return std::string("GDAL ") + GDALVersionInfo("RELEASE_NAME") + (gtiff ? " (GeoTIFF read/write)" : " (no GeoTIFF driver)");
 }
-
-namespace {
-
-// GDAL reports problems through a global handler that prints to stderr; Talus reports one
-// line instead, with GDAL's last message appended.
-class QuietGdal {
- public:
-  QuietGdal() {
-    register_gdal();
-    CPLPushErrorHandler(CPLQuietErrorHandler);
-    CPLErrorReset();
-  }
-  ~QuietGdal() { CPLPopErrorHandler(); }
-  QuietGdal(const QuietGdal&) = delete;
-  QuietGdal& operator=(const QuietGdal&) = delete;
-  static std::string last_message() {
-    const char* msg = CPLGetLastErrorMsg();
-    return msg && *msg ? std::string(" (") + msg + ")" : std::string();
-  }
-};
-
-struct DatasetCloser {
-  void operator()(void* ds) const {
-    if (ds) GDALClose(static_cast<GDALDatasetH>(ds));
-  }
-};
-using DatasetPtr = std::unique_ptr<void, DatasetCloser>;
-
-}  // namespace
-
-namespace {
-
-struct SrsCloser {
-  void operator()(OGRSpatialReferenceH srs) const {
-    if (srs) OSRDestroySpatialReference(srs);
-  }
-};
-using SrsPtr = std::unique_ptr<std::remove_pointer_t<OGRSpatialReferenceH>, SrsCloser>;
-
-std::string take_string(char* text) {
-  std::string out = text ? text : "";
-  CPLFree(text);
-  return out;
-}
-
-std::string name_of(OGRSpatialReferenceH srs) {
-  const char* name = OSRGetName(srs);
-  std::string out = name && *name ? name : "unnamed";
-  const char* authority = OSRGetAuthorityName(srs, nullptr);
-  const char* code = OSRGetAuthorityCode(srs, nullptr);
-  if (authority && code) out += std::string(" (") + authority + ":" + code + ")";
-  return out;
-}
-
-// The CRS of `wkt` with EPSG codes filled in where GDAL recognises the definition (an
-// ESRI .prj names none).
-SrsPtr parse_srs(const std::string& text) {
-  SrsPtr srs(OSRNewSpatialReference(nullptr));
-  OSRSetAxisMappingStrategy(srs.get(), OAMS_TRADITIONAL_GIS_ORDER);
-  if (OSRSetFromUserInput(srs.get(), text.c_str()) != OGRERR_NONE) return nullptr;
-  if (OSRGetAuthorityCode(srs.get(), nullptr)) return srs;
-  // A definition without a code (an ESRI .prj): the registered CRS it matches, if GDAL
-  // is sure of one (confidence >= 90 of 100).
-  int count = 0;
-  int* confidence = nullptr;
-  OGRSpatialReferenceH* matches = OSRFindMatches(srs.get(), nullptr, &count, &confidence);
-  if (count > 0 && confidence[0] >= 90) {
-    SrsPtr best(OSRClone(matches[0]));
-    OSRSetAxisMappingStrategy(best.get(), OAMS_TRADITIONAL_GIS_ORDER);
-    srs = std::move(best);
-  }
-  OSRFreeSRSArray(matches);
-  CPLFree(confidence);
-  return srs;
-}
-
-}  // namespace
 
 std::string dem_crs(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();

@@ -17,22 +17,64 @@ using core::Stream;
 
 double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return a.x() * b.y() - a.y() * b.x(); }
 
-// Plan point of the release zone from `rs`: draw 0 for a line, draws 16 onwards (pairs)
-// for a polygon; draws 3–5 are the orientation.
-Eigen::Vector2d release_point(const std::string& kind, const std::vector<Eigen::Vector2d>& zone,
+// Index of the weight that the uniform draw `u` falls on, in proportion to the weights
+// (a zero weight is never drawn).
+std::size_t pick(const std::vector<double>& weights, double u) {
+  double total = 0.0;
+  for (double w : weights) total += w;
+  const double at = u * total;
+  double sum = 0.0;
+  std::size_t last = 0;
+  for (std::size_t k = 0; k < weights.size(); ++k) {
+    if (!(weights[k] > 0.0)) continue;
+    sum += weights[k];
+    last = k;
+    if (at < sum) return k;
+  }
+  return last;  // u·total rounded up to the total
+}
+
+// Plan point of the release zone from `rs`: draw 1 picks the feature when there are
+// several, draw 2 the part of a multi-part point or polygon feature, draw 0 the position
+// along a line (over all its parts), draws 16 onwards (pairs) the point in a polygon;
+// draws 3–5 are the orientation. One feature of one part (an inline zone) uses the draws
+// and arithmetic it always did.
+Eigen::Vector2d release_point(const std::string& kind, const std::vector<ReleaseFeature>& features,
                               const RandomStream& rs) {
-  if (kind == "point") return zone[0];
+  std::size_t chosen = 0;
+  if (features.size() > 1) {
+    std::vector<double> weights;
+    for (const auto& f : features) weights.push_back(f.weight);
+    chosen = pick(weights, rs.uniform(1));
+  }
+  const ReleaseFeature& feature = features[chosen];
+  const auto& parts = feature.parts;
+  if (kind == "point") {
+    const std::size_t k = parts.size() > 1 ? pick(feature.part_sizes, rs.uniform(2)) : 0;
+    return parts[k][0][0];
+  }
   if (kind == "line") {
     double length = 0.0;
-    for (std::size_t k = 1; k < zone.size(); ++k) length += (zone[k] - zone[k - 1]).norm();
+    for (double s : feature.part_sizes) length += s;
     double at = rs.uniform(0) * length;
-    for (std::size_t k = 1; k < zone.size(); ++k) {
-      const double len = (zone[k] - zone[k - 1]).norm();
-      if (at <= len || k + 1 == zone.size()) return zone[k - 1] + (zone[k] - zone[k - 1]) * std::min(at / len, 1.0);
-      at -= len;
+    for (std::size_t p = 0; p < parts.size(); ++p) {
+      const std::vector<Eigen::Vector2d>& zone = parts[p][0];
+      if (at > feature.part_sizes[p] && p + 1 < parts.size()) {
+        at -= feature.part_sizes[p];
+        continue;
+      }
+      for (std::size_t k = 1; k < zone.size(); ++k) {
+        const double len = (zone[k] - zone[k - 1]).norm();
+        if (at <= len || k + 1 == zone.size()) return zone[k - 1] + (zone[k] - zone[k - 1]) * std::min(at / len, 1.0);
+        at -= len;
+      }
     }
   }
-  // Polygon: rejection sampling in its bounding box (any simple polygon, concave too).
+  // Polygon: the part by area, then rejection sampling in its outer ring's bounding box
+  // (any simple polygon, concave too; points in a hole are rejected).
+  const std::size_t part = parts.size() > 1 ? pick(feature.part_sizes, rs.uniform(2)) : 0;
+  const std::vector<std::vector<Eigen::Vector2d>>& rings = parts[part];
+  const std::vector<Eigen::Vector2d>& zone = rings[0];
   Eigen::Vector2d lo = zone[0], hi = zone[0];
   for (const auto& p : zone) {
     lo = lo.cwiseMin(p);
@@ -41,7 +83,7 @@ Eigen::Vector2d release_point(const std::string& kind, const std::vector<Eigen::
   for (std::uint64_t k = 0; k < 100000; ++k) {
     const Eigen::Vector2d p(lo.x() + (hi.x() - lo.x()) * rs.uniform(16 + 2 * k),
                             lo.y() + (hi.y() - lo.y()) * rs.uniform(17 + 2 * k));
-    if (point_in_polygon(zone, p)) return p;
+    if (point_in_rings(rings, p)) return p;
   }
   throw core::RuntimeError("release polygon: no point drawn inside it after 100000 tries");
 }
@@ -266,7 +308,7 @@ ReleaseDraw draw_release(const Scene& scene, const terrain::Surface& ground, std
   }
 
   const RandomStream rs(s.seed, Stream::release, index);
-  const Eigen::Vector2d xy = release_point(r.kind, scene.release_zone(), rs);
+  const Eigen::Vector2d xy = release_point(r.kind, scene.release_features(), rs);
   const auto hit = ground.height_at(xy.x(), xy.y());
   if (!hit)
     throw core::InputError(scene.source(), "release point (" + core::format_number(xy.x()) + ", " +

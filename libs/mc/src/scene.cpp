@@ -2,7 +2,9 @@
 
 #include <charconv>
 #include <cmath>
+#include <filesystem>
 #include <limits>
+#include <set>
 
 #include "talus/core/error.hpp"
 
@@ -20,6 +22,13 @@ void ReleaseSettings::visit(core::SettingsVisitor& v) {
   v.choice("kind", kind, {"point", "line", "polygon"},
            "release zone: one point, a polyline (uniform along it) or a polygon (uniform inside)");
   v.field("points", points, "m", "plan [x, y] of the point, the line's vertices or the polygon's");
+  v.field("file", file,
+          "vector file of release features instead of points (GeoPackage, GeoJSON, Shapefile …; points, lines or "
+          "polygons as kind says, in the terrain's input coordinates and CRS); empty = points");
+  v.field("layer", layer, "layer of the vector file; empty = its only layer");
+  v.field("weight_field", weight_field,
+          "numeric field of the features' relative weights (-, >= 0): each realization draws a feature with "
+          "probability proportional to it; empty = proportional to the feature's area, length or point count");
   v.field("height", height, "m",
           "height above the realized ground: of the centroid at the release point (height_reference "
           "centroid) or of the block's lowest point above the ground under it (lowest_point; 0 = touching)");
@@ -53,6 +62,12 @@ void StochasticSettings::visit(core::SettingsVisitor& v) {
 void BarrierSettings::visit(core::SettingsVisitor& v) {
   v.field("name", name, "barrier name");
   v.field("line", line, "m", "plan polyline [x, y] of the barrier (at least 2 vertices)");
+  v.field("file", file,
+          "vector file of barrier lines instead of line (LineString features in the terrain's input coordinates "
+          "and CRS): one barrier per line; empty = line");
+  v.field("layer", layer, "layer of the vector file; empty = its only layer");
+  v.field("name_field", name_field,
+          "text field naming each line of the file; empty = name (else layer, else the file's stem), numbered by feature");
 }
 
 void StopZoneSettings::visit(core::SettingsVisitor& v) {
@@ -129,10 +144,93 @@ double polygon_area(const std::vector<Eigen::Vector2d>& poly) {
   return 0.5 * a;
 }
 
-// Release points are checked in the scene's frame (`shift` takes them to the terrain's
-// local one) and reported in it.
-void check_release(const SceneSettings& s, const terrain::Surface& base, const Eigen::Vector2d& shift,
-                   const std::string& source) {
+double polyline_length(const std::vector<Eigen::Vector2d>& line) {
+  double length = 0.0;
+  for (std::size_t k = 1; k < line.size(); ++k) length += (line[k] - line[k - 1]).norm();
+  return length;
+}
+
+std::string point_text(const Eigen::Vector2d& p) {
+  return "(" + format_number(p.x()) + ", " + format_number(p.y()) + ")";
+}
+
+// "x in [a, b], y in [c, d]": the terrain's plan extent shifted into a frame.
+std::string extent_text(const geometry::Aabb& b, const Eigen::Vector2d& shift) {
+  return "x in [" + format_number(b.lo.x() + shift.x()) + ", " + format_number(b.hi.x() + shift.x()) + "], y in [" +
+         format_number(b.lo.y() + shift.y()) + ", " + format_number(b.hi.y() + shift.y()) + "]";
+}
+
+// The release features of a vector file in the local frame, with their part sizes and
+// weights; every vertex must lie over the terrain. Errors name the file.
+std::vector<ReleaseFeature> local_release_features(const ReleaseSettings& r, const std::vector<PlanFeature>& read,
+                                                   const terrain::Surface& base, const Eigen::Vector2d& shift) {
+  const std::string& file = r.file;
+  if (read.empty()) throw InputError(file, "holds no release features");
+  std::vector<ReleaseFeature> out;
+  double total = 0.0;
+  for (const PlanFeature& f : read) {
+    ReleaseFeature feature;
+    double size = 0.0;
+    for (const auto& part : f.parts) {
+      std::vector<std::vector<Eigen::Vector2d>> local = part;
+      for (auto& list : local)
+        for (auto& p : list) {
+          if (!base.height_at(p.x() - shift.x(), p.y() - shift.y()))
+            throw InputError(file, "release " + f.label + ": point " + point_text(p) +
+                                       " is outside the terrain (input coordinates: " +
+                                       extent_text(base.bounds(), shift) + ")");
+          p -= shift;
+        }
+      double part_size = 1.0;
+      if (r.kind == "line") part_size = polyline_length(local[0]);
+      if (r.kind == "polygon") {
+        part_size = std::abs(polygon_area(local[0]));
+        for (std::size_t k = 1; k < local.size(); ++k) part_size -= std::abs(polygon_area(local[k]));
+      }
+      feature.parts.push_back(std::move(local));
+      feature.part_sizes.push_back(std::max(part_size, 0.0));
+      size += feature.part_sizes.back();
+    }
+    if (!(size > 0.0))
+      throw InputError(file, "release " + f.label + " has zero " + (r.kind == "line" ? "length" : "area"));
+    feature.weight = f.weight ? *f.weight : size;
+    total += feature.weight;
+    out.push_back(std::move(feature));
+  }
+  if (!(total > 0.0)) throw InputError(file, "every release feature has weight 0 in field '" + r.weight_field + "'");
+  return out;
+}
+
+// Barriers of one outputs.barriers entry that names a vector file: one per line (each
+// part of a MultiLineString), in the local frame. Errors name the file.
+std::vector<Barrier> file_barriers(const BarrierSettings& b, const std::vector<PlanFeature>& read,
+                                   const Eigen::Vector2d& shift) {
+  if (read.empty()) throw InputError(b.file, "holds no barrier lines");
+  const std::string base = b.name.empty() ? (b.layer.empty() ? std::filesystem::path(b.file).stem().string() : b.layer) : b.name;
+  std::vector<Barrier> out;
+  for (std::size_t k = 0; k < read.size(); ++k) {
+    const PlanFeature& f = read[k];
+    std::string name = f.name;
+    if (name.empty()) name = read.size() == 1 ? base : base + " " + std::to_string(k + 1);
+    for (std::size_t part = 0; part < f.parts.size(); ++part) {
+      Barrier barrier{f.parts.size() == 1 ? name : name + "-" + std::to_string(part + 1), f.parts[part][0], {0.0}};
+      for (auto& p : barrier.line) p -= shift;
+      for (std::size_t j = 1; j < barrier.line.size(); ++j) {
+        const double len = (barrier.line[j] - barrier.line[j - 1]).norm();
+        if (!(len > 0.0))
+          throw InputError(b.file, "barrier " + f.label + " ('" + barrier.name + "') has a zero-length segment");
+        barrier.offsets.push_back(barrier.offsets.back() + len);
+      }
+      out.push_back(std::move(barrier));
+    }
+  }
+  return out;
+}
+
+// Inline release points are checked in the scene's frame (`shift` takes them to the
+// terrain's local one) and reported in it.
+void check_release_points(const SceneSettings& s, const terrain::Surface& base, const Eigen::Vector2d& shift,
+                          const std::string& source) {
   const ReleaseSettings& r = s.release;
   const std::size_t n = r.points.size();
   if (r.kind == "point" && n != 1)
@@ -165,6 +263,20 @@ void check_release(const SceneSettings& s, const terrain::Surface& base, const E
                                  format_number(b.lo.x() + shift.x()) + ", " + format_number(b.hi.x() + shift.x()) +
                                  "], y in [" + format_number(b.lo.y() + shift.y()) + ", " +
                                  format_number(b.hi.y() + shift.y()) + "])" + hint);
+  }
+}
+
+// The release settings (the features of a release file are checked as they are placed).
+void check_release(const SceneSettings& s, const terrain::Surface& base, const Eigen::Vector2d& shift,
+                   const std::string& source) {
+  const ReleaseSettings& r = s.release;
+  if (!r.file.empty()) {
+    if (r.points != ReleaseSettings{}.points)
+      throw InputError(source, "release: give release.points or release.file, not both");
+  } else if (!r.layer.empty() || !r.weight_field.empty()) {
+    throw InputError(source, "release.layer and release.weight_field need release.file");
+  } else {
+    check_release_points(s, base, shift, source);
   }
   if (!std::isfinite(r.height)) throw InputError(source, "release.height must be finite");
   if (r.height_reference == "lowest_point" && r.height < 0.0)
@@ -205,7 +317,7 @@ void check_material(const terrain::Material& m, const std::string& source) {
 }  // namespace
 
 Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
-                   const std::vector<block::Block>& library, const std::string& source) {
+                   const std::vector<block::Block>& library, const std::string& source, const SceneVectors& vectors) {
   Scene scene;
   scene.settings_ = settings;
   scene.source_ = source;
@@ -285,14 +397,44 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
     for (auto& p : out) p -= shift;
     return out;
   };
+  // Vector files are in the terrain's input coordinates whatever the scene's frame: a GIS
+  // file holds the coordinates of its CRS.
+  const Eigen::Vector2d input_shift(scene.terrain_->origin_shift.x(), scene.terrain_->origin_shift.y());
   check_release(s, *scene.base_, shift, source);
-  scene.release_zone_ = local(s.release.points);
+  if (s.release.file.empty()) {
+    // The inline zone is one feature of one part.
+    scene.release_zone_ = local(s.release.points);
+    ReleaseFeature zone;
+    zone.parts = {{scene.release_zone_}};
+    zone.part_sizes = {s.release.kind == "line" ? polyline_length(scene.release_zone_) : 1.0};
+    scene.release_features_.push_back(std::move(zone));
+  } else {
+    scene.release_features_ = local_release_features(s.release, vectors.release, *scene.base_, input_shift);
+  }
   const double azimuth = s.release.main_direction_deg * M_PI / 180.0;
   scene.main_direction_ = Eigen::Vector2d(std::cos(azimuth), std::sin(azimuth));
 
+  std::set<std::string> barrier_names;
   for (std::size_t k = 0; k < s.outputs.barriers.size(); ++k) {
     const BarrierSettings& b = s.outputs.barriers[k];
+    if (!b.file.empty()) {
+      if (!b.line.empty())
+        throw InputError(source, "outputs.barriers entry " + std::to_string(k + 1) + ": give line or file, not both");
+      const std::vector<PlanFeature> none;
+      for (Barrier& barrier : file_barriers(b, k < vectors.barriers.size() ? vectors.barriers[k] : none, input_shift)) {
+        // Barrier names name the statistics of their crossings: they must differ.
+        if (!barrier_names.insert(barrier.name).second)
+          throw InputError(b.file, "barrier name '" + barrier.name + "' is taken by another barrier: give distinct " +
+                                       (b.name_field.empty() ? "names (outputs.barriers[].name or name_field)"
+                                                             : "names in field '" + b.name_field + "'"));
+        scene.barriers_.push_back(std::move(barrier));
+      }
+      continue;
+    }
+    if (!b.layer.empty() || !b.name_field.empty())
+      throw InputError(source, "outputs.barriers entry " + std::to_string(k + 1) + ": layer and name_field need file");
     const std::string name = b.name.empty() ? "barrier " + std::to_string(k + 1) : b.name;
+    barrier_names.insert(name);
     if (b.line.size() < 2 || !finite_points(b.line))
       throw InputError(source, "barrier '" + name + "' needs at least 2 finite vertices in its line");
     Barrier barrier{name, local(b.line), {0.0}};
@@ -363,6 +505,12 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
     scene.hazard_.ny = std::max(1, static_cast<std::int32_t>(ny));
   }
   return scene;
+}
+
+bool point_in_rings(const std::vector<std::vector<Eigen::Vector2d>>& rings, const Eigen::Vector2d& p) {
+  bool in = false;
+  for (const auto& ring : rings) in = in != point_in_polygon(ring, p);
+  return in;
 }
 
 bool point_in_polygon(const std::vector<Eigen::Vector2d>& poly, const Eigen::Vector2d& p) {

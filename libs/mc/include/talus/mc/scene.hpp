@@ -37,6 +37,15 @@ struct MaterialOverride {
 struct ReleaseSettings {
   std::string kind = "point";  ///< "point" (1 point), "line" (polyline, ≥ 2), "polygon" (≥ 3)
   std::vector<std::array<double, 2>> points = {{1.0, 20.0}};  ///< plan coordinates (m)
+  /// A vector file of release features instead of `points` (path relative to the working
+  /// directory): points, lines or polygons as `kind` says, in the terrain's input
+  /// coordinates (m) and CRS. Empty: `points`.
+  std::string file;
+  std::string layer;         ///< the file's layer; empty: its only layer
+  /// Numeric field of the features' relative weights (-, ≥ 0): a realization draws a
+  /// feature with probability proportional to it. Empty: proportional to the feature's
+  /// size (area, length, point count), so the features act as one zone.
+  std::string weight_field;
   /// Height above the realized ground (m): of the centroid at the release point
   /// (height_reference "centroid"), or of the block's lowest contact point above the
   /// ground under it ("lowest_point").
@@ -69,10 +78,18 @@ struct StochasticSettings {
   void visit(core::SettingsVisitor& v);
 };
 
-/// A barrier line in plan: every crossing of the centroid path is recorded.
+/// A barrier line in plan: every crossing of the centroid path is recorded. Or the lines
+/// of a vector file: one barrier per line.
 struct BarrierSettings {
   std::string name;
   std::vector<std::array<double, 2>> line;  ///< polyline vertices (m), ≥ 2
+  /// A vector file of barrier lines instead of `line` (path relative to the working
+  /// directory; LineString or MultiLineString features in the terrain's input coordinates
+  /// and CRS). Empty: `line`.
+  std::string file{};
+  std::string layer{};     ///< the file's layer; empty: its only layer
+  /// Text field naming each line; empty: `name` (else `layer`, else the file's stem), numbered by feature.
+  std::string name_field{};
   void visit(core::SettingsVisitor& v);
 };
 
@@ -117,6 +134,36 @@ struct SceneSettings {
   void visit(core::SettingsVisitor& v);
 };
 
+/// One feature of a vector file a scene names (release.file, outputs.barriers[].file),
+/// as read by io::read_scene_vectors (mc reads no file formats): plan coordinates in the
+/// terrain's input coordinates (m).
+struct PlanFeature {
+  std::string label;              ///< "feature 7" (its OGR feature id), for messages
+  std::string name;               ///< value of the name field; empty without one
+  std::optional<double> weight;   ///< value of the weight field (-); none without one
+  /// Its parts, each a list of vertex lists: a point (one list of one vertex), a line (one
+  /// polyline), or a polygon (its outer ring, then its holes; rings without the closing
+  /// vertex). A Multi* geometry has several parts.
+  std::vector<std::vector<std::vector<Eigen::Vector2d>>> parts;
+};
+
+/// The vector files of a scene, read before it is built.
+struct SceneVectors {
+  std::vector<PlanFeature> release;                ///< features of release.file
+  std::vector<std::vector<PlanFeature>> barriers;  ///< per outputs.barriers entry; empty for inline lines
+  /// One line per file read (path, key, layer, feature count, fingerprint of the
+  /// geometry), recorded with the run's inputs so a resume or merge notices a changed file.
+  std::string inputs;
+};
+
+/// A release feature in the local frame, ready to draw from: its parts (as PlanFeature)
+/// and their sizes (m² of a polygon less its holes, m of a line, 1 for a point).
+struct ReleaseFeature {
+  std::vector<std::vector<std::vector<Eigen::Vector2d>>> parts;
+  std::vector<double> part_sizes;
+  double weight = 1.0;  ///< relative probability of the feature (-)
+};
+
 /// A plan grid of hazard cells covering the terrain: cell (i, j) spans
 /// [x0 + i·size, x0 + (i+1)·size) × [y0 + j·size, …); id = j·nx + i.
 struct HazardGridSpec {
@@ -155,8 +202,12 @@ class Scene {
   /// points outside the terrain, a non-finite or (lowest_point) negative release height,
   /// degenerate lines, zones or polygons, bad engine settings. Whether a block starts in
   /// the ground depends on the realization: draw_release checks it.
+  /// `vectors` holds the features of the vector files the settings name (release.file,
+  /// outputs.barriers[].file), read by io::read_scene_vectors; their errors name the
+  /// file the scene names.
   static Scene build(const SceneSettings& settings, terrain::Terrain terrain,
-                     const std::vector<block::Block>& library, const std::string& source);
+                     const std::vector<block::Block>& library, const std::string& source,
+                     const SceneVectors& vectors = {});
 
   const SceneSettings& settings() const { return settings_; }
   /// The scene's name in messages (its file).
@@ -169,8 +220,10 @@ class Scene {
   /// Zone names, then "other" (in no zone), then "out of domain" (left the terrain).
   std::vector<std::string> stop_classes() const;
   const HazardGridSpec& hazard_grid() const { return hazard_; }
-  /// The release point, line or polygon vertices in plan (m).
+  /// The release point, line or polygon vertices in plan (m); empty with release.file.
   const std::vector<Eigen::Vector2d>& release_zone() const { return release_zone_; }
+  /// The release zone as features (the inline points are one feature of one part).
+  const std::vector<ReleaseFeature>& release_features() const { return release_features_; }
   Eigen::Vector2d main_direction() const { return main_direction_; }
   std::uint32_t realizations() const { return static_cast<std::uint32_t>(settings_.realizations); }
   /// The smooth surface (or the TIN template whose search structure realizations share).
@@ -190,11 +243,15 @@ class Scene {
   std::vector<StopZone> zones_;
   HazardGridSpec hazard_;
   std::vector<Eigen::Vector2d> release_zone_;
+  std::vector<ReleaseFeature> release_features_;
   Eigen::Vector2d main_direction_ = Eigen::Vector2d::UnitX();
 };
 
 /// True if `p` lies inside the simple polygon `polygon` (even–odd rule).
 bool point_in_polygon(const std::vector<Eigen::Vector2d>& polygon, const Eigen::Vector2d& p);
+/// True if `p` lies inside a polygon with holes given as its rings (outer, then holes):
+/// even–odd over all rings, so a point in a hole is outside.
+bool point_in_rings(const std::vector<std::vector<Eigen::Vector2d>>& rings, const Eigen::Vector2d& p);
 
 /// Parses "K/N" (0 ≤ K < N) as a shard; throws core::UsageError otherwise.
 struct Shard {

@@ -293,6 +293,40 @@ TEST(Release, LowestPointHeightIsTheGapUnderTheBlock) {
   }
 }
 
+// A drop test from a fixed elevation: the centroid at `height` in the scene's frame
+// (input coordinates: the terrain's origin shift taken off), whatever the ground below;
+// a block that would start in the ground is refused or lifted as with a centroid height.
+TEST(Release, ElevationPlacesTheCentroidAtThatAbsoluteHeight) {
+  terrain::Terrain shifted = testing::plane_terrain(45.0);
+  shifted.origin_shift = Vec3(2601000.0, 1180000.0, 400.0);
+  SceneSettings s = plane_scene(0.0);
+  for (auto& p : s.release.points) p = {p[0] + 2601000.0, p[1] + 1180000.0};
+  s.release.height_reference = "elevation";
+  s.release.height = 420.25;  // m: the plane is at z 15 (local) under (5, 5), 415 in input coordinates
+  const auto cube = library({block::SolidKind::cube});
+  const Scene scene = Scene::build(s, shifted, cube, "drop.yaml");
+  const terrain::Surface ground = scene.base_surface().realization(std::nullopt);
+  const ReleaseDraw d = draw_release(scene, ground, 0);
+  EXPECT_EQ(d.release.position.z(), 20.25);
+  EXPECT_EQ(d.release.position.x(), 5.0);
+  // The same drop written in the local frame.
+  SceneSettings local = plane_scene(20.25);
+  local.frame = "local";
+  local.release.height_reference = "elevation";
+  EXPECT_EQ(draw_release(Scene::build(local, shifted, cube, "drop.yaml"), ground, 0).release.position.z(), 20.25);
+  // An elevation in the ground: refused with the height to add, or lifted clear.
+  s.release.height = 415.3;
+  try {
+    draw_release(Scene::build(s, shifted, cube, "drop.yaml"), ground, 0);
+    ADD_FAILURE() << "no error";
+  } catch (const core::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("reaches 0.7 m into the ground"), std::string::npos) << e.what();
+  }
+  s.release.clearance = "lift";
+  const ReleaseDraw lifted = draw_release(Scene::build(s, shifted, cube, "drop.yaml"), ground, 0);
+  EXPECT_NEAR(lifted.release.position.z(), 16.0, 1e-12);
+}
+
 TEST(Release, CheckReleasesReportsTheLowestFailingRealization) {
   // Random orientations 1.17 m above the 45° plane: a cube reaches into it when its
   // support along (1, 0, 1)/√2, between 0.5 and 0.87 m, exceeds 1.17/√2 m. The check names

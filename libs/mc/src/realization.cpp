@@ -265,7 +265,11 @@ void place_block(const Scene& scene, const SceneBlock& block, const terrain::Sur
     rel.position.z() += r.height - c.gap;
     return;
   }
-  rel.position = Vec3(xy.x(), xy.y(), ground_z + r.height);
+  // An elevation is in the scene's frame: the terrain's input coordinates (frame: input)
+  // less the origin shift the engine works in.
+  const double elevation_shift = scene.settings().frame == "input" ? scene.terrain().origin_shift.z() : 0.0;
+  rel.position = Vec3(xy.x(), xy.y(),
+                      r.height_reference == "elevation" ? r.height - elevation_shift : ground_z + r.height);
   const Clearance c = vertical_clearance(block.model, rel.position, rel.orientation, ground);
   if (!(c.gap < r.clearance_gap)) return;
   const double raise = r.clearance_gap - c.gap;

@@ -31,9 +31,12 @@ void ReleaseSettings::visit(core::SettingsVisitor& v) {
           "probability proportional to it; empty = proportional to the feature's area, length or point count");
   v.field("height", height, "m",
           "height above the realized ground: of the centroid at the release point (height_reference "
-          "centroid) or of the block's lowest point above the ground under it (lowest_point; 0 = touching)");
-  v.choice("height_reference", height_reference, {"centroid", "lowest_point"},
-           "what height measures: the centroid, or the gap under the block lowered vertically onto the ground");
+          "centroid) or of the block's lowest point above the ground under it (lowest_point; 0 = touching); "
+          "with height_reference elevation, the centroid's elevation in the scene's frame (a drop test from a "
+          "fixed height)");
+  v.choice("height_reference", height_reference, {"centroid", "lowest_point", "elevation"},
+           "what height measures: the centroid above the ground, the gap under the block lowered vertically "
+           "onto the ground, or the centroid's absolute elevation");
   v.choice("clearance", clearance, {"refuse", "lift"},
            "a centroid-placed block in the ground (or nearer than clearance_gap): refuse the scene, "
            "or lift the block vertically just enough");

@@ -48,10 +48,13 @@ struct ReleaseSettings {
   std::string weight_field;
   /// Height above the realized ground (m): of the centroid at the release point
   /// (height_reference "centroid"), or of the block's lowest contact point above the
-  /// ground under it ("lowest_point").
+  /// ground under it ("lowest_point"); or the centroid's elevation ("elevation", m in the
+  /// scene's frame).
   double height = 2.5;
   /// "centroid": `height` places the centroid; "lowest_point": the block is lowered
-  /// vertically until it touches the ground, then raised by `height` (0 = resting on it).
+  /// vertically until it touches the ground, then raised by `height` (0 = resting on it);
+  /// "elevation": the centroid at that absolute elevation (a drop test), the clearance
+  /// rule applying as for "centroid".
   std::string height_reference = "centroid";
   /// A centroid-placed block closer to the ground than clearance_gap (or in it):
   /// "refuse" (an error naming the realization) or "lift" (raised vertically just enough).

@@ -408,6 +408,39 @@ TEST_F(Stats, ComparesRunsSideBySide) {
   EXPECT_NE(cmp.find("\nmax_speed,whole,all,longer,all,11,11,0,1\n"), std::string::npos) << cmp;
 }
 
+// A field test's drop points as several runs, pooled into one series: the pool's
+// distributions are those of all its runs' realizations together.
+TEST_F(Stats, PoolsSeveralRunsAsOneSeries) {
+  const std::string pools = "pools=[{name: drops, runs: [whole, longer]}]";
+  const Outcome o = run_fast({"whole.h5", "longer.h5", "-o", "out-pool", "--set", pools});
+  ASSERT_EQ(o.code, 0) << o.err;
+  const std::string csv = read_text(dir_ / "out-pool" / "summary.csv");
+  std::vector<double> runouts;
+  for (std::uint32_t i : resting()) {
+    runouts.push_back(runout_of(i));
+    runouts.push_back(runout_of(i) + 5.0);
+  }
+  EXPECT_EQ(csv_value(csv, "drops,all,runout,n"), 16.0);
+  EXPECT_EQ(csv_value(csv, "drops,all,runout,censored"), 6.0);
+  EXPECT_NEAR(csv_value(csv, "drops,all,runout,P50"), type7(runouts, 0.5), 1e-12 * runouts[0]);
+  EXPECT_NEAR(csv_value(csv, "drops,all,runout,P95"), type7(runouts, 0.95), 1e-12 * runouts[0]);
+  EXPECT_EQ(csv_value(csv, "drops,all,cross:toe,count"), 12.0);  // the even realizations of both
+  EXPECT_EQ(csv_value(csv, "drops,all,numerical_failure,count"), 2.0);
+  EXPECT_EQ(csv_value(csv, "drops,all,stop:bench 1,fraction"), 6.0 / 24.0);
+  EXPECT_EQ(csv_value(csv, "drops,cube,runout,n"), 10.0);  // blocks matched by name: 0, 2, 6, 8, 10 of each
+  // The runs themselves are still reported, and an empty list pools every run given.
+  EXPECT_EQ(csv_value(csv, "whole,all,runout,n"), 8.0);
+  ASSERT_EQ(run_fast({"whole.h5", "longer.h5", "-o", "out-pool2", "--set", "pools=[{name: all-runs}]"}).code, 0);
+  EXPECT_EQ(csv_value(read_text(dir_ / "out-pool2" / "summary.csv"), "all-runs,all,runout,n"), 16.0);
+  // The pooled stop points, in input coordinates, in its own vector file.
+  EXPECT_TRUE(fs::exists(dir_ / "out-pool" / "vector" / "drops.gpkg"));
+
+  expect_one_line_error(run_fast({"whole.h5", "-o", "out-pool3", "--set", "pools=[{name: p, runs: [nope]}]"}), 3,
+                        "pools: 'p' names run 'nope', which is not among the runs (whole)");
+  expect_one_line_error(run_fast({"whole.h5", "-o", "out-pool3", "--set", "pools=[{name: whole}]"}), 3,
+                        "pools: 'whole' is already the name of a run");
+}
+
 TEST_F(Stats, DrawsPlots) {
   if (!matplotlib_available()) GTEST_SKIP() << "matplotlib is not installed for /usr/bin/python3";
   // Three worker processes draw the figures, whatever the machine's core count.

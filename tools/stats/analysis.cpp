@@ -97,6 +97,95 @@ std::vector<Run> load_runs(const std::vector<std::string>& paths, const Settings
   return runs;
 }
 
+namespace {
+
+// Index of `name` in `names`, appended if absent.
+std::int32_t index_of(std::vector<std::string>& names, const std::string& name) {
+  const auto it = std::find(names.begin(), names.end(), name);
+  if (it != names.end()) return static_cast<std::int32_t>(it - names.begin());
+  names.push_back(name);
+  return static_cast<std::int32_t>(names.size() - 1);
+}
+
+// Maps an index into one run's name list to the pooled list (−1 and out-of-range kept
+// as they are: invalid indices are reported where they are used).
+std::int32_t remap(std::int32_t index, const std::vector<std::string>& from, std::vector<std::string>& to) {
+  if (index < 0 || static_cast<std::size_t>(index) >= from.size()) return index;
+  return index_of(to, from[static_cast<std::size_t>(index)]);
+}
+
+}  // namespace
+
+void pool_runs(std::vector<Run>& runs, const Settings& settings) {
+  const std::size_t given = runs.size();
+  for (const Pool& pool : settings.pools) {
+    if (pool.name.empty() || pool.name.find_first_of("/\\\n,\"") != std::string::npos)
+      throw core::InputError("settings", "pools: name '" + pool.name + "' is empty or holds one of / \\ , \"");
+    if (std::any_of(runs.begin(), runs.end(), [&](const Run& r) { return r.name == pool.name; }))
+      throw core::InputError("settings", "pools: '" + pool.name + "' is already the name of a run");
+    std::vector<const Run*> members;
+    if (pool.runs.empty()) {
+      for (std::size_t r = 0; r < given; ++r) members.push_back(&runs[r]);
+    } else {
+      for (const std::string& name : pool.runs) {
+        const auto it = std::find_if(runs.begin(), runs.begin() + static_cast<std::ptrdiff_t>(given),
+                                     [&](const Run& r) { return r.name == name; });
+        if (it == runs.begin() + static_cast<std::ptrdiff_t>(given)) {
+          std::string known;
+          for (std::size_t r = 0; r < given; ++r) known += (r ? ", " : "") + runs[r].name;
+          throw core::InputError("settings", "pools: '" + pool.name + "' names run '" + name +
+                                                 "', which is not among the runs (" + known + ")");
+        }
+        members.push_back(&*it);
+      }
+    }
+    Run pooled;
+    pooled.name = pool.name;
+    io::RunInfo& info = pooled.file.info;
+    info = members.front()->file.info;
+    info.blocks.clear();
+    info.stop_classes.clear();
+    info.barriers.clear();
+    info.barrier_lines.clear();
+    info.hazard = mc::HazardGridSpec{};
+    info.shard = "0/1";
+    mc::RunData& data = pooled.file.data;
+    std::uint32_t offset = 0;
+    for (const Run* m : members) {
+      const io::RunInfo& mi = m->file.info;
+      if (mi.origin_shift != info.origin_shift)
+        throw core::InputError(m->files.front(), "pools: run '" + m->name + "' is on a terrain with another origin shift than run '" +
+                                                     members.front()->name + "': pooled runs must share the coordinates");
+      pooled.files.insert(pooled.files.end(), m->files.begin(), m->files.end());
+      for (std::size_t b = 0; b < mi.barriers.size(); ++b) {
+        const std::size_t before = info.barriers.size();
+        index_of(info.barriers, mi.barriers[b]);
+        if (info.barriers.size() > before) info.barrier_lines.push_back(b < mi.barrier_lines.size() ? mi.barrier_lines[b] : decltype(mi.barrier_lines)::value_type{});
+      }
+      std::uint32_t count = 0;
+      for (mc::Record rec : m->file.data.records) {
+        rec.realization += offset;
+        rec.block = remap(rec.block, mi.blocks, info.blocks);
+        rec.stop_class = remap(rec.stop_class, mi.stop_classes, info.stop_classes);
+        data.records.push_back(rec);
+        count = std::max(count, rec.realization - offset + 1);
+      }
+      for (mc::Crossing c : m->file.data.crossings) {
+        c.realization += offset;
+        c.barrier = remap(c.barrier, mi.barriers, info.barriers);
+        data.crossings.push_back(c);
+      }
+      for (mc::TrajectoryPoint t : m->file.data.trajectories) {
+        t.realization += offset;
+        data.trajectories.push_back(t);
+      }
+      offset += count;
+    }
+    info.realizations = offset;
+    runs.push_back(std::move(pooled));
+  }
+}
+
 VariableSummary summarize(std::string name, std::string unit, std::vector<double> values, const Settings& settings) {
   VariableSummary v;
   v.name = std::move(name);

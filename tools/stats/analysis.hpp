@@ -27,6 +27,13 @@ struct Run {
 /// naming the file when one is missing, corrupt, empty, or a shard that does not fit.
 std::vector<Run> load_runs(const std::vector<std::string>& paths, const Settings& settings);
 
+/// Appends one run per Settings::pools entry: the realizations of the runs it names, in
+/// that order, renumbered 0, 1, … one after the other, with blocks, stop classes and
+/// barriers matched by name; no hazard grid (the members' grids may differ). The runs
+/// pooled must share the terrain's origin shift. Throws core::InputError naming the
+/// settings when a pool names an unknown run, has a name already taken, or mixes frames.
+void pool_runs(std::vector<Run>& runs, const Settings& settings);
+
 /// A statistic followed by the convergence study.
 struct Followed {
   stats::Statistic statistic;

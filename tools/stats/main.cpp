@@ -111,7 +111,8 @@ int main(int argc, char** argv) {
     check_outputs(inv, settings);
   };
   spec.run = [&](const cli::Invocation& inv) {
-    const auto runs = stats_tool::load_runs(inv.inputs, settings);
+    auto runs = stats_tool::load_runs(inv.inputs, settings);
+    stats_tool::pool_runs(runs, settings);
     const auto analysis = stats_tool::analyze(runs, settings);
     make_output_directory(inv.output);
     const fs::path dir = directory_path(inv.output);

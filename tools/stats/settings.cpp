@@ -7,9 +7,16 @@
 
 namespace talus::stats_tool {
 
+void Pool::visit(core::SettingsVisitor& v) {
+  v.field("name", name, "name of the pooled run");
+  v.field("runs", runs, "names of the runs pooled (after shards are joined, as named by names); empty = every run");
+}
+
 void Settings::visit(core::SettingsVisitor& v) {
   v.field("names", names, "run names, one per run after shards are joined; empty = the file names");
   v.field("allow_partial", allow_partial, "use the shards of a run even when some are missing");
+  v.list_of("pools", "runs reported together as one more run (e.g. the drop points of a field test), each "
+            "{name, runs}; their realizations are pooled, numbered in the order given", pools);
   v.field("by_block", by_block, "also report each block of a run that mixes several blocks");
   v.field("quantiles", quantiles, "-", "probabilities of the reported quantiles");
   v.field("confidence", confidence, "-", "level of the DKW bands and bootstrap intervals");

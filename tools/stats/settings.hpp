@@ -8,6 +8,14 @@
 
 namespace talus::stats_tool {
 
+/// Runs reported together as one more run: realizations of several run files (the drop
+/// points of a field test, say) pooled into one series.
+struct Pool {
+  std::string name;               ///< the pooled run's name
+  std::vector<std::string> runs;  ///< names of the runs pooled (after shards are joined); empty = all
+  void visit(core::SettingsVisitor& v);
+};
+
 /// What the stats tool computes and writes (docs/stats.md). Every field is optional in
 /// the YAML; the defaults are the SPEC §5 report.
 struct Settings {
@@ -15,6 +23,8 @@ struct Settings {
   std::vector<std::string> names;
   /// Use the shards of a run even when some are missing (otherwise an error).
   bool allow_partial = false;
+  /// Pooled runs, reported after the runs given.
+  std::vector<Pool> pools;
   /// Split a run that mixes several blocks into one series per block (R1–R4 of the
   /// reference study), besides the whole run.
   bool by_block = true;

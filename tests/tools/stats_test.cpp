@@ -13,6 +13,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <iterator>
 #include <map>
 #include <numeric>
@@ -439,6 +440,104 @@ TEST_F(Stats, PoolsSeveralRunsAsOneSeries) {
                         "pools: 'p' names run 'nope', which is not among the runs (whole)");
   expect_one_line_error(run_fast({"whole.h5", "-o", "out-pool3", "--set", "pools=[{name: whole}]"}), 3,
                         "pools: 'whole' is already the name of a run");
+}
+
+// Observed stop points (a field campaign) against a series: runout and lateral offset of
+// both from the same origin, KS distance, observed quantiles against the simulated band.
+TEST_F(Stats, ValidatesASeriesAgainstObservedStopPoints) {
+  // The origin (1, 10) in the run's frame: the simulated runout and lateral offset are the
+  // records' own (final position = (runout + 1, 10 + lateral)).
+  const double ox = 1.0 + kShift.x(), oy = 10.0 + kShift.y();
+  const std::vector<double> obs_runout = {25.0, 30.5, 35.0, 41.25, 47.0}, obs_lateral = {0.125, -0.25, 0.375, 0.0, 0.25};
+  {
+    std::ofstream csv(dir_ / "observed.csv");
+    csv << "id,\"Easting\",\"Northing\"\n";
+    for (std::size_t k = 0; k < obs_runout.size(); ++k)
+      csv << k << "," << std::setprecision(17) << ox + obs_runout[k] << "," << oy + obs_lateral[k] << "\n";
+  }
+  const std::vector<std::string> settings = {"--set", "observed.file=observed.csv", "--set",
+                                             "observed.origin=[" + std::to_string(ox) + "," + std::to_string(oy) + "]"};
+  auto args = [&](std::vector<std::string> a) {
+    a.insert(a.end(), settings.begin(), settings.end());
+    return a;
+  };
+  const Outcome o = run_fast(args({"whole.h5", "-o", "out-valid"}));
+  ASSERT_EQ(o.code, 0) << o.err;
+  const std::string csv = read_text(dir_ / "out-valid" / "validation.csv");
+  ASSERT_EQ(csv.rfind("series,observed,variable,statistic,value,unit\n", 0), 0u) << csv;
+  const std::string key = "whole,observed.csv,";
+  EXPECT_EQ(csv_value(csv, key + "runout,n_observed"), 5.0);
+  EXPECT_EQ(csv_value(csv, key + "runout,n_simulated"), 8.0);
+  std::vector<double> sim_runout, sim_lateral;
+  for (std::uint32_t i : resting()) {
+    sim_runout.push_back(runout_of(i));
+    sim_lateral.push_back(0.5 * std::sin(i));
+  }
+  // The KS distance by brute force over every value of both samples.
+  auto ks = [](const std::vector<double>& a, const std::vector<double>& b) {
+    double d = 0.0;
+    for (const auto* s : {&a, &b})
+      for (double x : *s) {
+        const double fa = static_cast<double>(std::count_if(a.begin(), a.end(), [&](double v) { return v <= x; }));
+        const double fb = static_cast<double>(std::count_if(b.begin(), b.end(), [&](double v) { return v <= x; }));
+        d = std::max(d, std::abs(fa / static_cast<double>(a.size()) - fb / static_cast<double>(b.size())));
+      }
+    return d;
+  };
+  EXPECT_NEAR(csv_value(csv, key + "runout,ks_distance"), ks(obs_runout, sim_runout), 1e-12);
+  EXPECT_NEAR(csv_value(csv, key + "lateral,ks_distance"), ks(obs_lateral, sim_lateral), 1e-12);
+  // Coordinates 2.6e6 m from the origin: the offsets are exact to about 1e-9 m.
+  EXPECT_NEAR(csv_value(csv, key + "runout,observed_P50"), type7(obs_runout, 0.5), 1e-8);
+  EXPECT_NEAR(csv_value(csv, key + "runout,simulated_P90"), type7(sim_runout, 0.9), 1e-8);
+  // The band of the simulated P50 from the DKW ε of 8 values at 95 %: [Q(0.5 − ε), Q(0.5 + ε)].
+  const double eps = std::sqrt(std::log(40.0) / 16.0);
+  EXPECT_NEAR(csv_value(csv, key + "runout,band_low_P50"), type7(sim_runout, 0.5 - eps), 1e-8);
+  EXPECT_NEAR(csv_value(csv, key + "runout,band_high_P50"), type7(sim_runout, std::min(1.0, 0.5 + eps)), 1e-8);
+  const double lo = type7(sim_runout, 0.05), hi = type7(sim_runout, 0.95);
+  EXPECT_NEAR(csv_value(csv, key + "runout,inside_P5_P95"),
+              static_cast<double>(std::count_if(obs_runout.begin(), obs_runout.end(),
+                                                [&](double x) { return x >= lo && x <= hi; })) / 5.0,
+              1e-15);
+
+  // The same points as a GeoJSON layer in the terrain's CRS give the same table.
+  {
+    std::ofstream json(dir_ / "observed.geojson");
+    json << std::setprecision(17)
+         << R"({"type": "FeatureCollection", "crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::32632"}}, "features": [)";
+    for (std::size_t k = 0; k < obs_runout.size(); ++k)
+      json << (k ? "," : "") << R"({"type": "Feature", "properties": {}, "geometry": {"type": "Point", "coordinates": [)"
+           << ox + obs_runout[k] << "," << oy + obs_lateral[k] << "]}}";
+    json << "]}\n";
+  }
+  auto json_args = args({"whole.h5", "-o", "out-valid-json"});
+  json_args[json_args.size() - 3] = "observed.file=observed.geojson";
+  ASSERT_EQ(run_fast(json_args).code, 0);
+  const std::string json_csv = read_text(dir_ / "out-valid-json" / "validation.csv");
+  EXPECT_EQ(csv_value(json_csv, "whole,observed.geojson,runout,ks_distance"), csv_value(csv, key + "runout,ks_distance"));
+  EXPECT_EQ(csv_value(json_csv, "whole,observed.geojson,lateral,observed_P25"), csv_value(csv, key + "lateral,observed_P25"));
+
+  // The validation figure: simulated CDF and band, observed ECDF, for both variables.
+  if (matplotlib_available()) {
+    const Outcome plotted = run(args({"whole.h5", "-o", "out-valid-plot", "--set", "plot_formats=[png]", "--set",
+                                      "bootstrap_resamples=50"}));
+    ASSERT_EQ(plotted.code, 0) << plotted.err;
+    const fs::path figure = dir_ / "out-valid-plot" / "plots" / "validation.png";
+    ASSERT_TRUE(fs::exists(figure));
+    EXPECT_GT(fs::file_size(figure), 1000u);
+  }
+
+  // Without observed points the file of an earlier run goes.
+  ASSERT_EQ(run_fast({"whole.h5", "-o", "out-valid"}).code, 0);
+  EXPECT_FALSE(fs::exists(dir_ / "out-valid" / "validation.csv"));
+
+  std::ofstream(dir_ / "observed-bad.csv") << "x,y\n1,2\n3\n";
+  auto bad = args({"whole.h5", "-o", "out-valid-bad"});
+  bad[bad.size() - 3] = "observed.file=observed-bad.csv";
+  expect_one_line_error(run_fast(bad), 3, "observed-bad.csv: line 3: expected the x and y of a stop point");
+  expect_one_line_error(run_fast(args({"whole.h5", "-o", "out-valid-bad", "--set", "observed.series=nope"})), 3,
+                        "observed.series: no run named 'nope'");
+  expect_one_line_error(run_fast({"whole.h5", "-o", "out-valid-bad", "--set", "observed.file=observed.csv"}), 3,
+                        "observed.origin must be [x, y]");
 }
 
 TEST_F(Stats, DrawsPlots) {

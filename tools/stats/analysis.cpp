@@ -1,8 +1,11 @@
 #include "analysis.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <map>
 #include <set>
@@ -12,6 +15,7 @@
 #include "talus/core/log.hpp"
 #include "talus/dda/state.hpp"
 #include "talus/io/terrain_file.hpp"
+#include "talus/io/vector.hpp"
 
 namespace talus::stats_tool {
 
@@ -494,6 +498,155 @@ Analysis analyze(const std::vector<Run>& runs, const Settings& settings) {
       }
     }
   return a;
+}
+
+}  // namespace talus::stats_tool
+
+namespace talus::stats_tool {
+
+namespace {
+
+std::string lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+// The fields of a CSV line (separators: comma, semicolon, tab or spaces; quotes dropped).
+std::vector<std::string> fields_of(const std::string& line) {
+  std::vector<std::string> out;
+  std::string cur;
+  bool any = false;
+  for (char c : line) {
+    if (c == ',' || c == ';' || c == '\t' || c == ' ' || c == '\r') {
+      if (any) out.push_back(cur);
+      cur.clear();
+      any = false;
+      continue;
+    }
+    if (c == '"' || c == '\'') continue;
+    cur += c;
+    any = true;
+  }
+  if (any) out.push_back(cur);
+  return out;
+}
+
+bool parse_number(const std::string& text, double& value) {
+  char* end = nullptr;
+  value = std::strtod(text.c_str(), &end);
+  return end != text.c_str() && *end == '\0' && std::isfinite(value);
+}
+
+// Observed points of a CSV: a header naming x and y (or easting and northing) picks the
+// columns, otherwise the first two.
+std::vector<std::array<double, 2>> read_points_csv(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw core::InputError(path, "cannot open the observed stop points");
+  std::vector<std::array<double, 2>> points;
+  std::string line;
+  std::size_t number = 0, cx = 0, cy = 1;
+  bool first = true;
+  while (std::getline(in, line)) {
+    ++number;
+    const auto f = fields_of(line);
+    if (f.empty() || f[0].rfind('#', 0) == 0) continue;
+    double x = 0.0, y = 0.0;
+    if (first) {
+      first = false;
+      if (!parse_number(f[0], x)) {
+        bool found_x = false, found_y = false;
+        for (std::size_t k = 0; k < f.size(); ++k) {
+          const std::string name = lower(f[k]);
+          if ((name == "x" || name == "easting" || name == "east") && !found_x) cx = k, found_x = true;
+          if ((name == "y" || name == "northing" || name == "north") && !found_y) cy = k, found_y = true;
+        }
+        if (!found_x || !found_y)
+          throw core::InputError(path, "line " + std::to_string(number) +
+                                           ": the header names no x and y (or easting and northing) column");
+        continue;
+      }
+    }
+    if (f.size() <= std::max(cx, cy) || !parse_number(f[cx], x) || !parse_number(f[cy], y))
+      throw core::InputError(path, "line " + std::to_string(number) + ": expected the x and y of a stop point (m)");
+    points.push_back({x, y});
+  }
+  if (points.empty()) throw core::InputError(path, "holds no observed stop point");
+  return points;
+}
+
+bool is_csv(const std::string& path) {
+  const std::string ext = lower(std::filesystem::path(path).extension().string());
+  return ext == ".csv" || ext == ".txt" || ext == ".xy" || ext == ".xyz";
+}
+
+}  // namespace
+
+std::optional<Validation> validate_against_observed(const Analysis& a, const Settings& settings) {
+  const Observed& o = settings.observed;
+  if (o.file.empty()) return std::nullopt;
+  const Series* series = nullptr;
+  for (const Series& s : a.series)
+    if (s.block == "all" && (o.series.empty() || s.run == o.series)) {
+      series = &s;
+      break;
+    }
+  if (series == nullptr) throw core::InputError("settings", "observed.series: no run named '" + o.series + "'");
+  if (series->stop_points.empty())
+    throw core::InputError("settings", "observed: run '" + series->run + "' has no realization at rest to compare");
+
+  std::vector<std::array<double, 2>> observed;
+  if (is_csv(o.file)) {
+    observed = read_points_csv(o.file);
+  } else {
+    io::VectorRequest request;
+    request.path = o.file;
+    request.layer = o.layer;
+    request.kind = "point";
+    request.key = "observed.file";
+    for (const mc::PlanFeature& f : io::read_plan_features(request, a.runs[series->run_index].crs_wkt))
+      for (const auto& part : f.parts)
+        for (const auto& ring : part)
+          for (const Eigen::Vector2d& p : ring) observed.push_back({p.x(), p.y()});
+  }
+
+  const double azimuth = o.main_direction_deg * M_PI / 180.0;
+  const double dx = std::cos(azimuth), dy = std::sin(azimuth);
+  auto project = [&](const std::vector<std::array<double, 2>>& points, bool along) {
+    std::vector<double> out;
+    for (const auto& p : points) {
+      const double ex = p[0] - o.origin[0], ey = p[1] - o.origin[1];
+      out.push_back(along ? dx * ex + dy * ey : dx * ey - dy * ex);
+    }
+    return out;
+  };
+  Validation v;
+  v.series = series->run;
+  v.file = o.file;
+  const double alpha = 1.0 - settings.confidence;
+  for (const bool along : {true, false}) {
+    ValidationVariable var;
+    var.name = along ? "runout" : "lateral";
+    var.unit = "m";
+    const stats::Sample obs(project(observed, along), o.file.c_str());
+    const stats::Sample sim(project(series->stop_points, along), "simulated stop points");
+    var.observed = obs.sorted();
+    var.simulated = sim.sorted();
+    var.ks_distance = stats::ks_distance(obs, sim);
+    var.ks_p_value = stats::ks_p_value(var.ks_distance, obs.size(), sim.size());
+    const double eps = stats::dkw_epsilon(sim.size(), alpha);
+    for (double p : settings.quantiles) {
+      var.observed_quantiles.push_back(obs.quantile(p));
+      var.simulated_quantiles.push_back(sim.quantile(p));
+      var.band_low.push_back(sim.quantile(std::max(0.0, p - eps)));
+      var.band_high.push_back(sim.quantile(std::min(1.0, p + eps)));
+    }
+    const double lo = sim.quantile(0.05), hi = sim.quantile(0.95);
+    var.inside_p5_p95 = static_cast<double>(std::count_if(var.observed.begin(), var.observed.end(),
+                                                          [&](double x) { return x >= lo && x <= hi; })) /
+                        static_cast<double>(var.observed.size());
+    v.variables.push_back(std::move(var));
+  }
+  return v;
 }
 
 }  // namespace talus::stats_tool

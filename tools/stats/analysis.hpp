@@ -120,8 +120,29 @@ struct RunResult {
   std::string crs_wkt;       ///< that terrain's CRS (WKT; "" if none or not known)
 };
 
+/// One variable of the comparison of a series with observed stop points.
+struct ValidationVariable {
+  std::string name;  ///< "runout" or "lateral"
+  std::string unit;  ///< "m"
+  std::vector<double> observed, simulated;  ///< sorted
+  double ks_distance = 0.0;
+  double ks_p_value = 1.0;
+  /// At Settings::quantiles: the observed and simulated quantiles and the simulated
+  /// quantile band [Q(p − ε), Q(p + ε)] from the DKW band ε of the simulated CDF.
+  std::vector<double> observed_quantiles, simulated_quantiles, band_low, band_high;
+  double inside_p5_p95 = 0.0;  ///< share of observed values within the simulated [P5, P95] (-)
+};
+
+/// A series against observed stop points (Settings::observed).
+struct Validation {
+  std::string series;  ///< the run compared (its block "all")
+  std::string file;    ///< the observed file
+  std::vector<ValidationVariable> variables;
+};
+
 struct Analysis {
   std::vector<Series> series;
+  std::optional<Validation> validation;
   std::vector<Comparison> comparisons;
   std::vector<RunResult> runs;  ///< parallel to the runs
 };
@@ -137,5 +158,12 @@ VariableSummary summarize(std::string name, std::string unit, std::vector<double
 /// The hazard rasters of a run; energies in `energy_unit` ("J" or "kJ").
 HazardMaps hazard_maps(const io::RunFile& run, const std::array<double, 3>& origin_shift,
                        const std::string& energy_unit = "J");
+
+/// The comparison with the observed stop points of Settings::observed (none when its file
+/// is empty): runout and lateral offset of the observed points and of the series' stop
+/// points (realizations at rest) from the same origin along the same direction. Throws
+/// core::InputError naming the file (unreadable, no point, a row without x and y, a
+/// vector layer in another CRS) or the settings (unknown series, no simulated stop).
+std::optional<Validation> validate_against_observed(const Analysis& a, const Settings& settings);
 
 }  // namespace talus::stats_tool

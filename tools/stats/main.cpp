@@ -21,7 +21,8 @@ using namespace talus;
 namespace fs = std::filesystem;
 
 // The files stats writes into the output directory, and its subdirectories.
-const char* const kOutputFiles[] = {"summary.csv", "convergence.csv", "comparison.csv", "table.csv", "summary.h5"};
+const char* const kOutputFiles[] = {"summary.csv", "convergence.csv", "comparison.csv", "table.csv", "summary.h5",
+                                    "validation.csv"};
 const char* const kOutputDirs[] = {"hazard", "plots", "vector"};
 
 // "stats/" and "./stats/" name the directory "stats": a trailing separator is dropped.
@@ -113,7 +114,8 @@ int main(int argc, char** argv) {
   spec.run = [&](const cli::Invocation& inv) {
     auto runs = stats_tool::load_runs(inv.inputs, settings);
     stats_tool::pool_runs(runs, settings);
-    const auto analysis = stats_tool::analyze(runs, settings);
+    auto analysis = stats_tool::analyze(runs, settings);
+    analysis.validation = stats_tool::validate_against_observed(analysis, settings);
     make_output_directory(inv.output);
     const fs::path dir = directory_path(inv.output);
     const auto earlier = owned_files(dir);
@@ -121,6 +123,13 @@ int main(int argc, char** argv) {
     io::write_text_file((dir / "convergence.csv").string(), stats_tool::convergence_csv(analysis));
     io::write_text_file((dir / "comparison.csv").string(), stats_tool::comparison_csv(analysis));
     io::write_text_file((dir / "table.csv").string(), stats_tool::side_by_side_csv(analysis));
+    if (analysis.validation) {
+      io::write_text_file((dir / "validation.csv").string(), stats_tool::validation_csv(*analysis.validation, settings));
+    } else {
+      // An earlier run's comparison must not pass for this run's.
+      std::error_code ec;
+      if (fs::remove(dir / "validation.csv", ec)) core::log_notice("removed validation.csv of an earlier run");
+    }
     const std::string summary = (dir / "summary.h5").string();
     stats_tool::write_summary_file(summary, runs, analysis, settings, inv.provenance("stats", settings.seed));
     if (settings.hazard_maps) {

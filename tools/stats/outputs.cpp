@@ -85,6 +85,31 @@ std::vector<Cell> cells_of(const VariableSummary& v, const Settings& settings) {
 
 }  // namespace
 
+std::string validation_csv(const Validation& v, const Settings& settings) {
+  std::string out = row({"series", "observed", "variable", "statistic", "value", "unit"});
+  for (const auto& var : v.variables) {
+    auto put = [&](const std::string& statistic, double value, const std::string& unit) {
+      out += row({v.series, v.file, var.name, statistic, number(value), unit});
+    };
+    put("n_observed", static_cast<double>(var.observed.size()), "");
+    put("n_simulated", static_cast<double>(var.simulated.size()), "");
+    put("ks_distance", var.ks_distance, "-");
+    put("ks_p_value", var.ks_p_value, "-");
+    put("inside_P5_P95", var.inside_p5_p95, "-");
+    for (std::size_t k = 0; k < settings.quantiles.size(); ++k) {
+      const std::string q = quantile_name(settings.quantiles[k]);
+      put("observed_" + q, var.observed_quantiles[k], var.unit);
+      put("simulated_" + q, var.simulated_quantiles[k], var.unit);
+      put("band_low_" + q, var.band_low[k], var.unit);
+      put("band_high_" + q, var.band_high[k], var.unit);
+      put("inside_" + q,
+          var.observed_quantiles[k] >= var.band_low[k] && var.observed_quantiles[k] <= var.band_high[k] ? 1.0 : 0.0,
+          "");
+    }
+  }
+  return out;
+}
+
 std::string summary_csv(const Analysis& a, const Settings& settings) {
   std::string out = row({"run", "block", "variable", "statistic", "value", "unit"});
   for (const auto& s : a.series) {
@@ -354,6 +379,20 @@ void write_summary_file(const std::string& path, const std::vector<Run>& runs, c
       g.write("fraction_count", counts.data(), {counts.size()});
       write_vector(g, "fraction", values, "-");
       write_pairs(g, "stop_points", s.stop_points);
+    }
+    if (a.validation) {
+      const Group g = root.create_group("validation");
+      g.set_attr("series", a.validation->series);
+      g.set_attr("observed", a.validation->file);
+      for (const auto& var : a.validation->variables) {
+        const Group vg = g.create_group(var.name);
+        write_vector(vg, "observed", var.observed, var.unit);
+        write_vector(vg, "simulated", var.simulated, var.unit);
+        vg.set_attr("ks_distance", var.ks_distance);
+        vg.set_attr("ks_p_value", var.ks_p_value);
+        vg.set_attr("inside_p5_p95", var.inside_p5_p95);
+        vg.set_attr("dkw_epsilon", stats::dkw_epsilon(var.simulated.size(), 1.0 - settings.confidence));
+      }
     }
     if (!a.comparisons.empty()) {
       const Group c = root.create_group("comparisons");

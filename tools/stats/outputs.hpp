@@ -20,6 +20,11 @@ std::string side_by_side_csv(const Analysis& analysis);
 /// The same as aligned text for a terminal.
 std::string side_by_side_text(const Analysis& analysis);
 
+/// The comparison with observed stop points: one row per variable × statistic
+/// (n_observed, n_simulated, ks_distance, ks_p_value, inside_P5_P95, and per quantile the
+/// observed and simulated value, the simulated band and whether the observed one is in it).
+std::string validation_csv(const Validation& validation, const Settings& settings);
+
 /// Writes the HDF5 summary (docs/formats.md, "Stats summary file") atomically.
 void write_summary_file(const std::string& path, const std::vector<Run>& runs, const Analysis& analysis,
                         const Settings& settings, const io::Provenance& provenance);

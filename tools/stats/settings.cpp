@@ -12,9 +12,23 @@ void Pool::visit(core::SettingsVisitor& v) {
   v.field("runs", runs, "names of the runs pooled (after shards are joined, as named by names); empty = every run");
 }
 
+void Observed::visit(core::SettingsVisitor& v) {
+  v.field("file", file,
+          "observed stop points: a CSV of x, y (a header naming x and y, or easting and northing; else the first two "
+          "columns) or a vector file of points (GeoPackage, GeoJSON, Shapefile …), in the terrain's input coordinates; "
+          "empty = no validation");
+  v.field("layer", layer, "layer of a vector file; empty = its only layer");
+  v.field("series", series, "run (or pool) compared, as a whole; empty = the first run");
+  v.field("origin", origin, "m", "[x, y] the runout of both is measured from, in the terrain's input coordinates");
+  v.field("main_direction_deg", main_direction_deg, "deg",
+          "azimuth of the runout direction from +x, counter-clockwise (lateral offset: to its left, m)");
+}
+
 void Settings::visit(core::SettingsVisitor& v) {
   v.field("names", names, "run names, one per run after shards are joined; empty = the file names");
   v.field("allow_partial", allow_partial, "use the shards of a run even when some are missing");
+  v.section("observed", "observed stop points a series is validated against (validation.csv, validation plot)",
+            [this](core::SettingsVisitor& s) { observed.visit(s); });
   v.list_of("pools", "runs reported together as one more run (e.g. the drop points of a field test), each "
             "{name, runs}; their realizations are pooled, numbered in the order given", pools);
   v.field("by_block", by_block, "also report each block of a run that mixes several blocks");
@@ -71,6 +85,12 @@ void Settings::validate() const {
   if (plot_jobs < 0) throw core::InputError("settings", "plot_jobs must not be negative");
   for (double d : reach_distances)
     if (!std::isfinite(d)) throw core::InputError("settings", "reach_distances must be finite");
+  if (!observed.file.empty()) {
+    if (observed.origin.size() != 2 || !std::isfinite(observed.origin[0]) || !std::isfinite(observed.origin[1]))
+      throw core::InputError("settings", "observed.origin must be [x, y] (m, finite) when observed.file is set");
+    if (!std::isfinite(observed.main_direction_deg))
+      throw core::InputError("settings", "observed.main_direction_deg must be finite");
+  }
   require_subset(raster_formats, {"asc", "tif"}, "raster_formats");
   require_subset(plot_formats, {"png", "svg"}, "plot_formats");
   require_subset({energy_unit}, {"J", "kJ"}, "energy_unit");

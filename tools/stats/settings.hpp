@@ -16,6 +16,16 @@ struct Pool {
   void visit(core::SettingsVisitor& v);
 };
 
+/// Observed stop points a series is compared with (a field campaign, a past event).
+struct Observed {
+  std::string file;    ///< CSV of x, y (input coordinates, m) or a vector file of points; empty = none
+  std::string layer;   ///< layer of a vector file; empty = its only layer
+  std::string series;  ///< run (or pool) compared, as a whole; empty = the first run
+  std::vector<double> origin;     ///< [x, y] the runout is measured from (m, input coordinates)
+  double main_direction_deg = 0.0;  ///< azimuth of the runout direction from +x, counter-clockwise (deg)
+  void visit(core::SettingsVisitor& v);
+};
+
 /// What the stats tool computes and writes (docs/stats.md). Every field is optional in
 /// the YAML; the defaults are the SPEC §5 report.
 struct Settings {
@@ -25,6 +35,8 @@ struct Settings {
   bool allow_partial = false;
   /// Pooled runs, reported after the runs given.
   std::vector<Pool> pools;
+  /// Observed stop points to validate a series against (validation.csv, plots).
+  Observed observed;
   /// Split a run that mixes several blocks into one series per block (R1–R4 of the
   /// reference study), besides the whole run.
   bool by_block = true;

@@ -83,6 +83,19 @@ double energy_scale(const Model& model, const State& s, double total) {
   return std::abs(total) + std::abs(weight * s.position.z()) + weight * model.radius;
 }
 
+// Takes up to `rest` (J) out of springs that hold `energy` (J): returns the factor their
+// stretch is to be scaled by (1 when there is nothing to take), books what it removes in
+// the state and lowers `rest` by it.
+double relax_springs(State& s, double energy, double& rest) {
+  if (!(energy > 0.0) || !(rest > 0.0)) return 1.0;
+  const double keep = std::sqrt(std::max(0.0, energy - rest) / energy);
+  const double removed = energy * (1.0 - keep * keep);
+  s.stored_energy -= removed;
+  s.energy_removed += removed;
+  rest -= removed;
+  return keep;
+}
+
 // Nothing in the model is a source of energy, but a contact step can still gain some: a
 // friction direction that a held contact could not revise, a feature pair found deep
 // inside at a fast impact. Whatever the step gained beyond round-off is taken back
@@ -107,14 +120,9 @@ void limit_energy(const Model& model, State& s, double energy_start) {
   const double p = model.stiffness;
   double normal_energy = 0.0;
   for (const Contact& c : s.contacts) normal_energy += 0.5 * p * c.spring_gap * c.spring_gap;
-  if (normal_energy > 0.0) {
-    const double keep = std::sqrt(std::max(0.0, normal_energy - rest) / normal_energy);
-    for (Contact& c : s.contacts) c.spring_gap *= keep;
-    const double removed = normal_energy * (1.0 - keep * keep);
-    s.stored_energy -= removed;
-    s.energy_removed += removed;
-    rest -= removed;
-  }
+  const double keep_normal = relax_springs(s, normal_energy, rest);
+  if (keep_normal < 1.0)
+    for (Contact& c : s.contacts) c.spring_gap *= keep_normal;
   // What is left sits in the shear springs of locked contacts: their anchors slip towards
   // the block (friction work) until the springs hold no more than was there.
   if (!(rest > 0.0)) return;
@@ -122,19 +130,15 @@ void limit_energy(const Model& model, State& s, double energy_start) {
   double shear_energy = 0.0;
   for (const Contact& c : s.contacts)
     if (c.anchored && std::isfinite(c.spring_shear)) shear_energy += 0.5 * c.spring_shear * c.spring_shear / ps;
-  if (shear_energy > 0.0) {
-    const double keep = std::sqrt(std::max(0.0, shear_energy - rest) / shear_energy);
+  const double keep_shear = relax_springs(s, shear_energy, rest);
+  if (keep_shear < 1.0) {
     const Pose pose = pose_of(model, s);
     for (Contact& c : s.contacts) {
       if (!c.anchored || !std::isfinite(c.spring_shear)) continue;
       const Vec3 sv = pose.centre + pose.map * c.body_anchor - c.ground_anchor;
-      c.ground_anchor += (1.0 - keep) * (sv - c.normal * c.normal.dot(sv));
-      c.spring_shear *= keep;
+      c.ground_anchor += (1.0 - keep_shear) * (sv - c.normal * c.normal.dot(sv));
+      c.spring_shear *= keep_shear;
     }
-    const double removed = shear_energy * (1.0 - keep * keep);
-    s.stored_energy -= removed;
-    s.energy_removed += removed;
-    rest -= removed;
   }
   // And what is left after that raised the block: the rise is taken back (a settled
   // block's step lifted it 1.6 µm, 0.04 J, with no motion or spring left to take it

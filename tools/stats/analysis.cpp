@@ -14,6 +14,7 @@
 #include "talus/core/error.hpp"
 #include "talus/core/log.hpp"
 #include "talus/dda/state.hpp"
+#include "talus/io/paths.hpp"
 #include "talus/io/terrain_file.hpp"
 #include "talus/io/vector.hpp"
 
@@ -31,6 +32,12 @@ std::string run_name_of_shards(const std::string& path) {
       (stem[end] == '-' || stem[end] == '_' || stem[end] == '.'))
     stem.resize(end);
   return stem;
+}
+
+// A run name that cannot name output files and table cells (empty, or holding a path
+// separator, a line break, a comma or a quote).
+bool unusable_run_name(const std::string& name) {
+  return name.empty() || name.find_first_of("/\\\n,\"") != std::string::npos;
 }
 
 // Files of the same run share these; shards of different runs do not.
@@ -92,7 +99,7 @@ std::vector<Run> load_runs(const std::vector<std::string>& paths, const Settings
   }
   std::set<std::string> seen;
   for (const auto& run : runs) {
-    if (run.name.empty() || run.name.find_first_of("/\\\n,\"") != std::string::npos)
+    if (unusable_run_name(run.name))
       throw core::InputError("settings", "run name '" + run.name + "' is empty or holds one of / \\ , \"");
     if (!seen.insert(run.name).second)
       throw core::InputError(run.files.front(), "two runs are named '" + run.name +
@@ -123,7 +130,7 @@ std::int32_t remap(std::int32_t index, const std::vector<std::string>& from, std
 void pool_runs(std::vector<Run>& runs, const Settings& settings) {
   const std::size_t given = runs.size();
   for (const Pool& pool : settings.pools) {
-    if (pool.name.empty() || pool.name.find_first_of("/\\\n,\"") != std::string::npos)
+    if (unusable_run_name(pool.name))
       throw core::InputError("settings", "pools: name '" + pool.name + "' is empty or holds one of / \\ , \"");
     if (std::any_of(runs.begin(), runs.end(), [&](const Run& r) { return r.name == pool.name; }))
       throw core::InputError("settings", "pools: '" + pool.name + "' is already the name of a run");
@@ -575,7 +582,7 @@ std::vector<std::array<double, 2>> read_points_csv(const std::string& path) {
 }
 
 bool is_csv(const std::string& path) {
-  const std::string ext = lower(std::filesystem::path(path).extension().string());
+  const std::string ext = io::lower_extension(path);
   return ext == ".csv" || ext == ".txt" || ext == ".xy" || ext == ".xyz";
 }
 

@@ -24,6 +24,8 @@ namespace fs = std::filesystem;
 const char* const kOutputFiles[] = {"summary.csv", "convergence.csv", "comparison.csv", "table.csv", "summary.h5",
                                     "validation.csv"};
 const char* const kOutputDirs[] = {"hazard", "plots", "vector"};
+// Files of OUTDIR itself that a run writes only when asked (validation.csv: with observed).
+const char* const kOptionalFiles[] = {"validation.csv"};
 
 // "stats/" and "./stats/" name the directory "stats": a trailing separator is dropped.
 fs::path directory_path(const std::string& dir) {
@@ -51,10 +53,13 @@ void check_outputs(const cli::Invocation& inv, const stats_tool::Settings& setti
   io::check_outputs_distinct(inputs, outputs);
 }
 
-// The files in stats' own subdirectories of `dir` (hazard/, vector/, plots/) with their times.
+// The files in stats' own subdirectories of `dir` (hazard/, vector/, plots/) and its
+// optional files, with their times.
 std::map<fs::path, fs::file_time_type> owned_files(const fs::path& dir) {
   std::map<fs::path, fs::file_time_type> files;
   std::error_code ec;
+  for (const char* name : kOptionalFiles)
+    if (fs::is_regular_file(dir / name, ec)) files[dir / name] = fs::last_write_time(dir / name, ec);
   for (const char* sub : kOutputDirs)
     for (const auto& entry : fs::directory_iterator(dir / sub, ec))
       if (entry.is_regular_file(ec)) files[entry.path()] = entry.last_write_time(ec);
@@ -123,13 +128,8 @@ int main(int argc, char** argv) {
     io::write_text_file((dir / "convergence.csv").string(), stats_tool::convergence_csv(analysis));
     io::write_text_file((dir / "comparison.csv").string(), stats_tool::comparison_csv(analysis));
     io::write_text_file((dir / "table.csv").string(), stats_tool::side_by_side_csv(analysis));
-    if (analysis.validation) {
+    if (analysis.validation)
       io::write_text_file((dir / "validation.csv").string(), stats_tool::validation_csv(*analysis.validation, settings));
-    } else {
-      // An earlier run's comparison must not pass for this run's.
-      std::error_code ec;
-      if (fs::remove(dir / "validation.csv", ec)) core::log_notice("removed validation.csv of an earlier run");
-    }
     const std::string summary = (dir / "summary.h5").string();
     stats_tool::write_summary_file(summary, runs, analysis, settings, inv.provenance("stats", settings.seed));
     if (settings.hazard_maps) {

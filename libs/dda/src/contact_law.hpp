@@ -251,12 +251,13 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
   thread_local std::vector<std::uint8_t> first_open;
   first_open.clear();
   for (const Contact& c : contacts) first_open.push_back(c.mode == ContactMode::open ? 1 : 0);
-  // Contacts that start the step with their spring unloaded, at the accepted offset.
-  thread_local std::vector<std::uint8_t> unloaded;
-  unloaded.clear();
-  for (const Contact& c : contacts) unloaded.push_back(c.gap - c.gap_offset == 0.0 ? 1 : 0);
+  // The last move of each contact's spring zero in this step (below): unbounded for a
+  // contact that starts the step with its spring unloaded at its accepted offset, zero
+  // (no move allowed) for any other.
   thread_local std::vector<double> last_shift;
-  last_shift.assign(contacts.size(), std::numeric_limits<double>::infinity());
+  last_shift.clear();
+  for (const Contact& c : contacts)
+    last_shift.push_back(c.gap - c.gap_offset == 0.0 ? std::numeric_limits<double>::infinity() : 0.0);
   StepOutcome out;
   const int free_iterations = static_cast<int>(set.max_open_close_iterations);
   const int max_iter = free_iterations + 4 * static_cast<int>(contacts.size()) + 1;
@@ -375,13 +376,11 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
         // solution is redone; again only while the tension it is left with shrinks. (Moved
         // whatever the tension, the shifts of two sliding contacts of a 1000 m³ cube fed on
         // each other, a zero went 2.4 cm up in eight iterations and the step gained
-        // 2.2e10 J.) Opened instead,
-        // it could sink with nothing to stop it; held with its pull, a rolling sphere's
-        // landing vertex held 4e-5 m in tension (4.5e7 N) beside a compressed one 4 cm
-        // away, and the couple turned 5 rad/s of rolling spin into 3 rad/s about the slope
-        // line: 17 % of the block's kinetic energy in one step.
-        if (c.mode != ContactMode::open && unloaded[i] && g > 1e-12 * model.radius && c.gap_offset < 0.0 &&
-            g < last_shift[i]) {
+        // 2.2e10 J.) Opened instead, it could sink with nothing to stop it; held with its
+        // pull, a rolling sphere's landing vertex held 4e-5 m in tension (4.5e7 N) beside
+        // a compressed one 4 cm away, and the couple turned 5 rad/s of rolling spin into
+        // 3 rad/s about the slope line: 17 % of the block's kinetic energy in one step.
+        if (c.mode != ContactMode::open && g > 1e-12 * model.radius && c.gap_offset < 0.0 && g < last_shift[i]) {
           const double shift = std::min(g, -c.gap_offset);
           c.gap_offset += shift;
           w.g0 -= shift;

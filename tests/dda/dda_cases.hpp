@@ -151,12 +151,12 @@ inline SpinResult spin(Settings set, std::int64_t steps) {
   const double e0 = kinetic_energy(m, s);
   while (s.end == EndReason::running) step(m, g, s);
   geometry::Polyhedron now = block;
-  now.vertices = s.world_vertices;
+  now.vertices = world_vertices(m, s);
   SpinResult out;
   out.volume_error = std::abs(geometry::mass_properties(now).volume / m.volume - 1.0);
   for (const BlockEdge& e : m.edges) {
     const double l0 = (m.vertices[e.a] - m.vertices[e.b]).norm();
-    const double l1 = (s.world_vertices[e.a] - s.world_vertices[e.b]).norm();
+    const double l1 = (now.vertices[e.a] - now.vertices[e.b]).norm();
     out.edge_error = std::max(out.edge_error, std::abs(l1 / l0 - 1.0));
   }
   out.energy_error = std::abs(kinetic_energy(m, s) / e0 - 1.0);

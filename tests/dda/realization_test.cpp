@@ -99,10 +99,10 @@ TEST(DdaContacts, PrunedSearchMatchesBruteForce) {
       pose.map = pose.rotation;
       pose.inverse_map = pose.rotation.transpose();
       std::vector<Vec3> world;
-      for (const Vec3& v : m.vertices) world.push_back(pose.centre + pose.map * v);
+      const detail::PlacedBlock at(m, pose, world);
       std::vector<Contact> fast, slow;
-      detail::detect_contacts(m, surface, pose, world, 0.05, 0.1, patch, fast);
-      detail::detect_contacts_brute_force(m, surface, pose, world, 0.05, 0.1, slow);
+      detail::detect_contacts(at, surface, 0.05, 0.1, patch, fast);
+      detail::detect_contacts_brute_force(m, surface, pose, 0.05, 0.1, slow);
       const auto key = [](const Contact& c) { return std::make_tuple(c.kind, c.block_feature, c.terrain_feature); };
       const auto by_key = [&](const Contact& a, const Contact& b) { return key(a) < key(b); };
       std::sort(fast.begin(), fast.end(), by_key);
@@ -153,10 +153,10 @@ TEST(DdaContacts, VertexBelowTheGroundInPlanIsHeld) {
         const Vec3 offset = pose.map * m.vertices[low];
         pose.centre = Vec3(x, y, surface.height_at(x, y)->z - 0.05 * rng.uniform(8 * k + 6)) - offset;
         std::vector<Vec3> world;
-        for (const Vec3& v : m.vertices) world.push_back(pose.centre + pose.map * v);
+        const detail::PlacedBlock at(m, pose, world);
         TerrainPatch patch;
         std::vector<Contact> found;
-        detail::detect_contacts(m, surface, pose, world, 0.05, 0.1, patch, found);
+        detail::detect_contacts(at, surface, 0.05, 0.1, patch, found);
         for (std::size_t v = 0; v < world.size(); ++v) {
           const auto hit = surface.height_at(world[v].x(), world[v].y());
           const double depth = hit ? hit->z - world[v].z() : 0.0;
@@ -187,10 +187,10 @@ TEST(DdaContacts, TerrainVertexDeepInsideIsHeldByTheNearestFace) {
     detail::Pose pose;
     pose.centre = Vec3(3.2, 3.3, 0.5 - sunk);  // node (3, 3) under the bottom face
     std::vector<Vec3> world;
-    for (const Vec3& v : m.vertices) world.push_back(pose.centre + pose.map * v);
+    const detail::PlacedBlock at(m, pose, world);
     TerrainPatch patch;
     std::vector<Contact> found;
-    detail::detect_contacts(m, surface, pose, world, 0.01, 0.1, patch, found);
+    detail::detect_contacts(at, surface, 0.01, 0.1, patch, found);
     const auto node = std::find_if(found.begin(), found.end(), [&](const Contact& c) {
       return c.kind == ContactKind::face_vertex && c.terrain_feature == static_cast<std::int64_t>(dem.spec.index(3, 3));
     });

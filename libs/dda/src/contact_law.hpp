@@ -114,6 +114,36 @@ Vec3 point_displacement(const Vec3& r, const VecN<N>& d) {
   }
 }
 
+// The largest displacement (m) of a block vertex under the step displacement d, or `floor`
+// when none moves further: above `floor` it is the maximum a scan of the vertices finds,
+// with the same numbers. A detailed block is searched by branch and bound over its vertex
+// tree: u is affine in r, u = a + A·r, and r = F·b over a body box of centre c and
+// half-sizes h, so |u| ≤ |a + A·F·c| + Σⱼ |(A·F)ⱼ| hⱼ there.
+template <int N>
+double max_vertex_displacement(const PlacedBlock& at, const VecN<N>& d, double floor) {
+  const Pose& pose = at.pose();
+  if (at.index() == nullptr) {
+    double moved = floor;
+    for (const Vec3& x : at.vertices()) moved = std::max(moved, point_displacement<N>(x - pose.centre, d).norm());
+    return moved;
+  }
+  const Vec3 a = point_displacement<N>(Vec3::Zero(), d);
+  Mat3 A;
+  for (int j = 0; j < 3; ++j) A.col(j) = point_displacement<N>(Vec3::Unit(j), d) - a;
+  const Mat3 B = A * pose.map;
+  const Vec3 columns = B.colwise().norm().transpose();
+  // Round-off of the world vertices (relative to the centre's coordinates) and of the
+  // products, generously.
+  const double slack = 1e-9 * (a.norm() + B.norm() * at.model().radius) +
+                       1e-12 * A.norm() * pose.centre.cwiseAbs().maxCoeff();
+  return at.index()->vertices.maximum(
+      [&](const geometry::Aabb& b) { return (a + B * b.center()).norm() + columns.dot(0.5 * b.extent()) + slack; },
+      [&](std::int32_t i) {
+        return point_displacement<N>(at.vertex(static_cast<std::size_t>(i)) - pose.centre, d).norm();
+      },
+      floor);
+}
+
 template <int N>
 MatN<N> current_mass(const Model& model, const Pose& pose) {
   if constexpr (N == 6) {

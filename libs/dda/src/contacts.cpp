@@ -8,6 +8,8 @@
 #include <limits>
 #include <numeric>
 
+#include <Eigen/Eigenvalues>
+
 namespace talus::dda::detail {
 
 namespace {
@@ -122,8 +124,11 @@ void fill_patch(const terrain::Surface& surface, const std::vector<std::int32_t>
     while (end < edges.size() && edges[end].a == edges[k].a && edges[end].b == edges[k].b) ++end;
     TerrainPatch::Ridge e = edges[k];
     bool flat = false;
+    e.normals[0] = e.normal_sum;
+    e.normal_count = static_cast<std::int32_t>(end - k);
     for (std::size_t m = k + 1; m < end; ++m) {
       flat = flat || e.normal_sum.dot(edges[m].normal_sum) > 1.0 - 1e-10;
+      if (m == k + 1) e.normals[1] = edges[m].normal_sum;
       e.normal_sum += edges[m].normal_sum;
     }
     if (!flat) {
@@ -137,14 +142,35 @@ void fill_patch(const terrain::Surface& surface, const std::vector<std::int32_t>
   edges.resize(kept);
 }
 
-void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& world, const TerrainPatch& patch,
-               double ds, double depth, bool prune, std::vector<Contact>& out) {
+// Relative round-off allowances of the index queries: the queries only select candidates
+// that the exact tests below then decide, so the allowances are generous.
+constexpr double kRound = 1e-12;   // of world coordinates
+constexpr double kSlack = 1e-6;    // of the search margin
+
+double magnitude(const geometry::Aabb& b) { return std::max(b.lo.cwiseAbs().maxCoeff(), b.hi.cwiseAbs().maxCoeff()); }
+
+// A world plane's signed value w·(x − a) over the block's body frame, x = centre + F·r:
+// w·(centre − a) + (Fᵀw)·r, with its extremes over a body box (centre c, half-sizes h)
+// widened by `tol` (m times |w|) for the round-off of the world test it stands for.
+struct BodyPlane {
+  BodyPlane() = default;
+  BodyPlane(const Pose& pose, const Vec3& w, const Vec3& a, double widening)
+      : m(pose.map.transpose() * w), m_abs(m.cwiseAbs()), s0(w.dot(pose.centre - a)), tol(widening) {}
+  double max_over(const Vec3& c, const Vec3& h) const { return s0 + m.dot(c) + m_abs.dot(h) + tol; }
+  double min_over(const Vec3& c, const Vec3& h) const { return s0 + m.dot(c) - m_abs.dot(h) - tol; }
+  Vec3 m = Vec3::Zero(), m_abs = Vec3::Zero();
+  double s0 = 0.0, tol = 0.0;
+};
+
+void detect_in(const PlacedBlock& at, const TerrainPatch& patch, double ds, double depth, bool prune,
+               std::vector<Contact>& out) {
+  const Model& model = at.model();
+  const Pose& pose = at.pose();
+  const BlockIndex* index = at.index();
   // Boxes are inflated by the larger of the search distance and the depth limit: a
   // feature may be found up to `depth` below a surface.
   const double margin = std::max(ds, depth);
-  geometry::Aabb block_box;
-  for (const Vec3& p : world) block_box.add(p);
-  const geometry::Aabb reach = block_box.inflated(margin);
+  const geometry::Aabb reach = at.box().inflated(margin);
 
   // Only block features at most `margin` above the highest terrain point under the
   // block can touch it (a bounding-box argument, valid for any surface).
@@ -154,19 +180,74 @@ void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& wo
   const double ceiling = prune ? top + margin : std::numeric_limits<double>::infinity();
   thread_local std::vector<std::int32_t> low;
   low.clear();
-  for (std::size_t i = 0; i < world.size(); ++i)
-    if (world[i].z() <= ceiling) low.push_back(static_cast<std::int32_t>(i));
+  if (index == nullptr) {
+    const std::vector<Vec3>& world = at.vertices();
+    for (std::size_t i = 0; i < world.size(); ++i)
+      if (world[i].z() <= ceiling) low.push_back(static_cast<std::int32_t>(i));
+  }
+  // Whether any vertex is that low (the lowest vertex is the box's floor).
+  const bool any_low = at.box().lo.z() <= ceiling;
+
+  // The world height of the body point r is centre_z + z_row·r.
+  const Vec3 z_row = pose.map.row(2).transpose();
+  const Vec3 z_row_abs = z_row.cwiseAbs();
 
   // Block vertex – terrain triangle.
   const std::size_t first = out.size();
+  // The vertex contacts found so far of each vertex, as chains: latest[vertex] and then
+  // earlier[contact] (numbered from `first`), −1 ending them.
+  thread_local std::vector<std::int32_t> latest, earlier;
+  latest.assign(model.vertices.size(), -1);
+  earlier.clear();
+  thread_local std::vector<std::int32_t> candidates;
   for (const TerrainPatch::Triangle& tri : patch.triangles) {
-    if (low.empty()) break;
+    if (!any_low) break;
     if (prune && !overlaps(tri.box, reach)) continue;
     const geometry::Aabb tbox = tri.box.inflated(margin);
+    const std::vector<std::int32_t>* vertices = &low;
+    if (index != nullptr) {
+      // The vertices that can pass the tests below: in tbox, under the ceiling, in the
+      // slab of the triangle's plane from −depth to ds, and inside the triangle's normal
+      // prism or (ground that faces up) its vertical prism, tested on the body-frame boxes
+      // of the tree, where a world plane's signed value is linear in r.
+      const double tol = at.round_off() + kRound * magnitude(tbox);
+      const geometry::Aabb body = at.body_box(tbox);
+      const BodyPlane floor_plane(pose, tri.normal, tri.p[0], tol);
+      const BodyPlane ceiling_plane(pose, Vec3::UnitZ(), Vec3(0.0, 0.0, ceiling), tol);
+      std::array<BodyPlane, 3> prism, plan;
+      for (int k = 0; k < 3; ++k) {
+        const Vec3& a = tri.p[k];
+        const Vec3 e = tri.p[(k + 1) % 3] - a;
+        // The world tests compute (e × (p − a))·n and the 2-D cross product in plan.
+        const double edge_tol = 4.0 * e.norm() * tol;
+        prism[static_cast<std::size_t>(k)] = BodyPlane(pose, tri.normal.cross(e), a, edge_tol);
+        plan[static_cast<std::size_t>(k)] = BodyPlane(pose, Vec3(-e.y(), e.x(), 0.0), a, edge_tol);
+      }
+      const bool faces_up = tri.normal.z() > 0.0;
+      candidates.clear();
+      index->vertices.query(
+          [&](const geometry::Aabb& b) {
+            if (!overlaps(b, body)) return false;
+            const Vec3 c = b.center();
+            const Vec3 h = 0.5 * b.extent();
+            if (ceiling_plane.min_over(c, h) > 0.0 || floor_plane.min_over(c, h) >= ds ||
+                floor_plane.max_over(c, h) <= -depth)
+              return false;
+            const auto reaches = [&](const std::array<BodyPlane, 3>& sides) {
+              return sides[0].max_over(c, h) >= 0.0 && sides[1].max_over(c, h) >= 0.0 &&
+                     sides[2].max_over(c, h) >= 0.0;
+            };
+            return reaches(prism) || (faces_up && reaches(plan));
+          },
+          candidates);
+      std::sort(candidates.begin(), candidates.end());
+      vertices = &candidates;
+    }
     const Vec3 e0 = tri.p[1] - tri.p[0], e1 = tri.p[2] - tri.p[1], e2 = tri.p[0] - tri.p[2];
-    for (const std::int32_t vi : low) {
+    for (const std::int32_t vi : *vertices) {
       const std::size_t i = static_cast<std::size_t>(vi);
-      const Vec3& p = world[i];
+      const Vec3 p = at.vertex(i);
+      if (index != nullptr && p.z() > ceiling) continue;
       if (prune && !contains(tbox, p)) continue;
       const double gap = (p - tri.p[0]).dot(tri.normal);
       if (gap >= ds || gap <= -depth) continue;
@@ -181,10 +262,11 @@ void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& wo
       if (!in_prism && !(tri.normal.z() > 0.0 && inside_plan(tri, p))) continue;
       // A vertex over a shared edge of two coplanar triangles is one contact, not two.
       bool duplicate = false;
-      for (std::size_t k = first; k < out.size(); ++k)
-        if (out[k].block_feature == static_cast<std::int32_t>(i) && out[k].normal.dot(tri.normal) > 1.0 - 1e-9)
-          duplicate = true;
+      for (std::int32_t k = latest[i]; k >= 0 && !duplicate; k = earlier[static_cast<std::size_t>(k)])
+        duplicate = out[first + static_cast<std::size_t>(k)].normal.dot(tri.normal) > 1.0 - 1e-9;
       if (duplicate) continue;
+      earlier.push_back(latest[i]);
+      latest[i] = static_cast<std::int32_t>(out.size() - first);
       Contact c;
       c.kind = ContactKind::vertex_face;
       c.block_feature = static_cast<std::int32_t>(i);
@@ -216,16 +298,32 @@ void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& wo
     }
     return falls_away;
   };
-  const bool convex =
-      std::all_of(model.edges.begin(), model.edges.end(), [](const BlockEdge& e) { return e.convex; });
+  // The faces whose gap to a body point the loops below evaluate: all of them, or (through
+  // the index) those whose polygon is within the margin of it; a face further away fails
+  // the gap or the polygon test. The allowance for the fallback's least depth covers the
+  // faces a scanned mesh splits one plane into (docs/dda.md, Detection).
+  const double face_tol = kSlack * margin + 1e-6 * model.radius;
+  thread_local std::vector<std::int32_t> faces;
+  auto gap_to = [&](std::size_t f, const Vec3& qb) {
+    const BlockFace& face = model.faces[f];
+    return face.normal.dot(qb) - face.offset;
+  };
   for (const TerrainPatch::Vertex& tv : patch.vertices) {
     if (prune && !contains(reach, tv.p)) continue;
     const Vec3 qb = pose.inverse_map * (tv.p - pose.centre);
+    faces.clear();
+    if (index != nullptr) {
+      const geometry::Aabb near_qb{qb - Vec3::Constant(margin + face_tol), qb + Vec3::Constant(margin + face_tol)};
+      index->faces.query([&](const geometry::Aabb& b) { return overlaps(b, near_qb); }, faces);
+      std::sort(faces.begin(), faces.end());
+    }
+    const std::size_t face_count = index != nullptr ? faces.size() : model.faces.size();
     int best = -1;
     double best_gap = -depth;
-    for (std::size_t f = 0; f < model.faces.size(); ++f) {
+    for (std::size_t k = 0; k < face_count; ++k) {
+      const std::size_t f = index != nullptr ? static_cast<std::size_t>(faces[k]) : k;
       const BlockFace& face = model.faces[f];
-      const double gap = face.normal.dot(qb) - face.offset;
+      const double gap = gap_to(f, qb);
       if (gap >= ds || gap <= best_gap) continue;
       if (!inside_polygon(face.polygon, Eigen::Vector2d(face.u.dot(qb), face.v.dot(qb)))) continue;
       if (!spike_towards(tv, face.normal)) continue;
@@ -240,11 +338,17 @@ void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& wo
       // the face it is least deep under, the shortest way out. Found deep, the contact
       // takes that depth as its offset (carry_contacts), so it stops the vertex going
       // further in without pushing it out with energy no force stored.
-      if (!convex) continue;
+      if (!model.convex) continue;
+      if (index != nullptr) {
+        // The face it is least deep under has its polygon within that depth of it, so
+        // is among the faces found: none of them in range, none at all.
+        double near_least = -std::numeric_limits<double>::infinity();
+        for (const std::int32_t fi : faces) near_least = std::max(near_least, gap_to(static_cast<std::size_t>(fi), qb));
+        if (!(near_least < -ds + face_tol && near_least > -depth - face_tol)) continue;
+      }
       double least = -std::numeric_limits<double>::infinity();
       for (std::size_t f = 0; f < model.faces.size(); ++f) {
-        const BlockFace& face = model.faces[f];
-        const double gap = face.normal.dot(qb) - face.offset;
+        const double gap = gap_to(f, qb);
         if (gap > least) {
           least = gap;
           best = static_cast<int>(f);
@@ -252,14 +356,14 @@ void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& wo
       }
       if (!(least < -ds && least > -depth)) continue;
     }
-    const BlockFace& face = model.faces[best];
+    const BlockFace& face = model.faces[static_cast<std::size_t>(best)];
     const Vec3 foot_body = qb - (face.normal.dot(qb) - face.offset) * face.normal;
     Contact c;
     c.kind = ContactKind::face_vertex;
     c.block_feature = best;
     c.terrain_feature = tv.id;
     c.triangle = tv.triangle;
-    c.point = pose.centre + pose.map * foot_body;
+    c.point = world_point(pose, foot_body);
     c.normal = -(pose.rotation * face.normal).normalized();
     c.gap = (c.point - tv.p).dot(c.normal);
     out.push_back(c);
@@ -271,72 +375,189 @@ void detect_in(const Model& model, const Pose& pose, const std::vector<Vec3>& wo
   for (const TerrainPatch::Ridge& r : patch.ridges)
     if (!prune || overlaps(r.box, reach)) near.push_back(&r);
   if (near.empty()) return;
-  for (std::size_t be = 0; be < model.edges.size(); ++be) {
-    const BlockEdge& bedge = model.edges[be];
-    if (!bedge.convex) continue;
-    const Vec3& p0 = world[bedge.a];
-    const Vec3& p1 = world[bedge.b];
-    if (std::min(p0.z(), p1.z()) > ceiling) continue;
-    geometry::Aabb ebox;
-    ebox.add(p0);
-    ebox.add(p1);
-    ebox = ebox.inflated(margin);
-    for (const TerrainPatch::Ridge* te : near) {
-      if (prune && !overlaps(te->box, ebox)) continue;
-      double s = 0.0, t = 0.0;
-      if (!line_parameters(p0, p1, te->pa, te->pb, s, t)) continue;
-      constexpr double kEnd = 1e-6;  // ends are vertex contacts
-      if (s <= kEnd || s >= 1.0 - kEnd || t <= kEnd || t >= 1.0 - kEnd) continue;
-      Vec3 n = (p1 - p0).cross(te->pb - te->pa).normalized();
-      if (n.dot(te->normal_sum) < 0.0) n = -n;
-      const Vec3 pc = p0 + s * (p1 - p0);
-      // The normal points out of the terrain and, at a convex edge of the block, into
-      // the block: a pair for which the two disagree (a ridge seen edge-on, e₁ × e₂ nearly
-      // across the ground) has no way out along it and is left to the other contacts.
-      if (n.dot(pose.centre - pc) <= 0.0) continue;
-      const Vec3 qc = te->pa + t * (te->pb - te->pa);
-      const double gap = (pc - qc).dot(n);
-      if (gap >= ds || gap <= -depth) continue;
-      Contact c;
-      c.kind = ContactKind::edge_edge;
-      c.block_feature = static_cast<std::int32_t>(be);
-      c.terrain_feature = (static_cast<std::int64_t>(te->a) << 32) | static_cast<std::int64_t>(te->b);
-      c.triangle = te->triangle;
-      c.point = pc;
-      c.normal = n;
-      c.gap = gap;
-      out.push_back(c);
+  // One block edge (world ends p0, p1; ebox their box inflated by the margin) against one
+  // ridge.
+  auto edge_and_ridge = [&](std::int32_t be, const Vec3& p0, const Vec3& p1, const geometry::Aabb& ebox,
+                            const TerrainPatch::Ridge* te) {
+    if (prune && !overlaps(te->box, ebox)) return;
+    double s = 0.0, t = 0.0;
+    if (!line_parameters(p0, p1, te->pa, te->pb, s, t)) return;
+    constexpr double kEnd = 1e-6;  // ends are vertex contacts
+    if (s <= kEnd || s >= 1.0 - kEnd || t <= kEnd || t >= 1.0 - kEnd) return;
+    Vec3 n = (p1 - p0).cross(te->pb - te->pa).normalized();
+    if (n.dot(te->normal_sum) < 0.0) n = -n;
+    const Vec3 pc = p0 + s * (p1 - p0);
+    // The normal points out of the terrain and, at a convex edge of the block, into
+    // the block: a pair for which the two disagree (a ridge seen edge-on, e₁ × e₂ nearly
+    // across the ground) has no way out along it and is left to the other contacts.
+    if (n.dot(pose.centre - pc) <= 0.0) return;
+    const Vec3 qc = te->pa + t * (te->pb - te->pa);
+    const double gap = (pc - qc).dot(n);
+    if (gap >= ds || gap <= -depth) return;
+    Contact c;
+    c.kind = ContactKind::edge_edge;
+    c.block_feature = be;
+    c.terrain_feature = (static_cast<std::int64_t>(te->a) << 32) | static_cast<std::int64_t>(te->b);
+    c.triangle = te->triangle;
+    c.point = pc;
+    c.normal = n;
+    c.gap = gap;
+    out.push_back(c);
+  };
+  auto edge_box = [&](const Vec3& p0, const Vec3& p1) {
+    geometry::Aabb b;
+    b.add(p0);
+    b.add(p1);
+    return b.inflated(margin);
+  };
+  if (index == nullptr) {
+    const std::vector<Vec3>& world = at.vertices();
+    for (std::size_t be = 0; be < model.edges.size(); ++be) {
+      const BlockEdge& bedge = model.edges[be];
+      if (!bedge.convex) continue;
+      const Vec3& p0 = world[bedge.a];
+      const Vec3& p1 = world[bedge.b];
+      if (std::min(p0.z(), p1.z()) > ceiling) continue;
+      const geometry::Aabb ebox = edge_box(p0, p1);
+      for (const TerrainPatch::Ridge* te : near) edge_and_ridge(static_cast<std::int32_t>(be), p0, p1, ebox, te);
     }
+    return;
+  }
+  // Through the index: the (edge, ridge) pairs whose edge can cross the ridge within the
+  // margin (near the ridge's box and its segment), tested in the order of the scan.
+  thread_local std::vector<std::pair<std::int32_t, std::int32_t>> pairs;
+  pairs.clear();
+  for (std::size_t j = 0; j < near.size(); ++j) {
+    const TerrainPatch::Ridge& te = *near[j];
+    // In the body frame: the ridge's segment, and the distances lengthened by F⁻¹. A pair
+    // with gap ≥ 0 has its crossing within ds of the ridge. One with gap < 0 has it at
+    // most `depth` from the ridge, below the plane of a triangle of the ridge: the normal
+    // n, oriented along the triangles' normal sum, has n·nᵢ ≥ 0 for one of them, and
+    // (pc − qc)·nᵢ = gap·(n·nᵢ) ≤ 0 (unknown for an edge of more than two triangles).
+    const geometry::Aabb ridge_box = te.box.inflated(margin);
+    const double tol = at.round_off() + kRound * magnitude(ridge_box) + kSlack * margin + 1e-9 * model.radius;
+    const geometry::Aabb body = at.body_box(ridge_box.inflated(tol));
+    const Vec3 a = pose.inverse_map * (te.pa - pose.centre);
+    const Vec3 along = pose.inverse_map * (te.pb - pose.centre) - a;
+    const double inverse_length2 = along.squaredNorm() > 0.0 ? 1.0 / along.squaredNorm() : 0.0;
+    const double shallow = at.inverse_stretch() * (ds + 2.0 * tol);
+    const double deep = at.inverse_stretch() * (margin + 2.0 * tol);
+    const int planes = te.normal_count <= 2 ? static_cast<int>(te.normal_count) : 0;
+    std::array<BodyPlane, 2> sides;
+    for (int k = 0; k < planes; ++k)
+      sides[static_cast<std::size_t>(k)] = BodyPlane(pose, te.normals[static_cast<std::size_t>(k)], te.pa, 4.0 * tol);
+    candidates.clear();
+    index->convex_edges.query(
+        [&](const geometry::Aabb& b) {
+          if (!overlaps(b, body)) return false;
+          const Vec3 c = b.center();
+          const Vec3 h = 0.5 * b.extent();
+          if (pose.centre.z() + z_row.dot(c) - z_row_abs.dot(h) > ceiling + tol) return false;
+          const double t = std::clamp((c - a).dot(along) * inverse_length2, 0.0, 1.0);
+          const double distance2 = (c - a - t * along).squaredNorm();
+          const double size = h.norm();
+          if (distance2 <= (shallow + size) * (shallow + size)) return true;
+          if (distance2 > (deep + size) * (deep + size)) return false;
+          if (planes == 0) return true;
+          for (int k = 0; k < planes; ++k)
+            if (sides[static_cast<std::size_t>(k)].min_over(c, h) <= 0.0) return true;
+          return false;
+        },
+        candidates);
+    for (const std::int32_t e : candidates) pairs.emplace_back(e, static_cast<std::int32_t>(j));
+  }
+  std::sort(pairs.begin(), pairs.end());
+  std::int32_t edge = -1;
+  Vec3 p0, p1;
+  geometry::Aabb ebox;
+  bool low_edge = false;
+  for (const auto& [be, j] : pairs) {
+    if (be != edge) {
+      edge = be;
+      const BlockEdge& bedge = model.edges[static_cast<std::size_t>(be)];
+      p0 = at.vertex(static_cast<std::size_t>(bedge.a));
+      p1 = at.vertex(static_cast<std::size_t>(bedge.b));
+      low_edge = std::min(p0.z(), p1.z()) <= ceiling;
+      ebox = edge_box(p0, p1);
+    }
+    if (low_edge) edge_and_ridge(be, p0, p1, ebox, near[static_cast<std::size_t>(j)]);
   }
 }
 
 }  // namespace
 
-void detect_contacts(const Model& model, const terrain::Surface& surface, const Pose& pose,
-                     const std::vector<Vec3>& world, double search_distance, double depth_limit,
-                     TerrainPatch& patch, std::vector<Contact>& out) {
-  geometry::Aabb box;
-  for (const Vec3& p : world) box.add(p);
-  box = box.inflated(std::max(search_distance, depth_limit));
+PlacedBlock::PlacedBlock(const Model& model, const Pose& pose, std::vector<Vec3>& storage, bool scan)
+    : model_(&model), pose_(&pose), world_(&storage) {
+  if (model.index == nullptr || scan) {
+    storage.resize(model.vertices.size());
+    for (std::size_t i = 0; i < model.vertices.size(); ++i) {
+      storage[i] = world_point(pose, model.vertices[i]);
+      box_.add(storage[i]);
+    }
+    return;
+  }
+  index_ = model.index.get();
+  abs_inverse_ = pose.inverse_map.cwiseAbs();
+  const Mat3 abs_map = pose.map.cwiseAbs();
+  // centre + F·r rounds by a few ulps of |centre| + |F|·|r|, |r| ≤ radius.
+  round_off_ = kRound * (pose.centre.cwiseAbs().maxCoeff() + model.radius * abs_map.rowwise().sum().maxCoeff());
+  // ‖F⁻¹‖₂ = 1/σ_min(F): the square root of the largest eigenvalue of F⁻ᵀF⁻¹, generously.
+  Eigen::SelfAdjointEigenSolver<Mat3> eigen;
+  eigen.computeDirect(pose.inverse_map.transpose() * pose.inverse_map, Eigen::EigenvaluesOnly);
+  inverse_stretch_ = std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff())) * (1.0 + 1e-6);
+  // The box's faces are the extreme vertices along each axis, found by branch and bound
+  // over the vertex tree; the values are the vertices' own world coordinates.
+  for (int k = 0; k < 3; ++k) {
+    const Vec3 row = pose.map.row(k).transpose();
+    const Vec3 abs_row = abs_map.row(k).transpose();
+    const double centre = pose.centre[k];
+    const auto coordinate = [&](std::int32_t i) {
+      return world_point(pose, model.vertices[static_cast<std::size_t>(i)])[k];
+    };
+    box_.hi[k] = index_->vertices.maximum(
+        [&](const geometry::Aabb& b) {
+          return centre + row.dot(b.center()) + abs_row.dot(0.5 * b.extent()) + round_off_;
+        },
+        coordinate);
+    box_.lo[k] = -index_->vertices.maximum(
+        [&](const geometry::Aabb& b) {
+          return -centre - row.dot(b.center()) + abs_row.dot(0.5 * b.extent()) + round_off_;
+        },
+        [&](std::int32_t i) { return -coordinate(i); });
+  }
+}
+
+geometry::Aabb PlacedBlock::body_box(const geometry::Aabb& world) const {
+  const Vec3 c = pose_->inverse_map * (world.center() - pose_->centre);
+  const Vec3 h = abs_inverse_ * (0.5 * world.extent());
+  // The round-off of the world points and of F⁻¹ (a few ulps of |F⁻¹|·|x − centre|).
+  const double slack = abs_inverse_.rowwise().sum().maxCoeff() * (round_off_ + kRound * (magnitude(world) + h.maxCoeff()));
+  return geometry::Aabb{c - h - Vec3::Constant(slack), c + h + Vec3::Constant(slack)};
+}
+
+void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, double search_distance,
+                     double depth_limit, TerrainPatch& patch, std::vector<Contact>& out) {
+  const geometry::Aabb box = at.box().inflated(std::max(search_distance, depth_limit));
   if (patch.surface != &surface || patch.box.empty() || !patch.box.contains(box.lo) || !patch.box.contains(box.hi)) {
     // Gather with a margin of half the block's radius, so the next steps reuse it.
     patch.surface = &surface;
-    patch.box = box.inflated(0.5 * model.radius);
+    patch.box = box.inflated(0.5 * at.model().radius);
     patch.query.clear();
     surface.triangles_in_box(patch.box, patch.query);
     fill_patch(surface, patch.query, patch);
   }
-  detect_in(model, pose, world, patch, search_distance, depth_limit, true, out);
+  detect_in(at, patch, search_distance, depth_limit, true, out);
 }
 
 void detect_contacts_brute_force(const Model& model, const terrain::Surface& surface, const Pose& pose,
-                                 const std::vector<Vec3>& world, double search_distance,
-                                 double depth_limit, std::vector<Contact>& out) {
+                                 double search_distance, double depth_limit, std::vector<Contact>& out) {
   std::vector<std::int32_t> all(surface.triangle_count());
   std::iota(all.begin(), all.end(), 0);
   TerrainPatch patch;
   fill_patch(surface, all, patch);
-  detect_in(model, pose, world, patch, search_distance, depth_limit, false, out);
+  std::vector<Vec3> world;
+  const PlacedBlock at(model, pose, world, true);
+  detect_in(at, patch, search_distance, depth_limit, false, out);
 }
 
 }  // namespace talus::dda::detail

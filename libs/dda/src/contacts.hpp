@@ -2,6 +2,7 @@
 #pragma once
 #include <vector>
 
+#include "block_index.hpp"
 #include "talus/dda/model.hpp"
 #include "talus/dda/state.hpp"
 #include "talus/terrain/terrain.hpp"
@@ -16,19 +17,63 @@ struct Pose {
   Mat3 inverse_map = Mat3::Identity();  ///< F⁻¹
 };
 
-/// Finds every block–terrain contact candidate within `search_distance` (m) of the
-/// block at `pose` (world vertices `world`): block vertex – terrain triangle, terrain
-/// vertex – block face, block edge – terrain ridge edge. Candidates deeper than
-/// `depth_limit` (m) are ignored (they belong to another side of the terrain). Terrain
-/// features come from `patch`, re-gathered (with a margin) only when the block's search
-/// box leaves it. Appends to `out` (geometric fields only).
-void detect_contacts(const Model& model, const terrain::Surface& surface, const Pose& pose,
-                     const std::vector<Vec3>& world, double search_distance, double depth_limit,
-                     TerrainPatch& patch, std::vector<Contact>& out);
+/// The world position (m) of the body point r at `pose`. Every world vertex is computed
+/// by this one expression, so a vertex found twice is the same number.
+inline Vec3 world_point(const Pose& pose, const Vec3& r) { return pose.centre + pose.map * r; }
 
-/// Brute-force reference of detect_contacts: every triangle of the surface, no pruning.
+/// The block at a pose, as the contact search and the step control see it. A block of few
+/// vertices has them all in world coordinates; a detailed block (Model::index) computes
+/// only those its index finds near what is asked. Either way vertex(i) and box() are the
+/// same numbers.
+class PlacedBlock {
+ public:
+  /// `storage` receives the world vertices of a scanned block (reused from step to step);
+  /// `scan` scans a detailed block too (the reference path of the tests).
+  PlacedBlock(const Model& model, const Pose& pose, std::vector<Vec3>& storage, bool scan = false);
+
+  const Model& model() const { return *model_; }
+  const Pose& pose() const { return *pose_; }
+  /// The block's index, or null when it is scanned.
+  const BlockIndex* index() const { return index_; }
+  /// World vertex i (m).
+  Vec3 vertex(std::size_t i) const { return index_ ? world_point(*pose_, model_->vertices[i]) : (*world_)[i]; }
+  /// All world vertices; only for a scanned block (index() null).
+  const std::vector<Vec3>& vertices() const { return *world_; }
+  /// The box of the world vertices (exactly theirs, m).
+  const geometry::Aabb& box() const { return box_; }
+  /// A body-frame box holding every body point whose world image (as world_point
+  /// computes it) lies in the world box `world`.
+  geometry::Aabb body_box(const geometry::Aabb& world) const;
+  /// Bound of the round-off of a world vertex's coordinates (m).
+  double round_off() const { return round_off_; }
+  /// Bound of the factor by which F⁻¹ lengthens a world distance in the body frame (1 for
+  /// a rigid pose).
+  double inverse_stretch() const { return inverse_stretch_; }
+
+ private:
+  const Model* model_;
+  const Pose* pose_;
+  const BlockIndex* index_ = nullptr;
+  const std::vector<Vec3>* world_;
+  Mat3 abs_inverse_;
+  double round_off_ = 0.0;
+  double inverse_stretch_ = 1.0;
+  geometry::Aabb box_;
+};
+
+/// Finds every block–terrain contact candidate within `search_distance` (m) of the block
+/// `at`: block vertex – terrain triangle, terrain vertex – block face, block edge – terrain
+/// ridge edge. Candidates deeper than `depth_limit` (m) are ignored (they belong to another
+/// side of the terrain). Terrain features come from `patch`, re-gathered (with a margin)
+/// only when the block's search box leaves it. Appends to `out` (geometric fields only).
+/// A detailed block's features are found through its index, with the same contacts in
+/// the same order as scanning them all would give.
+void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, double search_distance,
+                     double depth_limit, TerrainPatch& patch, std::vector<Contact>& out);
+
+/// Brute-force reference of detect_contacts: every triangle of the surface and every
+/// feature of the block, no pruning.
 void detect_contacts_brute_force(const Model& model, const terrain::Surface& surface, const Pose& pose,
-                                 const std::vector<Vec3>& world, double search_distance,
-                                 double depth_limit, std::vector<Contact>& out);
+                                 double search_distance, double depth_limit, std::vector<Contact>& out);
 
 }  // namespace talus::dda::detail

@@ -38,13 +38,6 @@ namespace {
 
 using namespace detail;
 
-void update_world_vertices(const Model& model, State& s) {
-  const Pose p = pose_of(model, s);
-  s.world_vertices.resize(model.vertices.size());
-  for (std::size_t i = 0; i < model.vertices.size(); ++i)
-    s.world_vertices[i] = p.centre + p.map * model.vertices[i];
-}
-
 // ½mv² + ½ωᵀJω: the rigid part of the kinetic energy (J).
 double rigid_kinetic_energy(const Model& model, const State& s) {
   const Vec3 v = s.velocity.head<3>();
@@ -146,7 +139,6 @@ void limit_energy(const Model& model, State& s, double energy_start) {
   // penetration (carry_contacts), so it is not pushed out again.
   if (!(rest > 0.0) || !(model.settings.gravity > 0.0)) return;
   s.position.z() -= rest / (model.mass * model.settings.gravity);
-  update_world_vertices(model, s);
   s.energy_removed += rest;
 }
 
@@ -281,7 +273,6 @@ void apply_displacement(const Model& model, State& s, const VecN<N>& d, double d
   if constexpr (N == 12) {
     if (strain_frozen) s.velocity.template tail<6>().setZero();
   }
-  update_world_vertices(model, s);
 }
 
 bool flight_step(const Model& model, const Ground& ground, State& s) {
@@ -366,6 +357,7 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   double dt = s.dt;
   std::vector<Contact>& contacts = s.scratch_contacts;
   const Pose pose = pose_of(model, s);
+  const PlacedBlock at(model, pose, s.scratch_vertices);
   double friction = s.friction;
   VecN<N> d;
   bool impact_cut = false;
@@ -382,7 +374,7 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
       PhaseTimer timer(timing, s.times.detect);
       contacts.clear();
       const double reach = std::max(2.0 * predicted_reach(model, s, dt), limit);
-      detail::detect_contacts(model, *ground.surface, pose, s.world_vertices, reach, depth, s.patch, contacts);
+      detail::detect_contacts(at, *ground.surface, reach, depth, s.patch, contacts);
       if (!s.friction_drawn && !contacts.empty())
         friction = mean_friction(material_of(ground, contacts.front().triangle));
       carry_contacts(s.contacts, contacts, pose, friction, model.stiffness / set.shear_stiffness_ratio, reach,
@@ -402,11 +394,7 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
     if (!outcome.converged) {
       factor = 0.3;
     } else {
-      double moved = 0.0;
-      for (const Vec3& x : s.world_vertices) {
-        const Vec3 u = point_displacement<N>(x - pose.centre, d);
-        moved = std::max(moved, u.norm());
-      }
+      const double moved = max_vertex_displacement<N>(at, d, limit);
       if (moved > limit) factor = std::max(0.1, 0.9 * limit / moved);
     }
     if (factor == 1.0 && !impact_cut) {
@@ -491,7 +479,7 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   s.stored_energy = spring_energy;
   if (set.check_invariants) {
     const double overlap = std::max(terrain_depth_in_block(model, pose_of(model, s), s.patch),
-                                    block_depth_below_terrain(s.world_vertices, s.patch, model.radius));
+                                    block_depth_below_terrain(world_vertices(model, s), s.patch, model.radius));
     s.max_depth = std::max(s.max_depth, overlap);
     if (overlap > depth) ++s.counters.depth_violations;
   }
@@ -539,7 +527,6 @@ State start(const Model& model, const Release& release, core::RandomStream impac
   s.velocity.segment<3>(3) = release.angular_velocity;
   s.dt = model.settings.time_step;
   s.impacts_rng = core::RandomSequence(impact_stream);
-  update_world_vertices(model, s);
   s.kinetic = kinetic_energy(model, s);
   s.max_speed = release.velocity.norm();
   if (model.settings.trajectory_interval > 0.0) s.next_sample_time = 0.0;
@@ -602,6 +589,14 @@ Summary run(const Model& model, const Ground& ground, const Release& release, co
   State s = start(model, release, impact_stream);
   while (s.end == EndReason::running) step(model, ground, s);
   return summarize(s);
+}
+
+std::vector<Vec3> world_vertices(const Model& model, const State& s) {
+  const Pose pose = pose_of(model, s);
+  std::vector<Vec3> out;
+  out.reserve(model.vertices.size());
+  for (const Vec3& v : model.vertices) out.push_back(world_point(pose, v));
+  return out;
 }
 
 double kinetic_energy(const Model& model, const State& s) {

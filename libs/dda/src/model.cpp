@@ -3,11 +3,13 @@
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <string>
 #include <utility>
 
+#include "block_index.hpp"
 #include "talus/core/error.hpp"
 
 namespace talus::dda {
@@ -249,6 +251,9 @@ Model Model::build(const Settings& settings, const geometry::Polyhedron& block) 
     m.faces.push_back(std::move(f));
   }
   m.edges = build_edges(block, m.faces, m.vertices, tol);
+  m.convex = std::all_of(m.edges.begin(), m.edges.end(), [](const BlockEdge& e) { return e.convex; });
+  if (m.vertices.size() > detail::kScannedVertices)
+    m.index = std::make_shared<const detail::BlockIndex>(detail::make_block_index(m, 1e-6 * m.radius));
   m.elasticity = isotropic_elasticity(settings.young_modulus, settings.poisson_ratio);
   m.stiffness = settings.penalty_stiffness > 0.0
                     ? settings.penalty_stiffness

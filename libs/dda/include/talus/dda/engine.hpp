@@ -63,6 +63,9 @@ Summary summarize(const State& state);
 Summary run(const Model& model, const Ground& ground, const Release& release,
             core::RandomStream impact_stream);
 
+/// The block's vertices in the world frame (m), in the order of Model::vertices.
+std::vector<Vec3> world_vertices(const Model& model, const State& state);
+
 /// Kinetic energy ½ vᵀMv of the state (J).
 double kinetic_energy(const Model& model, const State& state);
 /// Kinetic plus gravitational potential energy (z = 0 reference) (J).

@@ -3,6 +3,7 @@
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "talus/dda/settings.hpp"
@@ -16,6 +17,10 @@ using geometry::Vec3;
 using Mat12 = Eigen::Matrix<double, 12, 12>;
 using Vec12 = Eigen::Matrix<double, 12, 1>;
 using Mat6 = Eigen::Matrix<double, 6, 6>;
+
+namespace detail {
+struct BlockIndex;
+}
 
 /// One face of the block in its body frame (centroid at the origin).
 struct BlockFace {
@@ -62,6 +67,11 @@ struct Model {
   /// Normal contact spring stiffness in use (N/m): Settings::penalty_stiffness, or from
   /// the mass and penalty_omega when that is 0.
   double stiffness = 0.0;
+  bool convex = true;  ///< every edge of the block is convex
+  /// Box trees over the vertices, convex edges and faces (body frame), through which
+  /// contact detection and the step control find the features they need in logarithmic
+  /// time (docs/dda.md, Detection); null for a block of few vertices, which is scanned.
+  std::shared_ptr<const detail::BlockIndex> index;
 
   /// Validates `settings` and `block` and builds the model. Throws core::InputError
   /// (source "dda settings" or "block") with a one-line reason on bad values, an open,

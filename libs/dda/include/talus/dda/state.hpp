@@ -142,6 +142,8 @@ struct TerrainPatch {
     std::int32_t a = -1, b = -1;     ///< vertex ids, a < b
     Vec3 pa = Vec3::Zero(), pb = Vec3::Zero();
     Vec3 normal_sum = Vec3::Zero();  ///< sum of the adjacent triangles' normals
+    std::array<Vec3, 2> normals{Vec3::Zero(), Vec3::Zero()};  ///< the first two of those normals
+    std::int32_t normal_count = 0;   ///< the number of adjacent triangles (in the patch)
     std::int32_t triangle = -1;
     geometry::Aabb box;
   };
@@ -172,7 +174,6 @@ struct State {
   /// [v (m/s), ω (rad/s), strain rates (1/s)] in the world frame; rigid6 uses the first six.
   Vec12 velocity = Vec12::Zero();
 
-  std::vector<Vec3> world_vertices;   ///< block vertices at `time` (m)
   /// Contacts of the last accepted step: the closed ones, and those that opened by less
   /// than a micro-gap and keep their memory.
   std::vector<Contact> contacts;
@@ -215,6 +216,7 @@ struct State {
   TerrainPatch patch;
   std::vector<std::int32_t> scratch_triangles;
   std::vector<Contact> scratch_contacts;
+  std::vector<Vec3> scratch_vertices;  ///< world vertices of a scanned block (m)
 };
 
 }  // namespace talus::dda

@@ -120,13 +120,21 @@ Vec3 point_displacement(const Vec3& r, const VecN<N>& d) {
 // tree: u is affine in r, u = a + A·r, and r = F·b over a body box of centre c and
 // half-sizes h, so |u| ≤ |a + A·F·c| + Σⱼ |(A·F)ⱼ| hⱼ there.
 template <int N>
+double max_vertex_displacement_indexed(const PlacedBlock& at, const VecN<N>& d, double floor);
+
+template <int N>
 double max_vertex_displacement(const PlacedBlock& at, const VecN<N>& d, double floor) {
+  if (at.index() != nullptr) return max_vertex_displacement_indexed<N>(at, d, floor);
+  // On squared lengths, one square root at the end: the same number, as √ is monotone.
+  double largest = 0.0;
+  for (const Vec3& x : at.vertices())
+    largest = std::max(largest, point_displacement<N>(x - at.pose().centre, d).squaredNorm());
+  return std::max(floor, std::sqrt(largest));
+}
+
+template <int N>
+[[gnu::noinline]] double max_vertex_displacement_indexed(const PlacedBlock& at, const VecN<N>& d, double floor) {
   const Pose& pose = at.pose();
-  if (at.index() == nullptr) {
-    double moved = floor;
-    for (const Vec3& x : at.vertices()) moved = std::max(moved, point_displacement<N>(x - pose.centre, d).norm());
-    return moved;
-  }
   const Vec3 a = point_displacement<N>(Vec3::Zero(), d);
   Mat3 A;
   for (int j = 0; j < 3; ++j) A.col(j) = point_displacement<N>(Vec3::Unit(j), d) - a;
@@ -136,12 +144,17 @@ double max_vertex_displacement(const PlacedBlock& at, const VecN<N>& d, double f
   // products, generously.
   const double slack = 1e-9 * (a.norm() + B.norm() * at.model().radius) +
                        1e-12 * A.norm() * pose.centre.cwiseAbs().maxCoeff();
-  return at.index()->vertices.maximum(
-      [&](const geometry::Aabb& b) { return (a + B * b.center()).norm() + columns.dot(0.5 * b.extent()) + slack; },
-      [&](std::int32_t i) {
-        return point_displacement<N>(at.vertex(static_cast<std::size_t>(i)) - pose.centre, d).norm();
+  const double below = std::max(0.0, floor) * std::max(0.0, floor) * (1.0 - 1e-12);
+  const double largest = at.index()->vertices.maximum(
+      [&](const geometry::Aabb& b) {
+        const double bound = (a + B * b.center()).norm() + columns.dot(0.5 * b.extent()) + slack;
+        return bound * bound;
       },
-      floor);
+      [&](std::int32_t i) {
+        return point_displacement<N>(at.vertex(static_cast<std::size_t>(i)) - pose.centre, d).squaredNorm();
+      },
+      below);
+  return std::max(floor, std::sqrt(largest));
 }
 
 template <int N>

@@ -53,7 +53,7 @@ bool inside_plan(const TerrainPatch::Triangle& tri, const Vec3& p) {
 
 // Closest points of segments p0-p1 and q0-q1: parameters s (on p) and t (on q) of the
 // infinite lines; callers keep only crossings strictly inside both segments.
-bool line_parameters(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1, double& s, double& t) {
+inline __attribute__((always_inline)) bool line_parameters(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1, double& s, double& t) {
   const Vec3 d1 = p1 - p0, d2 = q1 - q0, r = p0 - q0;
   const double a = d1.dot(d1), e = d2.dot(d2), f = d2.dot(r), c = d1.dot(r), b = d1.dot(d2);
   const double denom = a * e - b * b;
@@ -162,11 +162,116 @@ struct BodyPlane {
   double s0 = 0.0, tol = 0.0;
 };
 
+// The vertices of a detailed block that can pass the vertex–triangle tests of detect_in
+// with `tri`: in tbox, under the ceiling, in the slab of the triangle's plane from −depth
+// to ds, and inside the triangle's normal prism or (ground that faces up) its vertical
+// prism. Tested on the body-frame boxes of the vertex tree, where a world plane's signed
+// value is linear in r. Appends to `out` in tree order.
+[[gnu::noinline]] void vertices_near(const PlacedBlock& at, const TerrainPatch::Triangle& tri, const geometry::Aabb& tbox,
+                                     double ceiling, double ds, double depth, std::vector<std::int32_t>& out) {
+  const Pose& pose = at.pose();
+  const double tol = at.round_off() + kRound * magnitude(tbox);
+  const geometry::Aabb body = at.body_box(tbox);
+  const BodyPlane floor_plane(pose, tri.normal, tri.p[0], tol);
+  const BodyPlane ceiling_plane(pose, Vec3::UnitZ(), Vec3(0.0, 0.0, ceiling), tol);
+  std::array<BodyPlane, 3> prism, plan;
+  for (int k = 0; k < 3; ++k) {
+    const Vec3& a = tri.p[k];
+    const Vec3 e = tri.p[(k + 1) % 3] - a;
+    // The world tests compute (e × (p − a))·n and the 2-D cross product in plan.
+    const double edge_tol = 4.0 * e.norm() * tol;
+    prism[static_cast<std::size_t>(k)] = BodyPlane(pose, tri.normal.cross(e), a, edge_tol);
+    plan[static_cast<std::size_t>(k)] = BodyPlane(pose, Vec3(-e.y(), e.x(), 0.0), a, edge_tol);
+  }
+  const bool faces_up = tri.normal.z() > 0.0;
+  out.clear();
+  at.index()->vertices.query(
+      [&](const geometry::Aabb& b) {
+        if (!overlaps(b, body)) return false;
+        const Vec3 c = b.center();
+        const Vec3 h = 0.5 * b.extent();
+        if (ceiling_plane.min_over(c, h) > 0.0 || floor_plane.min_over(c, h) >= ds ||
+            floor_plane.max_over(c, h) <= -depth)
+          return false;
+        const auto reaches = [&](const std::array<BodyPlane, 3>& sides) {
+          return sides[0].max_over(c, h) >= 0.0 && sides[1].max_over(c, h) >= 0.0 &&
+                 sides[2].max_over(c, h) >= 0.0;
+        };
+        return reaches(prism) || (faces_up && reaches(plan));
+      },
+      out);
+}
+
+// The (edge, ridge in `near`) pairs of a detailed block that can pass the edge–ridge tests
+// of detect_in: the edge near the ridge's box and segment, under the ceiling. Replaces
+// `pairs`, in no particular order.
+[[gnu::noinline]] void edge_pairs_near(const PlacedBlock& at, const std::vector<const TerrainPatch::Ridge*>& near,
+                                       double ceiling, double ds, double margin,
+                                       std::vector<std::pair<std::int32_t, std::int32_t>>& pairs) {
+  const Pose& pose = at.pose();
+  const Model& model = at.model();
+  // The world height of the body point r is centre_z + z_row·r.
+  const Vec3 z_row = pose.map.row(2).transpose();
+  const Vec3 z_row_abs = z_row.cwiseAbs();
+  thread_local std::vector<std::int32_t> edges;
+  pairs.clear();
+  for (std::size_t j = 0; j < near.size(); ++j) {
+    const TerrainPatch::Ridge& te = *near[j];
+    // In the body frame: the ridge's segment, and the distances lengthened by F⁻¹. A pair
+    // with gap ≥ 0 has its crossing within ds of the ridge. One with gap < 0 has it at
+    // most `depth` from the ridge, below the plane of a triangle of the ridge: the normal
+    // n, oriented along the triangles' normal sum, has n·nᵢ ≥ 0 for one of them, and
+    // (pc − qc)·nᵢ = gap·(n·nᵢ) ≤ 0 (unknown for an edge of more than two triangles).
+    const geometry::Aabb ridge_box = te.box.inflated(margin);
+    edges.clear();
+    const double tol = at.round_off() + kRound * magnitude(ridge_box) + kSlack * margin + 1e-9 * model.radius;
+    const geometry::Aabb body = at.body_box(ridge_box.inflated(tol));
+    const Vec3 a = pose.inverse_map * (te.pa - pose.centre);
+    const Vec3 along = pose.inverse_map * (te.pb - pose.centre) - a;
+    const double inverse_length2 = along.squaredNorm() > 0.0 ? 1.0 / along.squaredNorm() : 0.0;
+    const double shallow = at.inverse_stretch() * (ds + 2.0 * tol);
+    const double deep = at.inverse_stretch() * (margin + 2.0 * tol);
+    const int planes = te.normal_count <= 2 ? static_cast<int>(te.normal_count) : 0;
+    std::array<BodyPlane, 2> sides;
+    for (int k = 0; k < planes; ++k)
+      sides[static_cast<std::size_t>(k)] = BodyPlane(pose, te.normals[static_cast<std::size_t>(k)], te.pa, 4.0 * tol);
+    at.index()->convex_edges.query(
+        [&](const geometry::Aabb& b) {
+          if (!overlaps(b, body)) return false;
+          const Vec3 c = b.center();
+          const Vec3 h = 0.5 * b.extent();
+          if (pose.centre.z() + z_row.dot(c) - z_row_abs.dot(h) > ceiling + tol) return false;
+          const double t = std::clamp((c - a).dot(along) * inverse_length2, 0.0, 1.0);
+          const double distance2 = (c - a - t * along).squaredNorm();
+          const double size = h.norm();
+          if (distance2 <= (shallow + size) * (shallow + size)) return true;
+          if (distance2 > (deep + size) * (deep + size)) return false;
+          if (planes == 0) return true;
+          for (int k = 0; k < planes; ++k)
+            if (sides[static_cast<std::size_t>(k)].min_over(c, h) <= 0.0) return true;
+          return false;
+        },
+        edges);
+    for (const std::int32_t e : edges) pairs.emplace_back(e, static_cast<std::int32_t>(j));
+  }
+}
+
+// The search of detect_contacts in `patch`, for a detailed block through its index
+// (Indexed) or by scanning its features; `prune` off tests every pair (the reference).
+template <bool Indexed>
 void detect_in(const PlacedBlock& at, const TerrainPatch& patch, double ds, double depth, bool prune,
                std::vector<Contact>& out) {
   const Model& model = at.model();
   const Pose& pose = at.pose();
   const BlockIndex* index = at.index();
+  // World vertex i: computed when asked through the index, stored when scanned.
+  const auto vertex = [&](std::size_t i) -> Vec3 {
+    if constexpr (Indexed) {
+      return at.vertex(i);
+    } else {
+      return at.vertices()[i];
+    }
+  };
   // Boxes are inflated by the larger of the search distance and the depth limit: a
   // feature may be found up to `depth` below a surface.
   const double margin = std::max(ds, depth);
@@ -180,7 +285,7 @@ void detect_in(const PlacedBlock& at, const TerrainPatch& patch, double ds, doub
   const double ceiling = prune ? top + margin : std::numeric_limits<double>::infinity();
   thread_local std::vector<std::int32_t> low;
   low.clear();
-  if (index == nullptr) {
+  if constexpr (!Indexed) {
     const std::vector<Vec3>& world = at.vertices();
     for (std::size_t i = 0; i < world.size(); ++i)
       if (world[i].z() <= ceiling) low.push_back(static_cast<std::int32_t>(i));
@@ -188,65 +293,30 @@ void detect_in(const PlacedBlock& at, const TerrainPatch& patch, double ds, doub
   // Whether any vertex is that low (the lowest vertex is the box's floor).
   const bool any_low = at.box().lo.z() <= ceiling;
 
-  // The world height of the body point r is centre_z + z_row·r.
-  const Vec3 z_row = pose.map.row(2).transpose();
-  const Vec3 z_row_abs = z_row.cwiseAbs();
-
   // Block vertex – terrain triangle.
   const std::size_t first = out.size();
-  // The vertex contacts found so far of each vertex, as chains: latest[vertex] and then
-  // earlier[contact] (numbered from `first`), −1 ending them.
+  // A detailed block's vertex contacts found so far of each vertex, as chains:
+  // latest[vertex] and then earlier[contact] (numbered from `first`), −1 ending them.
   thread_local std::vector<std::int32_t> latest, earlier;
-  latest.assign(model.vertices.size(), -1);
-  earlier.clear();
+  if constexpr (Indexed) {
+    latest.assign(model.vertices.size(), -1);
+    earlier.clear();
+  }
   thread_local std::vector<std::int32_t> candidates;
   for (const TerrainPatch::Triangle& tri : patch.triangles) {
     if (!any_low) break;
     if (prune && !overlaps(tri.box, reach)) continue;
     const geometry::Aabb tbox = tri.box.inflated(margin);
     const std::vector<std::int32_t>* vertices = &low;
-    if (index != nullptr) {
-      // The vertices that can pass the tests below: in tbox, under the ceiling, in the
-      // slab of the triangle's plane from −depth to ds, and inside the triangle's normal
-      // prism or (ground that faces up) its vertical prism, tested on the body-frame boxes
-      // of the tree, where a world plane's signed value is linear in r.
-      const double tol = at.round_off() + kRound * magnitude(tbox);
-      const geometry::Aabb body = at.body_box(tbox);
-      const BodyPlane floor_plane(pose, tri.normal, tri.p[0], tol);
-      const BodyPlane ceiling_plane(pose, Vec3::UnitZ(), Vec3(0.0, 0.0, ceiling), tol);
-      std::array<BodyPlane, 3> prism, plan;
-      for (int k = 0; k < 3; ++k) {
-        const Vec3& a = tri.p[k];
-        const Vec3 e = tri.p[(k + 1) % 3] - a;
-        // The world tests compute (e × (p − a))·n and the 2-D cross product in plan.
-        const double edge_tol = 4.0 * e.norm() * tol;
-        prism[static_cast<std::size_t>(k)] = BodyPlane(pose, tri.normal.cross(e), a, edge_tol);
-        plan[static_cast<std::size_t>(k)] = BodyPlane(pose, Vec3(-e.y(), e.x(), 0.0), a, edge_tol);
-      }
-      const bool faces_up = tri.normal.z() > 0.0;
-      candidates.clear();
-      index->vertices.query(
-          [&](const geometry::Aabb& b) {
-            if (!overlaps(b, body)) return false;
-            const Vec3 c = b.center();
-            const Vec3 h = 0.5 * b.extent();
-            if (ceiling_plane.min_over(c, h) > 0.0 || floor_plane.min_over(c, h) >= ds ||
-                floor_plane.max_over(c, h) <= -depth)
-              return false;
-            const auto reaches = [&](const std::array<BodyPlane, 3>& sides) {
-              return sides[0].max_over(c, h) >= 0.0 && sides[1].max_over(c, h) >= 0.0 &&
-                     sides[2].max_over(c, h) >= 0.0;
-            };
-            return reaches(prism) || (faces_up && reaches(plan));
-          },
-          candidates);
+    if constexpr (Indexed) {
+      vertices_near(at, tri, tbox, ceiling, ds, depth, candidates);
       std::sort(candidates.begin(), candidates.end());
       vertices = &candidates;
     }
     const Vec3 e0 = tri.p[1] - tri.p[0], e1 = tri.p[2] - tri.p[1], e2 = tri.p[0] - tri.p[2];
     for (const std::int32_t vi : *vertices) {
       const std::size_t i = static_cast<std::size_t>(vi);
-      const Vec3 p = at.vertex(i);
+      const Vec3 p = vertex(i);
       if (index != nullptr && p.z() > ceiling) continue;
       if (prune && !contains(tbox, p)) continue;
       const double gap = (p - tri.p[0]).dot(tri.normal);
@@ -262,11 +332,19 @@ void detect_in(const PlacedBlock& at, const TerrainPatch& patch, double ds, doub
       if (!in_prism && !(tri.normal.z() > 0.0 && inside_plan(tri, p))) continue;
       // A vertex over a shared edge of two coplanar triangles is one contact, not two.
       bool duplicate = false;
-      for (std::int32_t k = latest[i]; k >= 0 && !duplicate; k = earlier[static_cast<std::size_t>(k)])
-        duplicate = out[first + static_cast<std::size_t>(k)].normal.dot(tri.normal) > 1.0 - 1e-9;
+      if constexpr (!Indexed) {
+        for (std::size_t k = first; k < out.size(); ++k)
+          if (out[k].block_feature == static_cast<std::int32_t>(i) && out[k].normal.dot(tri.normal) > 1.0 - 1e-9)
+            duplicate = true;
+      } else {
+        for (std::int32_t k = latest[i]; k >= 0 && !duplicate; k = earlier[static_cast<std::size_t>(k)])
+          duplicate = out[first + static_cast<std::size_t>(k)].normal.dot(tri.normal) > 1.0 - 1e-9;
+      }
       if (duplicate) continue;
-      earlier.push_back(latest[i]);
-      latest[i] = static_cast<std::int32_t>(out.size() - first);
+      if constexpr (Indexed) {
+        earlier.push_back(latest[i]);
+        latest[i] = static_cast<std::int32_t>(out.size() - first);
+      }
       Contact c;
       c.kind = ContactKind::vertex_face;
       c.block_feature = static_cast<std::int32_t>(i);
@@ -312,16 +390,16 @@ void detect_in(const PlacedBlock& at, const TerrainPatch& patch, double ds, doub
     if (prune && !contains(reach, tv.p)) continue;
     const Vec3 qb = pose.inverse_map * (tv.p - pose.centre);
     faces.clear();
-    if (index != nullptr) {
+    if constexpr (Indexed) {
       const geometry::Aabb near_qb{qb - Vec3::Constant(margin + face_tol), qb + Vec3::Constant(margin + face_tol)};
       index->faces.query([&](const geometry::Aabb& b) { return overlaps(b, near_qb); }, faces);
       std::sort(faces.begin(), faces.end());
     }
-    const std::size_t face_count = index != nullptr ? faces.size() : model.faces.size();
+    const std::size_t face_count = Indexed ? faces.size() : model.faces.size();
     int best = -1;
     double best_gap = -depth;
     for (std::size_t k = 0; k < face_count; ++k) {
-      const std::size_t f = index != nullptr ? static_cast<std::size_t>(faces[k]) : k;
+      const std::size_t f = Indexed ? static_cast<std::size_t>(faces[k]) : k;
       const BlockFace& face = model.faces[f];
       const double gap = gap_to(f, qb);
       if (gap >= ds || gap <= best_gap) continue;
@@ -339,7 +417,7 @@ void detect_in(const PlacedBlock& at, const TerrainPatch& patch, double ds, doub
       // takes that depth as its offset (carry_contacts), so it stops the vertex going
       // further in without pushing it out with energy no force stored.
       if (!model.convex) continue;
-      if (index != nullptr) {
+      if constexpr (Indexed) {
         // The face it is least deep under has its polygon within that depth of it, so
         // is among the faces found: none of them in range, none at all.
         double near_least = -std::numeric_limits<double>::infinity();
@@ -375,11 +453,9 @@ void detect_in(const PlacedBlock& at, const TerrainPatch& patch, double ds, doub
   for (const TerrainPatch::Ridge& r : patch.ridges)
     if (!prune || overlaps(r.box, reach)) near.push_back(&r);
   if (near.empty()) return;
-  // One block edge (world ends p0, p1; ebox their box inflated by the margin) against one
-  // ridge.
-  auto edge_and_ridge = [&](std::int32_t be, const Vec3& p0, const Vec3& p1, const geometry::Aabb& ebox,
-                            const TerrainPatch::Ridge* te) {
-    if (prune && !overlaps(te->box, ebox)) return;
+  // One block edge (world ends p0, p1) against one ridge whose box meets the edge's.
+  auto edge_and_ridge = [&](std::int32_t be, const Vec3& p0, const Vec3& p1,
+                            const TerrainPatch::Ridge* te) __attribute__((always_inline)) {
     double s = 0.0, t = 0.0;
     if (!line_parameters(p0, p1, te->pa, te->pb, s, t)) return;
     constexpr double kEnd = 1e-6;  // ends are vertex contacts
@@ -405,12 +481,9 @@ void detect_in(const PlacedBlock& at, const TerrainPatch& patch, double ds, doub
     out.push_back(c);
   };
   auto edge_box = [&](const Vec3& p0, const Vec3& p1) {
-    geometry::Aabb b;
-    b.add(p0);
-    b.add(p1);
-    return b.inflated(margin);
+    return geometry::Aabb{p0.cwiseMin(p1), p0.cwiseMax(p1)}.inflated(margin);
   };
-  if (index == nullptr) {
+  if constexpr (!Indexed) {
     const std::vector<Vec3>& world = at.vertices();
     for (std::size_t be = 0; be < model.edges.size(); ++be) {
       const BlockEdge& bedge = model.edges[be];
@@ -419,53 +492,15 @@ void detect_in(const PlacedBlock& at, const TerrainPatch& patch, double ds, doub
       const Vec3& p1 = world[bedge.b];
       if (std::min(p0.z(), p1.z()) > ceiling) continue;
       const geometry::Aabb ebox = edge_box(p0, p1);
-      for (const TerrainPatch::Ridge* te : near) edge_and_ridge(static_cast<std::int32_t>(be), p0, p1, ebox, te);
+      for (const TerrainPatch::Ridge* te : near)
+        if (!prune || overlaps(te->box, ebox)) edge_and_ridge(static_cast<std::int32_t>(be), p0, p1, te);
     }
     return;
   }
   // Through the index: the (edge, ridge) pairs whose edge can cross the ridge within the
   // margin (near the ridge's box and its segment), tested in the order of the scan.
   thread_local std::vector<std::pair<std::int32_t, std::int32_t>> pairs;
-  pairs.clear();
-  for (std::size_t j = 0; j < near.size(); ++j) {
-    const TerrainPatch::Ridge& te = *near[j];
-    // In the body frame: the ridge's segment, and the distances lengthened by F⁻¹. A pair
-    // with gap ≥ 0 has its crossing within ds of the ridge. One with gap < 0 has it at
-    // most `depth` from the ridge, below the plane of a triangle of the ridge: the normal
-    // n, oriented along the triangles' normal sum, has n·nᵢ ≥ 0 for one of them, and
-    // (pc − qc)·nᵢ = gap·(n·nᵢ) ≤ 0 (unknown for an edge of more than two triangles).
-    const geometry::Aabb ridge_box = te.box.inflated(margin);
-    const double tol = at.round_off() + kRound * magnitude(ridge_box) + kSlack * margin + 1e-9 * model.radius;
-    const geometry::Aabb body = at.body_box(ridge_box.inflated(tol));
-    const Vec3 a = pose.inverse_map * (te.pa - pose.centre);
-    const Vec3 along = pose.inverse_map * (te.pb - pose.centre) - a;
-    const double inverse_length2 = along.squaredNorm() > 0.0 ? 1.0 / along.squaredNorm() : 0.0;
-    const double shallow = at.inverse_stretch() * (ds + 2.0 * tol);
-    const double deep = at.inverse_stretch() * (margin + 2.0 * tol);
-    const int planes = te.normal_count <= 2 ? static_cast<int>(te.normal_count) : 0;
-    std::array<BodyPlane, 2> sides;
-    for (int k = 0; k < planes; ++k)
-      sides[static_cast<std::size_t>(k)] = BodyPlane(pose, te.normals[static_cast<std::size_t>(k)], te.pa, 4.0 * tol);
-    candidates.clear();
-    index->convex_edges.query(
-        [&](const geometry::Aabb& b) {
-          if (!overlaps(b, body)) return false;
-          const Vec3 c = b.center();
-          const Vec3 h = 0.5 * b.extent();
-          if (pose.centre.z() + z_row.dot(c) - z_row_abs.dot(h) > ceiling + tol) return false;
-          const double t = std::clamp((c - a).dot(along) * inverse_length2, 0.0, 1.0);
-          const double distance2 = (c - a - t * along).squaredNorm();
-          const double size = h.norm();
-          if (distance2 <= (shallow + size) * (shallow + size)) return true;
-          if (distance2 > (deep + size) * (deep + size)) return false;
-          if (planes == 0) return true;
-          for (int k = 0; k < planes; ++k)
-            if (sides[static_cast<std::size_t>(k)].min_over(c, h) <= 0.0) return true;
-          return false;
-        },
-        candidates);
-    for (const std::int32_t e : candidates) pairs.emplace_back(e, static_cast<std::int32_t>(j));
-  }
+  edge_pairs_near(at, near, ceiling, ds, margin, pairs);
   std::sort(pairs.begin(), pairs.end());
   std::int32_t edge = -1;
   Vec3 p0, p1;
@@ -475,12 +510,13 @@ void detect_in(const PlacedBlock& at, const TerrainPatch& patch, double ds, doub
     if (be != edge) {
       edge = be;
       const BlockEdge& bedge = model.edges[static_cast<std::size_t>(be)];
-      p0 = at.vertex(static_cast<std::size_t>(bedge.a));
-      p1 = at.vertex(static_cast<std::size_t>(bedge.b));
+      p0 = vertex(static_cast<std::size_t>(bedge.a));
+      p1 = vertex(static_cast<std::size_t>(bedge.b));
       low_edge = std::min(p0.z(), p1.z()) <= ceiling;
       ebox = edge_box(p0, p1);
     }
-    if (low_edge) edge_and_ridge(be, p0, p1, ebox, near[static_cast<std::size_t>(j)]);
+    const TerrainPatch::Ridge* te = near[static_cast<std::size_t>(j)];
+    if (low_edge && overlaps(te->box, ebox)) edge_and_ridge(be, p0, p1, te);
   }
 }
 
@@ -490,10 +526,16 @@ PlacedBlock::PlacedBlock(const Model& model, const Pose& pose, std::vector<Vec3>
     : model_(&model), pose_(&pose), world_(&storage) {
   if (model.index == nullptr || scan) {
     storage.resize(model.vertices.size());
+    Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
     for (std::size_t i = 0; i < model.vertices.size(); ++i) {
-      storage[i] = world_point(pose, model.vertices[i]);
-      box_.add(storage[i]);
+      const Vec3 p = world_point(pose, model.vertices[i]);
+      storage[i] = p;
+      for (int k = 0; k < 3; ++k) {
+        lo[k] = std::min(lo[k], p[k]);
+        hi[k] = std::max(hi[k], p[k]);
+      }
     }
+    box_ = geometry::Aabb{lo, hi};
     return;
   }
   index_ = model.index.get();
@@ -546,7 +588,11 @@ void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, dou
     surface.triangles_in_box(patch.box, patch.query);
     fill_patch(surface, patch.query, patch);
   }
-  detect_in(at, patch, search_distance, depth_limit, true, out);
+  if (at.index() != nullptr) {
+    detect_in<true>(at, patch, search_distance, depth_limit, true, out);
+  } else {
+    detect_in<false>(at, patch, search_distance, depth_limit, true, out);
+  }
 }
 
 void detect_contacts_brute_force(const Model& model, const terrain::Surface& surface, const Pose& pose,
@@ -557,7 +603,7 @@ void detect_contacts_brute_force(const Model& model, const terrain::Surface& sur
   fill_patch(surface, all, patch);
   std::vector<Vec3> world;
   const PlacedBlock at(model, pose, world, true);
-  detect_in(at, patch, search_distance, depth_limit, false, out);
+  detect_in<false>(at, patch, search_distance, depth_limit, false, out);
 }
 
 }  // namespace talus::dda::detail

@@ -27,6 +27,27 @@ void report_phases(benchmark::State& bm, const State& s, double steps) {
   bm.counters["contacts"] = static_cast<double>(s.counters.contacts) / static_cast<double>(s.counters.contact_steps);
 }
 
+// The block released `lift` (m) above the ground at x = 9.5 m, y = 20 m of the slope,
+// stepped to its first contact step.
+State first_contact(const Model& m, const Ground& g, double lift) {
+  Release r;
+  r.position = Vec3(9.5, 20.0, g.surface->height_at(9.5, 20.0)->z + lift);
+  State s = start(m, r, core::RandomStream(1, core::Stream::impact, 0));
+  while (s.counters.contact_steps == 0) step(m, g, s);
+  return s;
+}
+
+// Batches of 500 steps from `checkpoint`, the last batch's end left in `s`.
+void run_batches(benchmark::State& bm, const Model& m, const Ground& g, const State& checkpoint, State& s) {
+  std::uint64_t steps = 0;
+  for (auto _ : bm) {
+    s = checkpoint;
+    for (int i = 0; i < 500; ++i) step(m, g, s);
+    steps += 500;
+  }
+  bm.SetItemsProcessed(static_cast<std::int64_t>(steps));
+}
+
 // A 1 m³ dodecahedron (6-DOF) settled on the first bench of the rough slope: the cost
 // of a contact step at rest. Arg 1 turns the per-phase timers on.
 void BM_ContactStepResting(benchmark::State& bm) {
@@ -60,18 +81,9 @@ void BM_ContactStepMoving(benchmark::State& bm) {
   Settings set;
   set.time_phases = bm.range(0) != 0;
   const Model m = Model::build(set, testing::solid(block::SolidKind::dodecahedron, 1.0));
-  Release r;
-  r.position = Vec3(9.5, 20.0, surface.height_at(9.5, 20.0)->z + 0.9);
-  State checkpoint = start(m, r, core::RandomStream(1, core::Stream::impact, 0));
-  while (checkpoint.counters.contact_steps == 0) step(m, g, checkpoint);
-  std::uint64_t steps = 0;
+  const State checkpoint = first_contact(m, g, 0.9);
   State s;
-  for (auto _ : bm) {
-    s = checkpoint;
-    for (int i = 0; i < 500; ++i) step(m, g, s);
-    steps += 500;
-  }
-  bm.SetItemsProcessed(static_cast<std::int64_t>(steps));
+  run_batches(bm, m, g, checkpoint, s);
   bm.counters["contact_share"] = static_cast<double>(s.counters.contact_steps - checkpoint.counters.contact_steps) / 500.0;
   if (set.time_phases) {
     State delta = s;
@@ -99,19 +111,10 @@ void BM_ContactStepDetailed(benchmark::State& bm) {
   spec.dimensions = Vec3(1.4, 1.2, 1.1);
   spec.resolution = static_cast<int>(bm.range(0));
   const Model m = Model::build(Settings{}, block::make_solid(spec, "bench"));
-  Release r;
-  r.position = Vec3(9.5, 20.0, surface.height_at(9.5, 20.0)->z + 0.8);
-  State checkpoint = start(m, r, core::RandomStream(1, core::Stream::impact, 0));
-  while (checkpoint.counters.contact_steps == 0) step(m, g, checkpoint);
-  std::uint64_t steps = 0;
+  const State checkpoint = first_contact(m, g, 0.8);
   State s;
-  for (auto _ : bm) {
-    s = checkpoint;
-    for (int i = 0; i < 500; ++i) step(m, g, s);
-    steps += 500;
-  }
+  run_batches(bm, m, g, checkpoint, s);
   if (s.end != EndReason::running) bm.SkipWithError("the block stopped within the batch");
-  bm.SetItemsProcessed(static_cast<std::int64_t>(steps));
   bm.counters["faces"] = static_cast<double>(m.faces.size());
   bm.counters["contact_share"] = static_cast<double>(s.counters.contact_steps - checkpoint.counters.contact_steps) / 500.0;
   bm.counters["contacts"] = static_cast<double>(s.counters.contacts - checkpoint.counters.contacts) /

@@ -5,6 +5,7 @@
 // stretched, on a rough grid and on a Delaunay TIN.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <vector>
 
@@ -151,21 +152,28 @@ Tally compare(const Model& m, const terrain::Surface& surface, double x0, double
   return tally;
 }
 
-TEST(DdaBlockIndex, SearchesAsTheScanOnAGrid) {
-  const terrain::Terrain t = rough_grid();
-  const terrain::Surface surface = terrain::Surface::realize(t, 1);
+// compare() for every detailed block, rigid and stretched (centre line y0, or y1 when
+// stretched), summed.
+Tally compare_blocks(const terrain::Surface& surface, double x0, double x1, double y0, double y1,
+                     std::uint64_t count, std::uint64_t seed) {
   Tally all;
-  std::uint64_t seed = 1;
   for (const geometry::Polyhedron& poly : detailed_blocks()) {
+    const Model m = Model::build(Settings{}, poly);
     for (const bool stretched : {false, true}) {
-      const Model m = Model::build(Settings{}, poly);
-      const Tally tally = compare(m, surface, 5.0, 60.0, 10.0, stretched, 150, seed++);
+      const Tally tally = compare(m, surface, x0, x1, stretched ? y1 : y0, stretched, count, seed++);
       all.contacts += tally.contacts;
       all.face_vertex += tally.face_vertex;
       all.edge_edge += tally.edge_edge;
       all.deep += tally.deep;
     }
   }
+  return all;
+}
+
+TEST(DdaBlockIndex, SearchesAsTheScanOnAGrid) {
+  const terrain::Terrain t = rough_grid();
+  const terrain::Surface surface = terrain::Surface::realize(t, 1);
+  const Tally all = compare_blocks(surface, 5.0, 60.0, 10.0, 10.0, 150, 1);
   // The poses really touch the ground, with every kind of contact, and terrain vertices
   // deep inside (the fallback of the terrain vertex – face search); measured 210 915,
   // 35, 25 449 and 35.
@@ -178,18 +186,7 @@ TEST(DdaBlockIndex, SearchesAsTheScanOnAGrid) {
 TEST(DdaBlockIndex, SearchesAsTheScanOnATin) {
   const terrain::Terrain t = bumpy_tin();
   const terrain::Surface surface = terrain::Surface::realize(t, std::nullopt);
-  Tally all;
-  std::uint64_t seed = 20;
-  for (const geometry::Polyhedron& poly : detailed_blocks()) {
-    for (const bool stretched : {false, true}) {
-      const Model m = Model::build(Settings{}, poly);
-      const Tally tally = compare(m, surface, 2.0, 18.0, 4.0 + 10.0 * stretched, stretched, 120, seed++);
-      all.contacts += tally.contacts;
-      all.face_vertex += tally.face_vertex;
-      all.edge_edge += tally.edge_edge;
-      all.deep += tally.deep;
-    }
-  }
+  const Tally all = compare_blocks(surface, 2.0, 18.0, 4.0, 14.0, 120, 20);
   // Measured 268 011, 383, 83 622 and 375.
   EXPECT_GT(all.contacts, 100000u);
   EXPECT_GT(all.face_vertex, 200u);
@@ -241,6 +238,62 @@ TEST(DdaBlockIndex, BoxTreeQueriesAndMaximaMatchAScan) {
     for (const std::int32_t id : ids) scan = std::max(scan, value(id));
     EXPECT_EQ(tree.maximum(bound, value), scan);
   }
+}
+
+// carry_contacts finds a detailed block's hundreds of previous contacts through a sorted
+// index: the same matches (and the same deep edge pairs dropped) as the pairwise scan,
+// written out here, over random contact lists with repeated features and normals.
+TEST(DdaBlockIndex, ManyContactsCarryAsPairwise) {
+  const core::RandomStream rng(5, core::Stream::release, 3);
+  const std::array<Vec3, 3> normals{Vec3::UnitZ(), Vec3(0.0, 0.6, 0.8), Vec3(0.6, 0.0, 0.8)};
+  const auto random_contact = [&](std::uint64_t k) {
+    Contact c;
+    c.kind = static_cast<ContactKind>(static_cast<int>(3.0 * rng.uniform(6 * k)));
+    c.block_feature = static_cast<std::int32_t>(40.0 * rng.uniform(6 * k + 1));
+    c.terrain_feature = static_cast<std::int64_t>(5.0 * rng.uniform(6 * k + 2));
+    c.normal = normals[static_cast<std::size_t>(3.0 * rng.uniform(6 * k + 3))];
+    c.gap = -0.2 + 0.3 * rng.uniform(6 * k + 4);
+    return c;
+  };
+  std::vector<Contact> previous, now;
+  for (std::uint64_t k = 0; k < 300; ++k) {
+    previous.push_back(random_contact(k));
+    previous.back().normal_force = static_cast<double>(k);  // identifies the match
+    previous.back().mode = ContactMode::locked;
+    now.push_back(random_contact(1000 + k));
+    now.back().normal_force = -1.0;
+  }
+  const double fresh_depth = 0.05;
+  // The pairwise reference.
+  std::vector<Contact> expected;
+  std::vector<double> matched;
+  for (const Contact& c : now) {
+    const Contact* match = nullptr;
+    bool exact = false;
+    for (const Contact& old : previous) {
+      if (old.kind != c.kind || old.block_feature != c.block_feature) continue;
+      if (old.terrain_feature == c.terrain_feature) {
+        match = &old;
+        exact = true;
+        break;
+      }
+      if (c.kind == ContactKind::vertex_face && old.normal.dot(c.normal) > 1.0 - 1e-12) match = &old;
+    }
+    if (c.kind == ContactKind::edge_edge && c.gap < -fresh_depth && !exact) continue;
+    expected.push_back(c);
+    matched.push_back(match != nullptr ? match->normal_force : -1.0);
+  }
+  detail::carry_contacts(previous, now, detail::Pose{}, 0.5, 1e10, fresh_depth, 1.0);
+  ASSERT_EQ(now.size(), expected.size());
+  std::size_t carried = 0;
+  for (std::size_t i = 0; i < now.size(); ++i) {
+    EXPECT_EQ(now[i].block_feature, expected[i].block_feature);
+    EXPECT_EQ(now[i].terrain_feature, expected[i].terrain_feature);
+    EXPECT_EQ(now[i].normal_force, matched[i]) << "contact " << i;
+    carried += matched[i] >= 0.0;
+  }
+  EXPECT_GT(carried, 100u);
+  EXPECT_LT(now.size(), 300u);  // deep fresh edge pairs were dropped
 }
 
 }  // namespace

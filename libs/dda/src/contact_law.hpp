@@ -601,23 +601,50 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
 // of a pair found deep inside says nothing about the way out.
 inline void carry_contacts(const std::vector<Contact>& previous, std::vector<Contact>& now, const Pose& pose,
                     double friction, double shear_stiffness, double fresh_depth, double radius) {
+  // The previous contacts of the same kind and block feature as c, in their order: all
+  // of them for a few contacts, or a range of them sorted by (kind, block feature, order)
+  // for many (a detailed block carries hundreds; the pairwise scan was quadratic).
+  const auto key = [](const Contact& c) {
+    return (static_cast<std::uint64_t>(c.kind) << 32) | static_cast<std::uint32_t>(c.block_feature);
+  };
+  thread_local std::vector<std::pair<std::uint64_t, std::int32_t>> keyed;
+  const bool sorted = previous.size() * now.size() > 256;
+  if (sorted) {
+    keyed.clear();
+    for (std::size_t i = 0; i < previous.size(); ++i) keyed.emplace_back(key(previous[i]), static_cast<std::int32_t>(i));
+    std::sort(keyed.begin(), keyed.end());
+  }
+  const auto for_same = [&](const Contact& c, const auto& visit) {
+    if (!sorted) {
+      for (const Contact& old : previous)
+        if (old.kind == c.kind && old.block_feature == c.block_feature && !visit(old)) return;
+      return;
+    }
+    const std::uint64_t k = key(c);
+    for (auto it = std::lower_bound(keyed.begin(), keyed.end(), std::make_pair(k, std::int32_t{-1}));
+         it != keyed.end() && it->first == k; ++it)
+      if (!visit(previous[static_cast<std::size_t>(it->second)])) return;
+  };
   std::erase_if(now, [&](const Contact& c) {
     if (c.kind != ContactKind::edge_edge || c.gap >= -fresh_depth) return false;
-    return std::none_of(previous.begin(), previous.end(), [&](const Contact& old) {
-      return old.kind == c.kind && old.block_feature == c.block_feature && old.terrain_feature == c.terrain_feature;
+    bool carried = false;
+    for_same(c, [&](const Contact& old) {
+      carried = old.terrain_feature == c.terrain_feature;
+      return !carried;
     });
+    return !carried;
   });
   for (Contact& c : now) {
     c.gap_offset = std::min(c.gap, 0.0);
     const Contact* match = nullptr;
-    for (const Contact& old : previous) {
-      if (old.kind != c.kind || old.block_feature != c.block_feature) continue;
+    for_same(c, [&](const Contact& old) {
       if (old.terrain_feature == c.terrain_feature) {
         match = &old;
-        break;
+        return false;
       }
       if (c.kind == ContactKind::vertex_face && old.normal.dot(c.normal) > 1.0 - 1e-12) match = &old;
-    }
+      return true;
+    });
     if (match == nullptr) continue;
     const Contact& old = *match;
     c.mode = old.mode;

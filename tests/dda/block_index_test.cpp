@@ -205,9 +205,9 @@ TEST(DdaBlockIndex, OnlyDetailedBlocksAreIndexed) {
   EXPECT_FALSE(Model::build(Settings{}, solid(block::SolidKind::ellipsoid, 8, 0.15)).convex);
 }
 
-// The box tree finds what a scan of the boxes finds, and the branch-and-bound maximum is
-// the scan's maximum.
-TEST(DdaBlockIndex, BoxTreeQueriesAndMaximaMatchAScan) {
+// The feature tree finds what a scan of the boxes finds, and the branch-and-bound maximum
+// is the scan's maximum.
+TEST(DdaBlockIndex, FeatureTreeQueriesAndMaximaMatchAScan) {
   const core::RandomStream rng(3, core::Stream::release, 2);
   std::vector<geometry::Aabb> boxes;
   std::vector<std::int32_t> ids;
@@ -217,7 +217,7 @@ TEST(DdaBlockIndex, BoxTreeQueriesAndMaximaMatchAScan) {
     boxes.push_back(geometry::Aabb{c - h, c + h});
     ids.push_back(static_cast<std::int32_t>(3 * k + 1));
   }
-  detail::BoxTree tree;
+  detail::FeatureTree tree;
   tree.build(boxes, ids);
   for (std::uint64_t q = 0; q < 50; ++q) {
     const Vec3 c(rng.uniform(7000 + 3 * q), rng.uniform(7001 + 3 * q), rng.uniform(7002 + 3 * q));

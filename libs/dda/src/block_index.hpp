@@ -3,12 +3,13 @@
 // Box trees over a block's features in its body frame, so that contact detection and the
 // step control cost what the block touches, not what it has: a scanned rock of 10⁴ faces
 // near a few terrain triangles is queried in logarithmic time instead of scanned.
-#include <array>
 #include <cstdint>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include "talus/dda/model.hpp"
+#include "talus/geometry/box_tree.hpp"
 #include "talus/geometry/types.hpp"
 
 namespace talus::dda::detail {
@@ -17,91 +18,49 @@ namespace talus::dda::detail {
 /// feature, which is faster for them (docs/benchmarks.md, "Block detail").
 constexpr std::size_t kScannedVertices = 32;
 
-/// A bounding-volume hierarchy of axis-aligned boxes (median split on the longest axis,
-/// up to four items per leaf).
-class BoxTree {
+/// A box tree over some of a block's features (vertices, edges or faces): the feature
+/// ids of the items and their boxes, for a test on each item's own box.
+class FeatureTree {
  public:
-  /// Builds the tree over the items `ids` with their boxes `boxes` (same length).
-  void build(const std::vector<geometry::Aabb>& boxes, const std::vector<std::int32_t>& ids);
-  bool empty() const { return nodes_.empty(); }
+  /// Builds the tree over the features `ids` with their boxes `boxes` (same length).
+  void build(std::vector<geometry::Aabb> boxes, std::vector<std::int32_t> ids) {
+    tree_.build(boxes);
+    boxes_ = std::move(boxes);
+    ids_ = std::move(ids);
+  }
+  bool empty() const { return tree_.empty(); }
 
-  /// Appends the id of every item whose box passes `test` (in tree order). `test` must
-  /// be conservative: true for a node's box whenever it is true for any box inside it.
+  /// Appends the id of every feature whose box passes `test` (in tree order). `test`
+  /// must be conservative: true for a node's box whenever it is true for any box inside.
   template <class Test>
   void query(const Test& test, std::vector<std::int32_t>& out) const {
-    if (nodes_.empty()) return;
-    std::array<std::int32_t, 2 * kMaxDepth + 4> stack{};
-    int top = 0;
-    stack[top++] = 0;
-    while (top > 0) {
-      const Node& node = nodes_[static_cast<std::size_t>(stack[--top])];
-      if (!test(node.box)) continue;
-      if (node.count > 0) {
-        for (std::int32_t k = node.first; k < node.first + node.count; ++k)
-          if (test(item_boxes_[static_cast<std::size_t>(k)])) out.push_back(ids_[static_cast<std::size_t>(k)]);
-        continue;
-      }
-      stack[top++] = node.right;
-      stack[top++] = node.left;
-    }
+    tree_.search(test, [&](std::int32_t item) {
+      if (test(boxes_[static_cast<std::size_t>(item)])) out.push_back(ids_[static_cast<std::size_t>(item)]);
+    });
   }
 
-  /// max(floor, the largest value(id) over all items), pruning every node whose
-  /// bound(box) is no more than the largest value found: bound must be an upper bound of
-  /// value over the items inside the box. Values above `floor` are exact, whatever the
-  /// pruning.
+  /// max(floor, the largest value(id) over the features), by branch and bound over the
+  /// boxes (geometry::BoxTree::maximum): bound(box) bounds value over the features inside.
   template <class Bound, class Value>
   double maximum(const Bound& bound, const Value& value,
                  double floor = -std::numeric_limits<double>::infinity()) const {
-    double best = floor;
-    if (nodes_.empty()) return best;
-    std::array<std::int32_t, 2 * kMaxDepth + 4> stack{};
-    int top = 0;
-    stack[top++] = 0;
-    while (top > 0) {
-      const Node& node = nodes_[static_cast<std::size_t>(stack[--top])];
-      if (!(bound(node.box) > best)) continue;
-      if (node.count > 0) {
-        for (std::int32_t k = node.first; k < node.first + node.count; ++k)
-          best = std::max(best, value(ids_[static_cast<std::size_t>(k)]));
-        continue;
-      }
-      // The child with the larger bound is visited first (pushed last).
-      const double bl = bound(nodes_[static_cast<std::size_t>(node.left)].box);
-      const double br = bound(nodes_[static_cast<std::size_t>(node.right)].box);
-      if (bl > br) {
-        stack[top++] = node.right;
-        stack[top++] = node.left;
-      } else {
-        stack[top++] = node.left;
-        stack[top++] = node.right;
-      }
-    }
-    return best;
+    return tree_.maximum(bound, [&](std::int32_t item) { return value(ids_[static_cast<std::size_t>(item)]); }, floor);
   }
 
  private:
-  static constexpr int kMaxDepth = 48;  // far beyond log2 of any block's feature count
-  struct Node {
-    geometry::Aabb box;
-    std::int32_t left = -1, right = -1;  ///< children (inner nodes)
-    std::int32_t first = 0, count = 0;   ///< items ids_[first, first + count) (leaves)
-  };
-  std::int32_t build_node(std::vector<std::int32_t>& order, std::size_t begin, std::size_t end,
-                          const std::vector<geometry::Aabb>& boxes, int depth);
-  std::vector<Node> nodes_;
-  std::vector<std::int32_t> ids_;
-  std::vector<geometry::Aabb> item_boxes_;  ///< in the order of ids_
+  geometry::BoxTree tree_;
+  std::vector<geometry::Aabb> boxes_;  ///< of item i
+  std::vector<std::int32_t> ids_;      ///< feature id of item i
 };
 
 /// The block's box trees (body frame): its vertices, its convex edges and its faces.
 struct BlockIndex {
-  BoxTree vertices;
-  BoxTree convex_edges;
+  FeatureTree vertices;
+  FeatureTree convex_edges;
   /// Each face's box holds its polygon and everything within the face's out-of-plane
   /// tolerance of it, so a point whose foot lies inside the polygon is inside the box
   /// inflated by its distance to the plane.
-  BoxTree faces;
+  FeatureTree faces;
 };
 
 /// The index of the features of `model` (its vertices, faces and edges must be set),

@@ -210,9 +210,6 @@ struct BodyPlane {
                                        std::vector<std::pair<std::int32_t, std::int32_t>>& pairs) {
   const Pose& pose = at.pose();
   const Model& model = at.model();
-  // The world height of the body point r is centre_z + z_row·r.
-  const Vec3 z_row = pose.map.row(2).transpose();
-  const Vec3 z_row_abs = z_row.cwiseAbs();
   thread_local std::vector<std::int32_t> edges;
   pairs.clear();
   for (std::size_t j = 0; j < near.size(); ++j) {
@@ -235,12 +232,13 @@ struct BodyPlane {
     std::array<BodyPlane, 2> sides;
     for (int k = 0; k < planes; ++k)
       sides[static_cast<std::size_t>(k)] = BodyPlane(pose, te.normals[static_cast<std::size_t>(k)], te.pa, 4.0 * tol);
+    const BodyPlane ceiling_plane(pose, Vec3::UnitZ(), Vec3(0.0, 0.0, ceiling), tol);
     at.index()->convex_edges.query(
         [&](const geometry::Aabb& b) {
           if (!overlaps(b, body)) return false;
           const Vec3 c = b.center();
           const Vec3 h = 0.5 * b.extent();
-          if (pose.centre.z() + z_row.dot(c) - z_row_abs.dot(h) > ceiling + tol) return false;
+          if (ceiling_plane.min_over(c, h) > 0.0) return false;
           const double t = std::clamp((c - a).dot(along) * inverse_length2, 0.0, 1.0);
           const double distance2 = (c - a - t * along).squaredNorm();
           const double size = h.norm();
@@ -317,7 +315,7 @@ void detect_in(const PlacedBlock& at, const TerrainPatch& patch, double ds, doub
     for (const std::int32_t vi : *vertices) {
       const std::size_t i = static_cast<std::size_t>(vi);
       const Vec3 p = vertex(i);
-      if (index != nullptr && p.z() > ceiling) continue;
+      if (Indexed && p.z() > ceiling) continue;
       if (prune && !contains(tbox, p)) continue;
       const double gap = (p - tri.p[0]).dot(tri.normal);
       if (gap >= ds || gap <= -depth) continue;
@@ -389,8 +387,8 @@ void detect_in(const PlacedBlock& at, const TerrainPatch& patch, double ds, doub
   for (const TerrainPatch::Vertex& tv : patch.vertices) {
     if (prune && !contains(reach, tv.p)) continue;
     const Vec3 qb = pose.inverse_map * (tv.p - pose.centre);
-    faces.clear();
     if constexpr (Indexed) {
+      faces.clear();
       const geometry::Aabb near_qb{qb - Vec3::Constant(margin + face_tol), qb + Vec3::Constant(margin + face_tol)};
       index->faces.query([&](const geometry::Aabb& b) { return overlaps(b, near_qb); }, faces);
       std::sort(faces.begin(), faces.end());

@@ -594,8 +594,7 @@ Summary run(const Model& model, const Ground& ground, const Release& release, co
 std::vector<Vec3> world_vertices(const Model& model, const State& s) {
   const Pose pose = pose_of(model, s);
   std::vector<Vec3> out;
-  out.reserve(model.vertices.size());
-  for (const Vec3& v : model.vertices) out.push_back(world_point(pose, v));
+  const PlacedBlock scanned(model, pose, out, /*scan=*/true);  // fills `out`
   return out;
 }
 

@@ -5,9 +5,9 @@
 #include <mutex>
 #include <string>
 
-#include "bvh.hpp"
 #include "talus/core/error.hpp"
 #include "talus/core/random.hpp"
+#include "talus/geometry/box_tree.hpp"
 #include "talus/terrain/terrain.hpp"
 
 namespace talus::terrain {
@@ -93,7 +93,7 @@ struct Surface::Impl {
   mutable std::vector<std::uint8_t> block_ready;   // one flag per block
   // Built over the base triangles with z widened by ±kMaxNormal·σ: valid for every
   // realization, so realization() shares it.
-  std::shared_ptr<const detail::Bvh> bvh;
+  std::shared_ptr<const geometry::BoxTree> bvh;
 
   std::size_t triangle_count() const {
     return grid_mode ? 2 * spec.cell_count() : terrain->mesh.triangles.size();
@@ -345,7 +345,7 @@ void check_terrain(const Terrain& terrain) {
 }  // namespace
 
 std::unique_ptr<Surface::Impl> Surface::make_impl(const Terrain& terrain, std::optional<std::uint32_t> index,
-                                                  std::shared_ptr<const detail::Bvh> shared_bvh) {
+                                                  std::shared_ptr<const geometry::BoxTree> shared_bvh) {
   auto impl = std::make_unique<Impl>();
   impl->terrain = &terrain;
   const double sigma = terrain.roughness.sigma;
@@ -384,7 +384,7 @@ std::unique_ptr<Surface::Impl> Surface::make_impl(const Terrain& terrain, std::o
       boxes[t].lo.z() -= widen;
       boxes[t].hi.z() += widen;
     }
-    auto bvh = std::make_shared<detail::Bvh>();
+    auto bvh = std::make_shared<geometry::BoxTree>();
     bvh->build(boxes);
     shared_bvh = std::move(bvh);
   }

@@ -11,11 +11,11 @@
 #include "talus/geometry/triangle_mesh.hpp"
 #include "talus/geometry/types.hpp"
 
-namespace talus::terrain {
-
-namespace detail {
-class Bvh;
+namespace talus::geometry {
+class BoxTree;
 }
+
+namespace talus::terrain {
 
 using geometry::Aabb;
 using geometry::Vec3;
@@ -202,7 +202,7 @@ class Surface {
   struct Impl;
   explicit Surface(std::unique_ptr<Impl> impl);
   static std::unique_ptr<Impl> make_impl(const Terrain& terrain, std::optional<std::uint32_t> index,
-                                         std::shared_ptr<const detail::Bvh> shared_bvh);
+                                         std::shared_ptr<const geometry::BoxTree> shared_bvh);
   std::unique_ptr<Impl> impl_;
 };
 

@@ -1,16 +1,17 @@
-#include "bvh.hpp"
+// SPDX-License-Identifier: MIT
+#include "talus/geometry/box_tree.hpp"
 
 #include <algorithm>
 #include <numeric>
 
-namespace talus::terrain::detail {
+namespace talus::geometry {
 
-void Bvh::build(const std::vector<geometry::Aabb>& boxes) {
+void BoxTree::build(const std::vector<Aabb>& boxes) {
   nodes_.clear();
   items_.clear();
   if (boxes.empty()) return;
   const std::size_t n = boxes.size();
-  std::vector<geometry::Vec3> centers(n);
+  std::vector<Vec3> centers(n);
   for (std::size_t i = 0; i < n; ++i) centers[i] = boxes[i].center();
   items_.resize(n);
   std::iota(items_.begin(), items_.end(), 0);
@@ -24,8 +25,8 @@ void Bvh::build(const std::vector<geometry::Aabb>& boxes) {
   while (!work.empty()) {
     const Work w = work.back();
     work.pop_back();
-    geometry::Aabb box;
-    geometry::Aabb spread;
+    Aabb box;
+    Aabb spread;
     for (std::int32_t k = w.begin; k < w.end; ++k) {
       const auto item = static_cast<std::size_t>(items_[static_cast<std::size_t>(k)]);
       box.add(boxes[item]);
@@ -38,7 +39,7 @@ void Bvh::build(const std::vector<geometry::Aabb>& boxes) {
       continue;
     }
     int axis = 0;
-    const geometry::Vec3 extent = spread.extent();
+    const Vec3 extent = spread.extent();
     if (extent.y() > extent[axis]) axis = 1;
     if (extent.z() > extent[axis]) axis = 2;
     const std::int32_t mid = w.begin + (w.end - w.begin) / 2;
@@ -60,4 +61,4 @@ void Bvh::build(const std::vector<geometry::Aabb>& boxes) {
   }
 }
 
-}  // namespace talus::terrain::detail
+}  // namespace talus::geometry

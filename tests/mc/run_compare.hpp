@@ -40,6 +40,8 @@ inline void expect_same_run(const RunData& a, const RunData& b) {
   EXPECT_EQ(ta.reach, tb.reach);
   EXPECT_EQ(ta.energy_zero, tb.energy_zero);
   EXPECT_EQ(ta.height_zero, tb.height_zero);
+  EXPECT_EQ(ta.speed_max, tb.speed_max);
+  EXPECT_EQ(ta.height_max, tb.height_max);
   EXPECT_EQ(ta.energy_cell, tb.energy_cell);
   EXPECT_EQ(ta.energy_index, tb.energy_index);
   EXPECT_EQ(ta.energy_count, tb.energy_count);

@@ -111,6 +111,30 @@ TEST_F(BenchRun, HazardTablesRoundTripExactly) {
   bad.cell.back() = 10000;
   HazardAccumulator other(scene_->hazard_grid(), 0.01);
   EXPECT_THROW(other.merge(bad, "table"), core::InputError);
+  // Maxima of one length but not the cells' are refused too.
+  auto short_maxima = single_->hazard.table();
+  short_maxima.speed_max.pop_back();
+  HazardAccumulator third(scene_->hazard_grid(), 0.01);
+  EXPECT_THROW(third.merge(short_maxima, "table"), core::InputError);
+}
+
+// A table of a file written before the maxima were kept has none: the cells' maxima are
+// unknown (NaN), also after merging with a shard that has them; the rest is unchanged.
+TEST_F(BenchRun, HazardMaximaOfOlderFilesAreUnknown) {
+  auto old = single_->hazard.table();
+  ASSERT_FALSE(old.speed_max.empty());
+  for (const double v : old.speed_max) EXPECT_GT(v, 0.0);
+  old.speed_max.clear();
+  old.height_max.clear();
+  HazardAccumulator merged(scene_->hazard_grid(), 0.01);
+  merged.merge(old, "old file");
+  merged.merge(single_->hazard);
+  ASSERT_EQ(merged.cells().size(), single_->hazard.cells().size());
+  for (const auto& [id, cell] : merged.cells()) {
+    EXPECT_TRUE(std::isnan(cell.max_speed)) << id;
+    EXPECT_TRUE(std::isnan(cell.max_height)) << id;
+    EXPECT_EQ(cell.reach, 2 * single_->hazard.cells().at(id).reach) << id;
+  }
 }
 
 TEST(Barrier, CrossingOfAFreeFlightMatchesTheParabola) {
@@ -162,7 +186,7 @@ TEST(Barrier, CrossingOfAFreeFlightMatchesTheParabola) {
   EXPECT_TRUE(seen);
 }
 
-// The hazard cells hold, per cell, the largest kinetic energy and height of the states
+// The hazard cells hold, per cell, the largest kinetic energy, height and speed of the states
 // the path passes through: here every step moves far less than a quarter cell, so those
 // are the step ends, which a trajectory sampled at every step lists. The observer keeps
 // a cell's maxima aside while the block stays in it and merges them when it leaves; the
@@ -176,6 +200,7 @@ TEST(Hazard, CellsAreTheMaximaOfTheStepEnds) {
   ASSERT_EQ(r.trajectory.size(), r.record.steps + 1);
   const double weight = scene.blocks()[0].model.mass * scene.blocks()[0].model.settings.gravity;
   std::map<std::int64_t, std::pair<double, double>> expected;
+  std::map<std::int64_t, double> speed;
   std::size_t changes = 0;
   std::int64_t last = -1;
   for (const dda::TrajectorySample& t : r.trajectory) {
@@ -187,6 +212,7 @@ TEST(Hazard, CellsAreTheMaximaOfTheStepEnds) {
     auto [it, fresh] = expected.try_emplace(id, kinetic, std::isfinite(t.height) ? t.height : 0.0);
     it->second.first = std::max(it->second.first, kinetic);
     if (std::isfinite(t.height)) it->second.second = std::max(it->second.second, t.height);
+    speed[id] = std::max(speed[id], t.velocity.norm());
   }
   EXPECT_GT(changes, 3u);  // the path crosses several cells
   ASSERT_EQ(r.cells.size(), expected.size());
@@ -197,8 +223,9 @@ TEST(Hazard, CellsAreTheMaximaOfTheStepEnds) {
     // the round-off of m·g·z (~1e5 J) -- 1e-6 J is far above it and far below any
     // difference between two steps' energies.
     EXPECT_NEAR(v.energy, it->second.first, 1e-6) << v.cell;
-    // The heights are the engine's own values in both.
+    // The heights and velocities are the engine's own values in both.
     EXPECT_EQ(v.height, it->second.second) << v.cell;
+    EXPECT_EQ(v.speed, speed[v.cell]) << v.cell;
   }
 }
 

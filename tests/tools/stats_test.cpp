@@ -88,8 +88,8 @@ mc::RealizationResult realization(std::uint32_t i, double runout_offset = 0.0) {
     c.height = 99.0;
     r.crossings.push_back(c);
   }
-  r.cells.push_back({0, 100.0 * (i + 1), 0.5});
-  if (i < 4) r.cells.push_back({16, 50.0 * (i + 1), 1.0 + i});
+  r.cells.push_back({0, 100.0 * (i + 1), 0.5, 2.0 + i});
+  if (i < 4) r.cells.push_back({16, 50.0 * (i + 1), 1.0 + i, 20.0 - i});
   for (int k = 0; k < 3; ++k) {
     dda::TrajectorySample s;
     s.time = k;
@@ -327,6 +327,15 @@ TEST_F(Stats, HazardRastersInTerrainCoordinates) {
   EXPECT_NEAR(e_mean.z[0], 650.0, 6.5);
   EXPECT_NEAR(e_mean.z[16], 125.0, 1.25);  // 50, 100, 150, 200 J
   EXPECT_TRUE(std::isnan(e_mean.z[2]));
+  // The largest speed and passing height of any passage: exact, not sketched.
+  const terrain::DemGrid v_max = io::read_geotiff((dir_ / "out-hazard/hazard/whole-speed_max.tif").string());
+  EXPECT_EQ(v_max.z[0], 2.0 + (kRealizations - 1));
+  EXPECT_EQ(v_max.z[16], 20.0);
+  EXPECT_TRUE(std::isnan(v_max.z[2]));
+  const terrain::DemGrid h_max = io::read_geotiff((dir_ / "out-hazard/hazard/whole-height_max.tif").string());
+  EXPECT_EQ(h_max.z[0], 0.5);
+  EXPECT_EQ(h_max.z[16], 4.0);
+  EXPECT_TRUE(std::isnan(h_max.z[2]));
   // Deposits: the realizations that ended at rest, counted in the cell of their stop point.
   std::vector<double> deposits(static_cast<std::size_t>(kGrid.nx * kGrid.ny), 0.0);
   for (std::uint32_t i = 0; i < kRealizations; ++i) {
@@ -342,7 +351,8 @@ TEST_F(Stats, HazardRastersInTerrainCoordinates) {
   // and the GeoTIFFs a band description and unit.
   const std::vector<std::pair<std::string, std::string>> layers = {
       {"reach_probability", "1"}, {"passage_count", "count"}, {"deposition_count", "count"}, {"energy_mean", "J"},
-      {"energy_p95", "J"}, {"energy_p99", "J"}, {"height_p95", "m"}, {"height_p99", "m"}};
+      {"energy_p95", "J"}, {"energy_p99", "J"}, {"height_p95", "m"}, {"height_p99", "m"},
+      {"height_max", "m"}, {"speed_max", "m/s"}};
   for (const auto& [layer, unit] : layers) {
     const fs::path base = dir_ / "out-hazard/hazard" / ("whole-" + layer);
     for (const char* ext : {".tif", ".asc"}) {

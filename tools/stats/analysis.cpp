@@ -430,7 +430,7 @@ HazardMaps hazard_maps(const io::RunFile& run, const std::array<double, 3>& orig
     maps.layers.push_back({name, {description, unit}, raster_like(g, origin_shift, fill)});
     return &maps.layers.back().grid.z;
   };
-  maps.layers.reserve(8);
+  maps.layers.reserve(10);
   auto& reach = *add("reach_probability", "reach probability: realizations whose path reached the cell / realizations",
                      "1", 0.0);
   auto& passages = *add("passage_count", "passage count: realizations whose path reached the cell", "count", 0.0);
@@ -441,6 +441,8 @@ HazardMaps hazard_maps(const io::RunFile& run, const std::array<double, 3>& orig
   auto& e99 = *add("energy_p99", "P99 over the passages of the largest kinetic energy in the cell", energy_unit, kNaN);
   auto& h95 = *add("height_p95", "P95 over the passages of the largest passing height in the cell", "m", kNaN);
   auto& h99 = *add("height_p99", "P99 over the passages of the largest passing height in the cell", "m", kNaN);
+  auto& h_max = *add("height_max", "largest passing height of any passage in the cell", "m", kNaN);
+  auto& v_max = *add("speed_max", "largest centroid speed of any passage in the cell", "m/s", kNaN);
   const double n = static_cast<double>(run.data.records.size());
   for (const auto& [id, cell] : run.data.hazard.cells()) {
     if (id < 0 || static_cast<std::size_t>(id) >= reach.size())
@@ -457,6 +459,9 @@ HazardMaps hazard_maps(const io::RunFile& run, const std::array<double, 3>& orig
       h95[k] = cell.height.quantile(0.95);
       h99[k] = cell.height.quantile(0.99);
     }
+    // Unknown (NaN, no data) for run files written before the maxima were kept.
+    h_max[k] = cell.max_height;
+    v_max[k] = cell.max_speed;
   }
   // Stop points of the realizations that ended at rest (the run's local frame, as the grid).
   for (const auto& rec : run.data.records) {

@@ -95,7 +95,8 @@ struct HazardLayer {
 };
 
 /// The hazard rasters of a run, in this order: reach_probability, passage_count,
-/// deposition_count, energy_mean, energy_p95, energy_p99, height_p95, height_p99.
+/// deposition_count, energy_mean, energy_p95, energy_p99, height_p95, height_p99,
+/// height_max, speed_max.
 struct HazardMaps {
   std::vector<HazardLayer> layers;
   /// The layer of that name (throws std::out_of_range when there is none).

@@ -23,6 +23,7 @@ using Element = h5::Group::Element;
 // One column of a table: its element type, width (0 = 1-D), unit and values.
 struct Column {
   Element element = Element::f64;
+  bool optional = false;  ///< may be absent from files of earlier versions (read as empty)
   std::uint64_t width = 0;
   std::string unit;
   std::vector<double> f64;
@@ -136,6 +137,9 @@ Table hazard_table(const mc::HazardAccumulator::Table& h) {
   col(t, "reach", Element::i64).i64 = h.reach;
   col(t, "energy_zero", Element::i64).i64 = h.energy_zero;
   col(t, "height_zero", Element::i64).i64 = h.height_zero;
+  col(t, "speed_max", Element::f64, 0, "m/s").f64 = h.speed_max;
+  col(t, "height_max", Element::f64, 0, "m").f64 = h.height_max;
+  t["speed_max"].optional = t["height_max"].optional = true;
   col(t, "energy_bucket_cell", Element::i64).i64 = h.energy_cell;
   col(t, "energy_bucket_index", Element::i32).i32 = h.energy_index;
   col(t, "energy_bucket_count", Element::i64).i64 = h.energy_count;
@@ -198,6 +202,7 @@ Table load(const h5::Group& g, Table layout, bool torn = false) {
   std::uint64_t n = std::numeric_limits<std::uint64_t>::max();
   bool first = true;
   for (auto& [name, c] : layout) {
+    if (c.optional && !g.has(name)) continue;
     const h5::Shape expected = c.width > 0 ? h5::Shape{0, c.width} : h5::Shape{0};
     switch (c.element) {
       case Element::f64: c.f64 = g.read_doubles(name, expected); break;
@@ -300,6 +305,8 @@ mc::HazardAccumulator::Table decode_hazard(const Table& t) {
   h.reach = t.at("reach").i64;
   h.energy_zero = t.at("energy_zero").i64;
   h.height_zero = t.at("height_zero").i64;
+  h.speed_max = t.at("speed_max").f64;
+  h.height_max = t.at("height_max").f64;
   h.energy_cell = t.at("energy_bucket_cell").i64;
   h.energy_index = t.at("energy_bucket_index").i32;
   h.energy_count = t.at("energy_bucket_count").i64;

@@ -1,10 +1,18 @@
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "talus/core/error.hpp"
 #include "talus/mc/realization.hpp"
 
 namespace talus::mc {
+
+namespace {
+// The larger of two maxima, unknown (NaN) when either is.
+double max_or_unknown(double a, double b) {
+  return std::isnan(a) || std::isnan(b) ? std::numeric_limits<double>::quiet_NaN() : std::max(a, b);
+}
+}  // namespace
 
 HazardAccumulator::HazardAccumulator(const HazardGridSpec& spec, double relative_accuracy)
     : spec_(spec), alpha_(relative_accuracy) {}
@@ -24,6 +32,8 @@ void HazardAccumulator::add(const std::vector<CellVisit>& visits) {
     ++c.reach;
     c.energy.add(std::max(v.energy, 0.0));
     c.height.add(std::max(v.height, 0.0));
+    c.max_speed = std::max(c.max_speed, v.speed);
+    c.max_height = std::max(c.max_height, std::max(v.height, 0.0));
   }
 }
 
@@ -37,6 +47,8 @@ void HazardAccumulator::merge(const HazardAccumulator& other) {
     mine.reach += c.reach;
     mine.energy.merge(c.energy);
     mine.height.merge(c.height);
+    mine.max_speed = max_or_unknown(mine.max_speed, c.max_speed);
+    mine.max_height = max_or_unknown(mine.max_height, c.max_height);
   }
 }
 
@@ -65,7 +77,9 @@ struct Triplets {
 
 void HazardAccumulator::merge(const Table& t, const std::string& source) {
   const std::size_t n = t.cell.size();
+  const bool maxima = !t.speed_max.empty() || !t.height_max.empty();
   if (t.reach.size() != n || t.energy_zero.size() != n || t.height_zero.size() != n ||
+      (maxima && (t.speed_max.size() != n || t.height_max.size() != n)) ||
       t.energy_index.size() != t.energy_cell.size() || t.energy_count.size() != t.energy_cell.size() ||
       t.height_index.size() != t.height_cell.size() || t.height_count.size() != t.height_cell.size())
     throw core::InputError(source, "hazard table arrays differ in length");
@@ -83,6 +97,9 @@ void HazardAccumulator::merge(const Table& t, const std::string& source) {
       throw core::InputError(source, "hazard cell " + std::to_string(id) + " is outside the grid or has negative counts");
     Cell& c = cell(id);
     c.reach += static_cast<std::uint64_t>(t.reach[k]);
+    const double unknown = std::numeric_limits<double>::quiet_NaN();
+    c.max_speed = max_or_unknown(c.max_speed, maxima ? t.speed_max[k] : unknown);
+    c.max_height = max_or_unknown(c.max_height, maxima ? t.height_max[k] : unknown);
     energy.take(id, indices, counts);
     c.energy.merge(stats::QuantileSketch::from_buckets(alpha_, kMinEnergy, static_cast<std::uint64_t>(t.energy_zero[k]),
                                                        indices, counts));
@@ -101,6 +118,8 @@ HazardAccumulator::Table HazardAccumulator::table() const {
     t.reach.push_back(static_cast<std::int64_t>(c.reach));
     t.energy_zero.push_back(static_cast<std::int64_t>(c.energy.zero_count()));
     t.height_zero.push_back(static_cast<std::int64_t>(c.height.zero_count()));
+    t.speed_max.push_back(c.max_speed);
+    t.height_max.push_back(c.max_height);
     for (const auto& [index, count] : c.energy.buckets()) {
       t.energy_cell.push_back(id);
       t.energy_index.push_back(index);

@@ -109,7 +109,7 @@ class Observer {
   bool active() const { return !scene_.barriers().empty() || scene_.hazard_grid().size > 0.0; }
 
   void start(const Vec3& p, const Vec3& v, double rotational) {
-    visit(p, 0.5 * model_.mass * v.squaredNorm() + rotational, height_above_ground(p));
+    visit(p, 0.5 * model_.mass * v.squaredNorm() + rotational, height_above_ground(p), v.norm());
   }
 
   // The step from `b` to `s`; `s.kinetic` and `s.height` are the engine's values at its end.
@@ -180,10 +180,10 @@ class Observer {
         Vec3 p, v;
         double rotational = 0.0;
         at(static_cast<double>(k) / n, p, v, rotational);
-        visit(p, 0.5 * model_.mass * v.squaredNorm() + rotational, height_above_ground(p));
+        visit(p, 0.5 * model_.mass * v.squaredNorm() + rotational, height_above_ground(p), v.norm());
       }
       // The end of the step: the engine has its kinetic energy and height already.
-      visit(p1, s.kinetic, s.height);
+      visit(p1, s.kinetic, s.height, v1.norm());
     }
   }
 
@@ -192,7 +192,7 @@ class Observer {
     merge_current();
     std::vector<CellVisit> out;
     out.reserve(cells_.size());
-    for (const auto& [id, values] : cells_) out.push_back({id, values.first, values.second});
+    for (const auto& [id, m] : cells_) out.push_back({id, m.energy, m.height, m.speed});
     std::sort(out.begin(), out.end(), [](const CellVisit& a, const CellVisit& b) { return a.cell < b.cell; });
     return out;
   }
@@ -203,16 +203,18 @@ class Observer {
     return hit ? p.z() - hit->z : std::numeric_limits<double>::quiet_NaN();
   }
 
-  // A sample of the path: kinetic energy (J) and height above the ground (m, NaN off it).
-  void visit(const Vec3& p, double energy, double h) {
+  // A sample of the path: kinetic energy (J), height above the ground (m, NaN off it) and
+  // centroid speed (m/s).
+  void visit(const Vec3& p, double energy, double h, double speed) {
     const std::int64_t id = scene_.hazard_grid().cell(p.x(), p.y());
     if (id < 0) return;
     if (id != current_.cell) {
       merge_current();
-      current_ = Current{id, energy, h, -std::numeric_limits<double>::infinity()};
+      current_ = Current{id, energy, speed, h, -std::numeric_limits<double>::infinity()};
       return;
     }
     current_.energy = std::max(current_.energy, energy);
+    current_.speed = std::max(current_.speed, speed);
     if (std::isfinite(h)) current_.later_height = std::max(current_.later_height, h);
   }
 
@@ -222,12 +224,15 @@ class Observer {
   void merge_current() {
     if (current_.cell < 0) return;
     const Current& c = current_;
-    auto [it, fresh] = cells_.try_emplace(c.cell, c.energy, std::isfinite(c.first_height) ? c.first_height : 0.0);
+    auto [it, fresh] =
+        cells_.try_emplace(c.cell, Maxima{c.energy, std::isfinite(c.first_height) ? c.first_height : 0.0, c.speed});
+    Maxima& m = it->second;
     if (!fresh) {
-      it->second.first = std::max(it->second.first, c.energy);
-      if (std::isfinite(c.first_height)) it->second.second = std::max(it->second.second, c.first_height);
+      m.energy = std::max(m.energy, c.energy);
+      m.speed = std::max(m.speed, c.speed);
+      if (std::isfinite(c.first_height)) m.height = std::max(m.height, c.first_height);
     }
-    it->second.second = std::max(it->second.second, c.later_height);
+    m.height = std::max(m.height, c.later_height);
     current_.cell = -1;
   }
 
@@ -235,6 +240,7 @@ class Observer {
   struct Current {
     std::int64_t cell = -1;
     double energy = 0.0;
+    double speed = 0.0;
     double first_height = 0.0;  // of the first sample in the cell (m, NaN off the ground)
     double later_height = 0.0;  // largest of the later samples on the ground (m, −∞ if none)
   };
@@ -244,7 +250,11 @@ class Observer {
   const dda::Model& model_;
   std::uint32_t index_;
   RealizationResult& out_;
-  std::unordered_map<std::int64_t, std::pair<double, double>> cells_;
+  // A cell's maxima over the samples merged so far: kinetic energy (J), height (m), speed (m/s).
+  struct Maxima {
+    double energy = 0.0, height = 0.0, speed = 0.0;
+  };
+  std::unordered_map<std::int64_t, Maxima> cells_;
   Current current_;
 };
 

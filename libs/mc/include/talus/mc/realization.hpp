@@ -61,12 +61,13 @@ struct TrajectoryPoint {
   dda::TrajectorySample sample;
 };
 
-/// What one realization contributed to a hazard cell: the largest kinetic energy (J) and
-/// passing height (m) its path had there.
+/// What one realization contributed to a hazard cell: the largest kinetic energy (J),
+/// passing height (m) and centroid speed (m/s) its path had there.
 struct CellVisit {
   std::int64_t cell = 0;
   double energy = 0.0;
   double height = 0.0;
+  double speed = 0.0;
 };
 
 /// Everything one realization produced.
@@ -95,8 +96,9 @@ struct ReleaseDraw {
 };
 ReleaseDraw draw_release(const Scene& scene, const terrain::Surface& ground, std::uint32_t index);
 
-/// Per-cell hazard accumulators: how many realizations reached each cell, and sketches of
-/// their energies and passing heights there (P95/P99 without storing trajectories).
+/// Per-cell hazard accumulators: how many realizations reached each cell, sketches of
+/// their energies and passing heights there (P95/P99 without storing trajectories), and
+/// the largest speed and passing height of any of them.
 /// Counts are integers and sketches merge exactly, so the result does not depend on the
 /// order realizations are added or shards merged.
 class HazardAccumulator {
@@ -104,10 +106,12 @@ class HazardAccumulator {
   HazardAccumulator() = default;
   HazardAccumulator(const HazardGridSpec& spec, double relative_accuracy);
 
-  /// The flat form stored in files: cells with reach > 0 ascending; for each sketch
-  /// the (cell, bucket index, count) triplets in ascending (cell, index) order.
+  /// The flat form stored in files: cells with reach > 0 ascending, with their maxima
+  /// (empty in files written before they were kept: the maxima are then unknown, NaN); for
+  /// each sketch the (cell, bucket index, count) triplets in ascending (cell, index) order.
   struct Table {
     std::vector<std::int64_t> cell, reach, energy_zero, height_zero;
+    std::vector<double> speed_max, height_max;
     std::vector<std::int64_t> energy_cell, energy_count;
     std::vector<std::int32_t> energy_index;
     std::vector<std::int64_t> height_cell, height_count;
@@ -131,6 +135,8 @@ class HazardAccumulator {
     std::uint64_t reach = 0;
     stats::QuantileSketch energy;
     stats::QuantileSketch height;
+    double max_speed = 0.0;   ///< m/s; NaN when a merged file did not keep it
+    double max_height = 0.0;  ///< m; NaN likewise
   };
   const std::map<std::int64_t, Cell>& cells() const { return cells_; }
 

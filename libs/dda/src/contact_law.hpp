@@ -281,8 +281,8 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
   // the rest of the step, and so is every contact that changes state after
   // `max_open_close_iterations`. The iteration therefore always ends, after at most
   // max_open_close_iterations + 5·(contacts) + 1 solves (the last ones dropping friction
-  // that would push, below); a held contact carries at most
-  // the small tension or slip error of one state flip (counted in Counters::held_contacts).
+  // that would push, below); a held contact carries at most the small tension or slip
+  // error of one state flip (counted in Counters::held_contacts).
   thread_local std::vector<std::uint8_t> visited;
   thread_local std::vector<std::uint8_t> held;
   visited.assign(contacts.size(), 0);

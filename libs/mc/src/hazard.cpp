@@ -30,10 +30,11 @@ void HazardAccumulator::add(const std::vector<CellVisit>& visits) {
   for (const CellVisit& v : visits) {
     Cell& c = cell(v.cell);
     ++c.reach;
+    const double height = std::max(v.height, 0.0);
     c.energy.add(std::max(v.energy, 0.0));
-    c.height.add(std::max(v.height, 0.0));
-    c.max_speed = std::max(c.max_speed, v.speed);
-    c.max_height = std::max(c.max_height, std::max(v.height, 0.0));
+    c.height.add(height);
+    c.max_speed = max_or_unknown(c.max_speed, v.speed);
+    c.max_height = max_or_unknown(c.max_height, height);
   }
 }
 

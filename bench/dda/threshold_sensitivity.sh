@@ -39,7 +39,7 @@ for level in "${levels[@]}"; do
       --set roughness.roughness_index="${level##*:}" -o "$out/terrain-${level%%:*}.h5"
 done
 [ -f "$out/platonic.h5" ] || "$bin/block-gen" -q -c "$repo/samples/blocks/platonic.yaml" -o "$out/platonic.h5"
-default_of() { "$bin/dda-run" --print-config | awk -v k="$1:" '$1 == k { print $2; exit }'; }
+default_of() { "$bin/dda-run" --print-config | awk -v k="$1:" '$1 == k && !found { print $2; found = 1 }'; }  # reads all: an early exit would SIGPIPE dda-run
 toe() {
   "$python" - "$1" <<'PY'
 import sys, h5py, numpy as np

@@ -439,7 +439,7 @@ fi
 # flat on it (dda-run may refuse that height: the case then reports the refusal).
 theta=30
 half_edge=0.5
-if "$bin/dda-run" --print-config | grep -q 'height_reference'; then
+if "$bin/dda-run" --print-config | grep 'height_reference' > /dev/null; then  # grep -q would stop reading: SIGPIPE under pipefail
   rest_release=(release.height_reference=lowest_point release.height=1e-6)
 else
   h=$(awk -v a=$half_edge -v t=$theta 'BEGIN { printf "%.17g", a / cos(t * atan2(0, -1) / 180) + 1e-6 }')

@@ -449,12 +449,21 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
       const Vec3 ut = du - c.normal * c.normal.dot(du);
       member_slip.push_back(ut.norm() > 0.0 ? Vec3(ut.normalized()) : c.slip_direction);
     }
+    // The held state of member k: its mode and what goes with it. (An anchor a trial set
+    // for a contact closing locked stays: it is where the contact touches at the step
+    // start whichever combination set it, and the chosen solution's shear force acts on it.)
+    auto restore = [&](std::size_t k) {
+      Contact& c = contacts[members[k]];
+      c.mode = member_start[k].mode;
+      c.resume = member_start[k].resume;
+      c.slip_direction = member_start[k].slip_direction;
+    };
     // Combination `code` in base 3, one digit per member: 0 open, 1 sliding, 2 locked.
     auto set_modes = [&](unsigned code) {
       for (std::size_t k = 0; k < members.size(); ++k, code /= 3) {
         Contact& c = contacts[members[k]];
         const ContactMode start_mode = member_start[k].mode;
-        c = member_start[k];
+        restore(k);
         const unsigned digit = code % 3;
         if (digit == 0) {
           c.mode = ContactMode::open;
@@ -474,8 +483,7 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
     for (unsigned code = 0; code < combinations; ++code) {
       set_modes(code);
       bool usable = true;
-      unsigned digits = code;
-      for (std::size_t k = 0; k < members.size(); ++k, digits /= 3) {
+      for (std::size_t k = 0; k < members.size(); ++k) {
         const Contact& c = contacts[members[k]];
         if (c.mode == member_start[k].mode && (c.mode != ContactMode::sliding || c.slip_direction == member_start[k].slip_direction))
           continue;
@@ -496,7 +504,7 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
       }
     }
     if (chosen == combinations) {
-      for (std::size_t k = 0; k < members.size(); ++k) contacts[members[k]] = member_start[k];
+      for (std::size_t k = 0; k < members.size(); ++k) restore(k);
       return false;
     }
     set_modes(chosen);

@@ -402,8 +402,14 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
   // friction: the solution of the small complementarity problem. If none is, the one that
   // violates least (penetration or tension, m). True if it changed the modes; d then
   // holds the chosen solution.
+  // A member's held state: its mode and what goes with it.
+  struct HeldState {
+    ContactMode mode;
+    ContactMode resume;
+    Vec3 slip_direction;
+  };
   thread_local std::vector<std::size_t> members;
-  thread_local std::vector<Contact> member_start;
+  thread_local std::vector<HeldState> member_start;
   thread_local std::vector<Vec3> member_slip;
   auto complement = [&]() {
     const std::uint8_t open_bit = bit(ContactMode::open);
@@ -444,14 +450,14 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
     member_slip.clear();
     for (const std::size_t i : members) {
       const Contact& c = contacts[i];
-      member_start.push_back(c);
+      member_start.push_back({c.mode, c.resume, c.slip_direction});
       const Vec3 du = work[i].t * d;
       const Vec3 ut = du - c.normal * c.normal.dot(du);
       member_slip.push_back(ut.norm() > 0.0 ? Vec3(ut.normalized()) : c.slip_direction);
     }
-    // The held state of member k: its mode and what goes with it. (An anchor a trial set
-    // for a contact closing locked stays: it is where the contact touches at the step
-    // start whichever combination set it, and the chosen solution's shear force acts on it.)
+    // Back to member k's held state. (An anchor a trial set for a contact closing locked
+    // stays: it is where the contact touches at the step start whichever combination set
+    // it, and the chosen solution's shear force acts on it.)
     auto restore = [&](std::size_t k) {
       Contact& c = contacts[members[k]];
       c.mode = member_start[k].mode;
@@ -482,12 +488,14 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
     VecN<N> x, best_x = d;
     for (unsigned code = 0; code < combinations; ++code) {
       set_modes(code);
+      // The held modes are solved again too: the anchor and spring-zero moves of the last
+      // iteration came after d was solved. A changed member must be possible: without
+      // friction a closed contact only slides, and a sliding one needs a direction.
       bool usable = true;
       for (std::size_t k = 0; k < members.size(); ++k) {
         const Contact& c = contacts[members[k]];
         if (c.mode == member_start[k].mode && (c.mode != ContactMode::sliding || c.slip_direction == member_start[k].slip_direction))
           continue;
-        // Without friction a closed contact only slides; a sliding one needs a direction.
         if (c.mode == ContactMode::locked && !(friction > 0.0)) usable = false;
         if (c.mode == ContactMode::sliding && friction > 0.0 && c.slip_direction.squaredNorm() == 0.0) usable = false;
       }

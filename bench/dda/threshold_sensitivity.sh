@@ -8,7 +8,8 @@
 #   bench/dda/threshold_sensitivity.sh [--bin DIR] [--out DIR] [--realizations N] [SETTING ...]
 #
 # SETTING: engine keys to vary (default: impact_min_normal_speed rest_kinetic_energy
-# rest_dwell max_displacement_ratio penalty_omega max_open_close_iterations).
+# rest_dwell max_displacement_ratio penalty_omega max_open_close_iterations
+# max_step_energy_gain).
 # Needs TALUS_PYTHON (default /usr/bin/python3) with h5py and numpy.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
@@ -23,14 +24,14 @@ while [ $# -gt 0 ]; do
     --bin) bin=$2; shift ;;
     --out) out=$2; shift ;;
     --realizations) n=$2; shift ;;
-    -h|--help) sed -n '2,13p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,14p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
     -*) echo "threshold_sensitivity.sh: unknown option '$1'" >&2; exit 2 ;;
     *) keys+=("$1") ;;
   esac
   shift
 done
 [ ${#keys[@]} -gt 0 ] || keys=(impact_min_normal_speed rest_kinetic_energy rest_dwell max_displacement_ratio
-                                penalty_omega max_open_close_iterations)
+                                penalty_omega max_open_close_iterations max_step_energy_gain)
 mkdir -p "$out"
 levels=(S1:0.125 S2:0.25 S3:0.5)
 for level in "${levels[@]}"; do

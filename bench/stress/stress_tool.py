@@ -28,7 +28,12 @@ import numpy as np
 END_REASONS = ["rest", "left_terrain", "step_limit", "non_finite", "no_convergence", "penetration"]
 FAILURE_REASONS = {"non_finite", "no_convergence", "penetration"}
 # Per-realization diagnostics the engine may write; shown when the run file has them.
-OPTIONAL_COLUMNS = [("invariant_violations", "sum"), ("max_energy_gain", "max"), ("max_overlap", "max"), ("energy_removed", "sum")]
+OPTIONAL_COLUMNS = [("invariant_violations", "sum"), ("max_energy_gain", "max"), ("max_overlap", "max"), ("energy_removed", "sum"),
+                    ("limiter_share", "max")]
+# A realization from which the energy limiter takes more than this share of its peak kinetic
+# energy fails: the limiter is for round-off, the step control redoes steps that gain more
+# (docs/dda.md, Step control).
+LIMITER_SHARE = 0.02
 
 
 # ----------------------------------------------------------------------------- geometry
@@ -430,6 +435,12 @@ def evaluate(c):
             res["optional"][col] = (float(vals.sum() if how == "sum" else vals.max()) if n else 0.0)
             if col == "invariant_violations":
                 failed |= vals > 0
+    if "energy_removed" in run and "max_kinetic_energy" in run:
+        removed = np.asarray(run["energy_removed"], dtype=float)
+        peak = np.asarray(run["max_kinetic_energy"], dtype=float)
+        share = removed / np.maximum(peak, np.finfo(float).tiny)
+        res["optional"]["limiter_share"] = float(share.max()) if n else 0.0
+        failed |= (removed > 0.0) & (share > LIMITER_SHARE)
     res["failures"] = int(failed.sum())
     # The first failing realization indices, to rerun them.
     res["failed_realizations"] = [int(i) for i in np.asarray(run["realization"])[failed][:4]]

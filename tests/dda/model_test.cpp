@@ -126,6 +126,16 @@ TEST(DdaModel, StiffnessIsRelativeToTheBlock) {
   EXPECT_EQ(build_error(set, testing::cube(1.0)), "dda settings: penalty_omega = 0.5: must be in [3, 300]");
 }
 
+// The energy-gain bound of the step control is a fraction; 0 turns the redo off.
+TEST(DdaModel, StepEnergyGainBoundIsValidated) {
+  Settings set;
+  set.max_step_energy_gain = 0.0;
+  EXPECT_NO_THROW(Model::build(set, testing::cube(1.0)));
+  set.max_step_energy_gain = -0.01;
+  EXPECT_EQ(build_error(set, testing::cube(1.0)),
+            "dda settings: max_step_energy_gain = -0.01: must be >= 0 (0 = never redo)");
+}
+
 // The step control is scaled by the block's thickness as well as its diameter: a needle
 // may not move by its own thickness in one step, a cube keeps its diameter.
 TEST(DdaModel, StepControlScaleFollowsTheThinnestAxis) {

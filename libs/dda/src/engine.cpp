@@ -342,6 +342,53 @@ double time_of_impact(const Model& model, const State& s, const Pose& pose, cons
   return toi;
 }
 
+// A closed contact's springs at the end of a step with displacement d: the normal gap g
+// (m, negative when compressed) and, for a locked anchored contact, the shear stretch
+// (m; 0 otherwise).
+struct EndSprings {
+  double gap = 0.0;
+  double stretch = 0.0;
+};
+
+template <int N>
+EndSprings end_springs(const Pose& pose, const Contact& c, const VecN<N>& d) {
+  EndSprings out;
+  out.gap = c.gap - c.gap_offset + c.normal.dot(point_displacement<N>(c.point - pose.centre, d));
+  if (c.mode == ContactMode::locked && c.anchored) {
+    const Vec3 xa = pose.centre + pose.map * c.body_anchor;
+    const Vec3 sv = xa + point_displacement<N>(xa - pose.centre, d) - c.ground_anchor;
+    out.stretch = (sv - c.normal * c.normal.dot(sv)).norm();
+  }
+  return out;
+}
+
+// The total energy (kinetic, potential, strain and contact springs, J) the state would
+// have after the displacement d over dt; s is left as it was.
+template <int N>
+double energy_after(const Model& model, State& s, const Pose& pose, const std::vector<Contact>& contacts,
+                    const VecN<N>& d, double dt, bool freeze_strain) {
+  const double p = model.stiffness;
+  const double ps = p / model.settings.shear_stiffness_ratio;
+  double springs = 0.0;
+  for (const Contact& c : contacts) {
+    if (c.mode == ContactMode::open) continue;
+    const EndSprings e = end_springs<N>(pose, c, d);
+    springs += 0.5 * p * std::min(0.0, e.gap) * std::min(0.0, e.gap) + 0.5 * ps * e.stretch * e.stretch;
+  }
+  const Vec3 position = s.position;
+  const Eigen::Quaterniond orientation = s.orientation;
+  const Vec12 velocity = s.velocity;
+  const Mat3 stretch = s.stretch;
+  apply_displacement<N>(model, s, d, dt, freeze_strain);
+  const double total = kinetic_energy(model, s) + model.mass * model.settings.gravity * s.position.z() +
+                       strain_energy(model, s) + springs;
+  s.position = position;
+  s.orientation = orientation;
+  s.velocity = velocity;
+  s.stretch = stretch;
+  return total;
+}
+
 template <int N>
 void contact_step(const Model& model, const Ground& ground, State& s) {
   const Settings& set = model.settings;
@@ -410,6 +457,18 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
         continue;
       }
     }
+    if (factor == 1.0 && dt > set.min_time_step && set.max_step_energy_gain > 0.0) {
+      // The step's energy balance is its error estimate: nothing in the model is a source,
+      // so a solution that gains more than `max_step_energy_gain` (1 %) of the kinetic
+      // energy plus m·g·radius is wrong -- an open–close iteration that never settled, a
+      // feature pair crossing a terrain edge deep inside -- and is redone with a shorter
+      // step; only at the smallest one does the energy limiter take the gain back.
+      const double gain = energy_after<N>(model, s, pose, contacts, d, dt, freeze_strain) - energy_start;
+      if (gain > set.max_step_energy_gain * (kinetic_now + model.mass * set.gravity * model.radius)) {
+        factor = 0.3;
+        ++s.counters.energy_cuts;
+      }
+    }
     if (factor == 1.0) break;
     if (dt <= set.min_time_step) {
       if (!outcome.converged) {
@@ -458,9 +517,7 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
     c.spring_gap = std::min(0.0, g);
     c.spring_shear = std::numeric_limits<double>::infinity();
     if (c.mode == ContactMode::locked && c.anchored) {
-      const Vec3 xa = pose.centre + pose.map * c.body_anchor;
-      const Vec3 sv = xa + point_displacement<N>(xa - pose.centre, d) - c.ground_anchor;
-      const double stretch = (sv - c.normal * c.normal.dot(sv)).norm();
+      const double stretch = end_springs<N>(pose, c, d).stretch;
       c.spring_shear = ps_end * stretch;
       spring_energy += 0.5 * ps_end * stretch * stretch;
     }

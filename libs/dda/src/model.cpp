@@ -63,6 +63,9 @@ void Settings::visit(core::SettingsVisitor& v) {
           "normal over shear contact spring stiffness");
   v.field("max_open_close_iterations", max_open_close_iterations, "-",
           "open-close iterations after which a contact that changes state is held in it");
+  v.field("max_step_energy_gain", max_step_energy_gain, "-",
+          "energy gain of a contact step, over kinetic energy + m*g*radius, beyond which the step is redone "
+          "shorter; 0 = never");
   v.field("penetration_limit_ratio", penetration_limit_ratio, "-",
           "penetration over block diameter that ends a realization as a numerical failure");
   v.field("gravity", gravity, "m/s^2", "gravitational acceleration (along -z)");
@@ -121,6 +124,8 @@ void validate(const Settings& s) {
   require_range(s.max_open_close_iterations >= 1 && s.max_open_close_iterations <= 1000,
                 "max_open_close_iterations", static_cast<double>(s.max_open_close_iterations),
                 "must be in [1, 1000]");
+  require_range(s.max_step_energy_gain >= 0.0, "max_step_energy_gain", s.max_step_energy_gain,
+                "must be >= 0 (0 = never redo)");
   require_range(s.penetration_limit_ratio > 0.0, "penetration_limit_ratio", s.penetration_limit_ratio,
                 "must be > 0");
   require_range(s.gravity >= 0.0, "gravity", s.gravity, "must be >= 0");

@@ -44,6 +44,11 @@ struct Settings {
   /// Open–close iterations after which a contact that changes state is held in its new
   /// state for the rest of the step (-): the iteration always ends (docs/dda.md).
   std::int64_t max_open_close_iterations = 8;
+  /// A contact step whose solution gains more energy than this fraction of the kinetic
+  /// energy plus m·g·radius is redone with a shorter step (-); 0 = never redone (the
+  /// energy limiter alone takes the gain back). Nothing in the model is a source, so the
+  /// gain is the step's error (docs/dda.md, Energy limiter).
+  double max_step_energy_gain = 0.01;
   /// A closed contact deeper than this fraction of the block diameter ends the run as a
   /// numerical failure (-).
   double penetration_limit_ratio = 0.05;

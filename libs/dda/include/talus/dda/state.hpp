@@ -84,6 +84,7 @@ struct Counters {
   std::uint64_t contact_steps = 0;    ///< accepted steps with contact search
   std::uint64_t redone_steps = 0;     ///< steps redone with a smaller Δt
   std::uint64_t impact_cuts = 0;      ///< steps shortened to end at the moment of an impact
+  std::uint64_t energy_cuts = 0;      ///< steps redone with a smaller Δt because they gained energy
   std::uint64_t open_close_iterations = 0;
   std::uint64_t contacts = 0;         ///< contact candidates found, summed over steps
   std::uint64_t offset_contacts = 0;  ///< contacts first found already penetrated

@@ -180,6 +180,61 @@ TEST(DdaImpact, LawRemovesAtMostTheNormalApproachEnergy) {
 
 // Penetration push-out never injects energy: with the restitution law off, a block
 // dropped on flat ground (face, edge and corner first) never gains mechanical energy.
+// A block that slides down a slope face onto flat ground hits the flat while its contact
+// on the face is still closed: that arrival is an impact along the flat's normal, so the
+// restitution law bounds the rebound. (Before, it was part of the sliding episode, had no
+// law, and the stiff spring threw the block back up with its whole kinetic energy.) Cube
+// of 1 m released at rest on a 40° face (μ = 0.2) that meets a flat floor at x = 0.
+TEST(DdaImpact, ArrivalWhileSlidingIsAnImpact) {
+  geometry::TriangleMesh mesh;
+  const double t = std::tan(40.0 * M_PI / 180.0);
+  for (const double y : {-10.0, 10.0})
+    for (const double x : {-20.0, 0.0, 20.0}) mesh.vertices.emplace_back(x, y, x < 0.0 ? -x * t : 0.0);
+  mesh.triangles = {{0, 1, 4}, {0, 4, 3}, {1, 2, 5}, {1, 5, 4}};
+  const terrain::Surface surface = terrain::Surface::from_mesh(mesh);
+  const double r_v = 0.3, k = 12.0;
+  const std::vector<terrain::Material> mats{material(0.2, r_v, k)};
+  const Ground g{&surface, mats};
+  Settings set;
+  set.check_invariants = true;
+  const Model m = Model::build(set, cube(1.0));
+  State s = start(m, testing::on_incline(40.0, 1.0, -10.0, 0.0), impacts());
+  Vec3 v_in = Vec3::Zero();
+  double kinetic_in = 0.0, kinetic_out = -1.0;
+  std::int64_t closed_at_arrival = 0;
+  while (s.end == EndReason::running && s.time < 6.0) {
+    const Vec3 v = s.velocity.head<3>();
+    const double kinetic = kinetic_energy(m, s);
+    const std::int64_t closed =
+        std::count_if(s.contacts.begin(), s.contacts.end(), [](const Contact& c) { return c.mode != ContactMode::open; });
+    step(m, g, s);
+    if (s.impacts == 1 && kinetic_in == 0.0) {
+      v_in = v;
+      kinetic_in = kinetic;
+      closed_at_arrival = closed;
+    }
+    if (s.impacts == 1 && !(s.episode.active && s.episode.impact)) {
+      kinetic_out = kinetic_energy(m, s);  // the rebound, after the law
+      break;
+    }
+  }
+  ASSERT_EQ(s.impacts, 1) << "no impact at the foot of the face";
+  ASSERT_GE(kinetic_out, 0.0) << "the impact never ended";
+  EXPECT_GT(closed_at_arrival, 0) << "the cube was sliding on the face when it reached the floor";
+  const double v_n = -v_in.z();  // approach along the floor's normal
+  EXPECT_GT(v_n, 5.0);
+  // The scaled law: the rebound keeps at most (R_v·SF)² of the impact's kinetic energy,
+  // or, where that would remove more than the normal approach energy ½·m·v_n², what is
+  // left after removing that (the raw rebound has no more than the impact brought).
+  const double speed = v_in.norm();
+  const double sf = 1.0 / (1.0 + (speed / k) * (speed / k));
+  const double allowed = std::max(r_v * sf * r_v * sf * kinetic_in, kinetic_in - 0.5 * m.mass * v_n * v_n);
+  EXPECT_LE(kinetic_out, allowed * (1.0 + 1e-9)) << "in " << kinetic_in << " J";
+  EXPECT_LT(kinetic_out, 0.7 * kinetic_in);
+  EXPECT_EQ(s.counters.energy_violations, 0u);
+  EXPECT_EQ(s.counters.depth_violations, 0u);
+}
+
 TEST(DdaImpact, NoEnergyGainWithoutTheLaw) {
   const terrain::Surface flat = incline(0.0);
   const std::vector<terrain::Material> mats{material(0.4)};

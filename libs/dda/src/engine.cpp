@@ -491,6 +491,11 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   const double keep_gap = 1e-6 * model.radius;
   s.contacts.clear();
   bool any_closed = false;
+  // The contact closing in this step whose normal the centroid approaches fastest, if
+  // that is at an impact's speed: its approach (m/s), normal and triangle.
+  double arrival_speed = set.impact_min_normal_speed;
+  Vec3 arrival_normal = Vec3::Zero();
+  std::int32_t arrival_triangle = -1;
   double spring_energy = 0.0;
   // Contacts closed through the whole step: their end points (world), normals and, for
   // those that end it locked, the friction impulse they can carry (settle_contacts).
@@ -526,6 +531,11 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
       if (slip.norm() > 1e-12) c.slip_direction = slip.normalized();
     }
     any_closed = true;
+    if (start_modes[i] == ContactMode::open && -v_start.dot(c.normal) >= arrival_speed) {
+      arrival_speed = -v_start.dot(c.normal);
+      arrival_normal = c.normal;
+      arrival_triangle = c.triangle;
+    }
     spring_energy += 0.5 * p * std::min(0.0, g) * std::min(0.0, g);
     if (start_modes[i] != ContactMode::open)
       persistent.push_back({c.point + du, c.normal,
@@ -543,8 +553,16 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   ++s.counters.contact_steps;
   s.last_step_contact = true;
   s.touched = s.touched || any_closed;
-  if (any_closed && !s.episode.active) start_episode(model, ground, s, v_start, kinetic_start);
-  else if (!any_closed && s.episode.active) end_episode(model, s);
+  if (any_closed && !s.episode.active) {
+    start_episode(model, ground, s, v_start, kinetic_start);
+  } else if (s.episode.active && !s.episode.impact && arrival_triangle >= 0) {
+    // A contact that closes at an impact's approach speed while others are closed (a
+    // block sliding down the slope face at 13 m/s that reaches the flat toe hits it at 9
+    // m/s along its normal): an impact along that contact's normal, not part of the
+    // rolling or sliding episode, which has no law. Left in it, the stiff spring sent a
+    // tetrahedron back up from the toe at 9.5 m/s (S1, realization 312).
+    start_episode_along(model, ground, s, v_start, kinetic_start, arrival_normal, arrival_triangle);
+  } else if (!any_closed && s.episode.active) end_episode(model, s);
   else if (s.episode.active && s.episode.impact && rebound_complete(model, s, spring_energy)) finish_impact(model, s);
   if (!(s.episode.active && s.episode.impact)) settle_contacts<N>(model, s, persistent);
   limit_energy(model, s, energy_start);

@@ -43,11 +43,6 @@ double mean_friction(const terrain::Material& mat) {
 }
 
 void start_episode(const Model& model, const Ground& ground, State& s, const Vec3& v_in, double kinetic_in) {
-  Episode& e = s.episode;
-  e = Episode{};
-  e.active = true;
-  e.velocity_in = v_in;
-  e.kinetic_in = kinetic_in;
   // The normal-force-weighted mean normal of the closed contacts; equal weights when no
   // contact carries force yet (an impact's first step ends at the moment of touch).
   double total_force = 0.0;
@@ -65,7 +60,18 @@ void start_episode(const Model& model, const Ground& ground, State& s, const Vec
       triangle = c.triangle;
     }
   }
-  e.normal = n.norm() > 0.0 ? Vec3(n.normalized()) : Vec3::UnitZ();
+  start_episode_along(model, ground, s, v_in, kinetic_in, n.norm() > 0.0 ? Vec3(n.normalized()) : Vec3::UnitZ(),
+                      triangle);
+}
+
+void start_episode_along(const Model& model, const Ground& ground, State& s, const Vec3& v_in, double kinetic_in,
+                         const Vec3& normal, std::int32_t triangle) {
+  Episode& e = s.episode;
+  e = Episode{};
+  e.active = true;
+  e.velocity_in = v_in;
+  e.kinetic_in = kinetic_in;
+  e.normal = normal;
   const double approach = -v_in.dot(e.normal);
   e.approach_speed = std::max(0.0, approach);
   if (approach < model.settings.impact_min_normal_speed) return;

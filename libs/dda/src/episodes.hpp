@@ -16,6 +16,10 @@ double mean_friction(const terrain::Material& mat);
 /// energy `kinetic_in` (J) of the step start; an impact when the normal approach speed is
 /// at least impact_min_normal_speed (draws R_v, μ and the lateral tilt).
 void start_episode(const Model& model, const Ground& ground, State& s, const Vec3& v_in, double kinetic_in);
+/// The same along a given ground `normal` (unit), the material that of `triangle`: an
+/// impact that arrives while other contacts are closed (docs/dda.md, Impact–rebound).
+void start_episode_along(const Model& model, const Ground& ground, State& s, const Vec3& v_in, double kinetic_in,
+                         const Vec3& normal, std::int32_t triangle);
 /// Applies the restitution law to the rebound of the impact in progress; the episode
 /// goes on as a rolling/sliding one if contacts stay closed.
 void finish_impact(const Model& model, State& s);

@@ -62,7 +62,9 @@ def series(run, toe):
         out.append((name, {
             "runout": run["runout"][sel][rest], "lateral": run["lateral"][sel][rest],
             "max_speed": run["max_speed"][sel][ok], "max_jump_height": run["max_jump_height"][sel][ok],
-            "max_normal_jump_height": run["max_normal_jump_height"][sel][ok],
+            # Absent from run files written before the normal-to-slope jump existed.
+            "max_normal_jump_height": run["max_normal_jump_height"][sel][ok] if "max_normal_jump_height" in run
+            else np.full(int(ok.sum()), np.nan),
             "bench": float(np.mean(np.isin(run["stop_class"][sel], bench))),
             "toe": float(np.mean(run["final_position"][sel][:, 0] >= toe)),
         }))

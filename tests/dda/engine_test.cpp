@@ -178,8 +178,6 @@ TEST(DdaImpact, LawRemovesAtMostTheNormalApproachEnergy) {
   }
 }
 
-// Penetration push-out never injects energy: with the restitution law off, a block
-// dropped on flat ground (face, edge and corner first) never gains mechanical energy.
 // A block that slides down a slope face onto flat ground hits the flat while its contact
 // on the face is still closed: that arrival is an impact along the flat's normal, so the
 // restitution law bounds the rebound. (Before, it was part of the sliding episode, had no
@@ -235,6 +233,8 @@ TEST(DdaImpact, ArrivalWhileSlidingIsAnImpact) {
   EXPECT_EQ(s.counters.depth_violations, 0u);
 }
 
+// Penetration push-out never injects energy: with the restitution law off, a block
+// dropped on flat ground (face, edge and corner first) never gains mechanical energy.
 TEST(DdaImpact, NoEnergyGainWithoutTheLaw) {
   const terrain::Surface flat = incline(0.0);
   const std::vector<terrain::Material> mats{material(0.4)};

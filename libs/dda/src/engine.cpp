@@ -380,8 +380,7 @@ double energy_after(const Model& model, State& s, const Pose& pose, const std::v
   const Vec12 velocity = s.velocity;
   const Mat3 stretch = s.stretch;
   apply_displacement<N>(model, s, d, dt, freeze_strain);
-  const double total = kinetic_energy(model, s) + model.mass * model.settings.gravity * s.position.z() +
-                       strain_energy(model, s) + springs;
+  const double total = mechanical_energy(model, s) + strain_energy(model, s) + springs;
   s.position = position;
   s.orientation = orientation;
   s.velocity = velocity;

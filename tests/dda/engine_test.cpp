@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -44,6 +45,51 @@ TEST(DdaFlight, ProjectileIsExact) {
     // No terrain contact yet: the release flight is no jump.
     EXPECT_EQ(f.max_jump_height, 0.0) << dof;
   }
+}
+
+// A block that flies close to the ground without touching it makes no contact step: the
+// flight test looks at the block's vertices against the planes of the triangles below,
+// then at the contact search's candidates on the free motion, and only a step in which a
+// contact closes is a contact step. A cube hops from 1 mm above a 30° incline, tilted
+// 10° so that one edge is lowest, spinning at 2 rad/s about the normal: until it comes back down it is on
+// the exact parabola and spin, and it lands with the first contact step.
+TEST(DdaFlight, HopNearTheGroundIsFlight) {
+  const double theta = 30.0;
+  const terrain::Surface ground_surface = incline(theta);
+  const std::vector<terrain::Material> materials{material(0.5)};
+  const Ground g{&ground_surface, materials};
+  Settings set;
+  const Model m = Model::build(set, cube(1.0));
+  Release r = testing::on_incline(theta, 1.0, 0.0, 0.0);
+  const Vec3 n = testing::incline_normal(theta);
+  r.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(10.0 * M_PI / 180.0, Vec3::UnitX())) * r.orientation;
+  // Lifted so that the lowest vertex is 1 mm off the plane (n·x = 0).
+  const auto clearance = [&](const State& state) {
+    double least = std::numeric_limits<double>::infinity();
+    for (const Vec3& v : world_vertices(m, state)) least = std::min(least, n.dot(v));
+    return least;
+  };
+  r.position += (1e-3 - clearance(start(m, r, impacts()))) * n;
+  r.velocity = 1.0 * n + 0.5 * testing::incline_down(theta);
+  r.angular_velocity = 2.0 * n;  // about the normal: no point approaches the plane by turning
+  State s = start(m, r, impacts());
+  const Vec3 p0 = r.position;
+  const Vec3 gravity(0.0, 0.0, -kG);
+  std::uint64_t steps_in_flight = 0;
+  while (s.end == EndReason::running && s.counters.contact_steps == 0) {
+    step(m, g, s);
+    if (s.counters.contact_steps > 0) break;
+    ++steps_in_flight;
+    const double t = s.time;
+    EXPECT_LT((s.position - (p0 + r.velocity * t + 0.5 * gravity * t * t)).norm(), 1e-12) << t;
+    EXPECT_LT((s.velocity.segment<3>(3) - r.angular_velocity).norm(), 1e-12) << t;
+    EXPECT_GT(clearance(s), 0.0) << t;  // nothing of the block below the plane
+  }
+  // Up and back down along the normal: 2·v_n/(g cos θ) = 0.24 s, less the last steps.
+  EXPECT_GT(steps_in_flight, 200u);
+  EXPECT_EQ(s.counters.flight_steps, steps_in_flight);
+  EXPECT_EQ(s.counters.contact_steps, 1u);
+  EXPECT_EQ(s.end, EndReason::running);
 }
 
 // A cube at rest on flat ground stays at rest; it sinks by mg/(n·k) with n = 4 vertex

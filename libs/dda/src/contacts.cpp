@@ -52,15 +52,22 @@ bool inside_plan(const TerrainPatch::Triangle& tri, const Vec3& p) {
 }
 
 // Closest points of segments p0-p1 and q0-q1: parameters s (on p) and t (on q) of the
-// infinite lines; callers keep only crossings strictly inside both segments.
+// infinite lines, when both lie in [0, 1]; callers keep only crossings strictly inside
+// both segments. The numerators are compared with the (positive) denominator before
+// dividing: most pairs cross outside a segment, and a quotient outside [0, 1] is exactly
+// a numerator outside [0, denominator], so the divisions are spared without changing a
+// result.
 inline __attribute__((always_inline)) bool line_parameters(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1, double& s, double& t) {
   const Vec3 d1 = p1 - p0, d2 = q1 - q0, r = p0 - q0;
   const double a = d1.dot(d1), e = d2.dot(d2), f = d2.dot(r), c = d1.dot(r), b = d1.dot(d2);
   const double denom = a * e - b * b;
   // Nearly parallel edges meet as vertex–face contacts instead.
   if (denom <= 1e-6 * a * e) return false;
-  s = (b * f - c * e) / denom;
-  t = (a * f - b * c) / denom;
+  const double s_num = b * f - c * e;
+  const double t_num = a * f - b * c;
+  if (s_num < 0.0 || s_num > denom || t_num < 0.0 || t_num > denom) return false;
+  s = s_num / denom;
+  t = t_num / denom;
   return true;
 }
 

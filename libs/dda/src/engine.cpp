@@ -220,6 +220,12 @@ void finish_step(const Model& model, const Ground& ground, State& s, double dt) 
     end_with(s, EndReason::step_limit);
 }
 
+// The contact search distance of a step of length h: twice the farthest any point of
+// the block can move in it, and at least the step control's displacement bound (m).
+double search_reach(const Model& model, const State& s, double h) {
+  return std::max(2.0 * predicted_reach(model, s, h), model.max_step_displacement());
+}
+
 // The swept box of the block's bounding sphere over [t, t+h] on its free parabola.
 geometry::Aabb swept_sphere_box(const Model& model, const State& s, double h) {
   const Vec3 v = s.velocity.head<3>();
@@ -235,22 +241,37 @@ geometry::Aabb swept_sphere_box(const Model& model, const State& s, double h) {
   return box.inflated(model.radius);
 }
 
-// True when no terrain triangle can be touched before time + h.
-bool clear_of_terrain(const Model& model, const Ground& ground, State& s, double h) {
+// True when no terrain triangle can be touched before time + h. A triangle whose box
+// the swept bounding sphere misses is out of reach; one whose box it meets is still out
+// of reach when every vertex of the block (`block`, world, m; null to skip this test)
+// lies farther above the triangle's plane than the contact search distance of the
+// horizon (twice the farthest any block point can move in it): the block is the convex
+// hull of its vertices or inside it, so no point of it can cross that plane in time.
+bool clear_of_terrain(const Model& model, const Ground& ground, State& s, double h,
+                      const std::vector<Vec3>* block) {
   const geometry::Aabb box = swept_sphere_box(model, s, h).inflated(model.max_step_displacement());
+  const double reach = search_reach(model, s, h);
+  const auto above = [&](const Vec3& normal, const Vec3& corner) {
+    if (block == nullptr) return false;
+    for (const Vec3& v : *block)
+      if (normal.dot(v - corner) <= reach) return false;
+    return true;
+  };
   const TerrainPatch& patch = s.patch;
   if (patch.surface == ground.surface && !patch.box.empty() && patch.box.contains(box.lo) && patch.box.contains(box.hi)) {
     // The patch under the block holds every triangle that can meet the box.
     for (const TerrainPatch::Triangle& t : patch.triangles)
-      if (t.box.overlaps(box)) return false;
+      if (t.box.overlaps(box) && !above(t.normal, t.p[0])) return false;
     return true;
   }
   s.scratch_triangles.clear();
   ground.surface->triangles_in_box(box, s.scratch_triangles);
   for (std::int32_t t : s.scratch_triangles) {
+    const auto corners = ground.surface->triangle_vertices(static_cast<std::size_t>(t));
     geometry::Aabb tb;
-    for (const Vec3& p : ground.surface->triangle_vertices(static_cast<std::size_t>(t))) tb.add(p);
-    if (tb.overlaps(box)) return false;
+    for (const Vec3& p : corners) tb.add(p);
+    if (tb.overlaps(box) && !above((corners[1] - corners[0]).cross(corners[2] - corners[0]).normalized(), corners[0]))
+      return false;
   }
   return true;
 }
@@ -275,29 +296,96 @@ void apply_displacement(const Model& model, State& s, const VecN<N>& d, double d
   }
 }
 
+// The rigid displacement of free flight over dt: the exact parabola and the exact spin.
+Eigen::Matrix<double, 6, 1> free_displacement(const Model& model, const State& s, double dt) {
+  Eigen::Matrix<double, 6, 1> d;
+  d.head<3>() = s.velocity.head<3>() * dt + 0.5 * gravity_vector(model) * dt * dt;
+  d.tail<3>() = s.velocity.segment<3>(3) * dt;
+  return d;
+}
+
+// Whether the free motion keeps every candidate in `contacts` open through (0, h]. A
+// candidate's gap on the rigid free motion, linear in the rotation as the contact step
+// computes it, is g(t) = gap + (n·(v + ω × r))·t + ½(n·g)·t²; over one nominal step
+// that is the contact step's own test (a step whose contacts all stay open is the free
+// motion). Over a longer horizon the exact rotation may bring a point closer than the
+// linear term says by up to (|ω|·t)²·radius, which the gap must exceed.
+bool stays_open(const Model& model, const State& s, const std::vector<Contact>& contacts, double h, bool one_step) {
+  const Vec3 v = s.velocity.head<3>();
+  const Vec3 w = s.velocity.segment<3>(3);
+  const Vec3 g = gravity_vector(model);
+  const double turn = w.norm() * h;
+  const double margin = one_step ? 0.0 : turn * turn * model.radius;
+  for (const Contact& c : contacts) {
+    const double rate = c.normal.dot(v + w.cross(c.point - s.position));
+    const double curvature = c.normal.dot(g);
+    const auto gap_at = [&](double t) { return c.gap + rate * t + 0.5 * curvature * t * t; };
+    double least = gap_at(h);
+    // A gap that turns back (ground facing down) is least inside the interval.
+    if (curvature > 0.0 && rate < 0.0 && -rate / curvature < h) least = std::min(least, gap_at(-rate / curvature));
+    if (!(least > margin)) return false;
+  }
+  return true;
+}
+
+// Whether no contact can close before time + h, by the contact search at the reach of a
+// step of length h: it finds no candidate, or (rigid path, no contact carried from the
+// last step) the free motion keeps all it finds open. The candidates stay in
+// scratch_contacts, and a contact step of length h from this pose reuses them.
+bool beyond_contact_reach(const Model& model, const Ground& ground, State& s, double h, bool one_step) {
+  const Pose pose = pose_of(model, s);
+  const PlacedBlock at(model, pose, s.scratch_vertices);
+  s.scratch_contacts.clear();
+  const double reach = search_reach(model, s, h);
+  detect_contacts(at, *ground.surface, reach, model.penetration_limit(), s.patch, s.scratch_contacts);
+  s.scratch_reach = reach;
+  if (s.scratch_contacts.empty()) return true;
+  // A contact carried from the last step (anchored, a micro-gap open) keeps its shear
+  // spring's memory only through a contact step.
+  return model.dof == DofPath::rigid6 && s.contacts.empty() && stays_open(model, s, s.scratch_contacts, h, one_step);
+}
+
 bool flight_step(const Model& model, const Ground& ground, State& s) {
   const double dt = s.dt;
+  s.scratch_reach = -1.0;
   if (s.time + dt > s.clear_until) {
-    // Look ahead over a long horizon first, then shorter ones.
-    bool clear = false;
-    for (const double h : {64.0 * dt, 8.0 * dt, dt}) {
-      // Right after contact the long horizons would fail anyway: test one step.
-      if (h > dt && s.counters.steps > 0 && s.last_step_contact) continue;
-      if (clear_of_terrain(model, ground, s, h)) {
-        s.clear_until = s.time + h;
-        clear = true;
-        break;
-      }
+    // Every test below passes for a horizon only if it passes for any shorter one (the
+    // boxes and distances grow with it): the longest that passes of 64, 8 and 1 steps
+    // is found by testing 8 first. Right after contact the long horizons would fail
+    // anyway: one step is tested.
+    const bool after_contact = s.counters.steps > 0 && s.last_step_contact;
+    const auto longest = [&](const auto& test) {
+      if (after_contact) return test(dt) ? dt : 0.0;
+      if (test(8.0 * dt)) return test(64.0 * dt) ? 64.0 * dt : 8.0 * dt;
+      return test(dt) ? dt : 0.0;
+    };
+    // First the swept bounding sphere against the terrain's triangle boxes (no geometry
+    // of the block); then the block's vertices against the planes of the triangles whose
+    // boxes it meets (a block of few vertices; a detailed one is left to the search);
+    // then, near the ground, the contact search itself (8 steps at most: its candidates
+    // are reused by a contact step of one).
+    double horizon = longest([&](double h) { return clear_of_terrain(model, ground, s, h, nullptr); });
+    if (horizon == 0.0 && model.index == nullptr) {
+      const Pose pose = pose_of(model, s);
+      const PlacedBlock at(model, pose, s.scratch_vertices);
+      horizon = longest([&](double h) { return h < 64.0 * dt && clear_of_terrain(model, ground, s, h, &s.scratch_vertices); });
     }
-    if (!clear) return false;
+    // The search sees a block vertex only against the triangles it lies over (in plan or
+    // along their normals): near a concave kink a vertex moving over the rising side is
+    // found only once it is there. A contact step therefore moves no vertex farther than
+    // the step control's bound, and neither does a flight that the search decides: the
+    // horizon of such a flight is one in which no point of the block can move farther.
+    if (horizon == 0.0)
+      horizon = longest([&](double h) {
+        return h < 64.0 * dt && predicted_reach(model, s, h) <= model.max_step_displacement() &&
+               beyond_contact_reach(model, ground, s, h, h == dt);
+      });
+    if (horizon == 0.0) return false;
+    s.clear_until = s.time + horizon;
   }
   if (model.dof == DofPath::rigid6) {
     // The exact parabola (Shi's scheme reproduces it to round-off) and the exact spin.
-    const Vec3 g = gravity_vector(model);
-    Eigen::Matrix<double, 6, 1> d;
-    d.head<3>() = s.velocity.head<3>() * dt + 0.5 * g * dt * dt;
-    d.tail<3>() = s.velocity.segment<3>(3) * dt;
-    apply_displacement<6>(model, s, d, dt);
+    apply_displacement<6>(model, s, free_displacement(model, s, dt), dt);
   } else {
     // Strains keep oscillating in flight: solve the contact-free 12-DOF step. The
     // stretch update is not linear in the step, so the vibration's energy drifts by a
@@ -314,6 +402,8 @@ bool flight_step(const Model& model, const Ground& ground, State& s) {
   ++s.counters.flight_steps;
   s.last_step_contact = false;
   s.stored_energy = 0.0;
+  // Grow back towards the nominal step after a cut, as a contact step does.
+  s.dt = std::min(model.settings.time_step, dt * 1.3);
   return true;
 }
 
@@ -418,9 +508,13 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   for (;;) {
     {
       PhaseTimer timer(timing, s.times.detect);
-      contacts.clear();
-      const double reach = std::max(2.0 * predicted_reach(model, s, dt), limit);
-      detail::detect_contacts(at, *ground.surface, reach, depth, s.patch, contacts);
+      const double reach = search_reach(model, s, dt);
+      // The flight test may have searched from this pose at this distance already.
+      if (reach != s.scratch_reach) {
+        contacts.clear();
+        detail::detect_contacts(at, *ground.surface, reach, depth, s.patch, contacts);
+      }
+      s.scratch_reach = -1.0;
       if (!s.friction_drawn && !contacts.empty())
         friction = mean_friction(material_of(ground, contacts.front().triangle));
       carry_contacts(s.contacts, contacts, pose, friction, model.stiffness / set.shear_stiffness_ratio, reach,

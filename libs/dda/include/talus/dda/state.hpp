@@ -217,6 +217,10 @@ struct State {
   TerrainPatch patch;
   std::vector<std::int32_t> scratch_triangles;
   std::vector<Contact> scratch_contacts;
+  /// The search distance (m) of the contact search whose candidates scratch_contacts
+  /// holds for the current pose (the flight test's, which a contact step from the same
+  /// pose with the same distance reuses), or a negative value when it holds none.
+  double scratch_reach = -1.0;
   std::vector<Vec3> scratch_vertices;  ///< world vertices of a scanned block (m)
 };
 

@@ -98,7 +98,8 @@ void BM_ContactStepMoving(benchmark::State& bm) {
 BENCHMARK(BM_ContactStepMoving)->Arg(0)->Arg(1);
 
 // A detailed block rolling down the rough 1:1 slope: a 1 m³ ellipsoid of diameters
-// 1.4 × 1.2 × 1.1 m meshed with 20·n² triangles (Arg n: 1280, 5120 and 20480 faces),
+// 1.4 × 1.2 × 1.1 m meshed with 20·n² triangles (Arg n: 20, 500, 1280, 5120 and 20480
+// faces),
 // batches of 500 steps from the same checkpoint. The cost of a step should hardly grow
 // with the face count (the block index, docs/dda.md, Detection).
 void BM_ContactStepDetailed(benchmark::State& bm) {
@@ -120,7 +121,7 @@ void BM_ContactStepDetailed(benchmark::State& bm) {
   bm.counters["contacts"] = static_cast<double>(s.counters.contacts - checkpoint.counters.contacts) /
                             static_cast<double>(s.counters.contact_steps - checkpoint.counters.contact_steps);
 }
-BENCHMARK(BM_ContactStepDetailed)->Arg(8)->Arg(16)->Arg(32);
+BENCHMARK(BM_ContactStepDetailed)->Arg(1)->Arg(5)->Arg(8)->Arg(16)->Arg(32);
 
 // Free flight high above the slope: the exact parabola, no contact search.
 void BM_FlightStep(benchmark::State& bm) {

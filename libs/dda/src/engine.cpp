@@ -275,8 +275,7 @@ bool clear_of_terrain(const Model& model, const Ground& ground, State& s, double
     const auto corners = ground.surface->triangle_vertices(static_cast<std::size_t>(t));
     geometry::Aabb tb;
     for (const Vec3& p : corners) tb.add(p);
-    if (tb.overlaps(box) && !above((corners[1] - corners[0]).cross(corners[2] - corners[0]).normalized(), corners[0]))
-      return false;
+    if (tb.overlaps(box) && !above(ground.surface->normal(static_cast<std::size_t>(t)), corners[0])) return false;
   }
   return true;
 }
@@ -363,8 +362,7 @@ bool flight_step(const Model& model, const Ground& ground, State& s) {
     // First the swept bounding sphere against the terrain's triangle boxes (no geometry
     // of the block); then the block's vertices against the planes of the triangles whose
     // boxes it meets (a block of few vertices; a detailed one is left to the search);
-    // then, near the ground, the contact search itself (8 steps at most: its candidates
-    // are reused by a contact step of one).
+    // then, near the ground, the contact search itself (one step, below).
     double horizon = longest([&](double h) { return clear_of_terrain(model, ground, s, h, nullptr); });
     if (horizon == 0.0 && model.index == nullptr) {
       const Pose pose = pose_of(model, s);

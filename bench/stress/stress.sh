@@ -594,6 +594,11 @@ queue_realization shape/icosahedron-S3 183 200 terrain="$I/bench-S3.h5" block_fi
 # in one step of a block at rest, 0.64 J of it left as height.
 queue_realization shape/octahedron-S3 96 200 terrain="$I/bench-S3.h5" block_file="$I/shapes.h5" \
   "blocks=[octahedron]" release.kind=line "$line_bench" release.height=2.5
+# A cube tipping over the side edge y = 0 of the rough bench slope swung a vertex under
+# the terrain's rim and back inside the footprint, 0.49 m under the ground (overlap 0.70 m
+# at rest); it now leaves the terrain as it tips over the rim.
+queue_realization size/cube-1-S3 136 200 terrain="$I/bench-S3.h5" block_file="$I/cubes.h5" "blocks=[cube-1]" \
+  release.kind=line "$line_bench" release.height=2.5
 queue_realization terrain/dem-spikes 39 200 terrain="$I/dem-spikes.h5" block_file="$I/platonic.h5" \
   release.kind=line 'release.points=[[2,3],[2,27]]'
 # A landing vertex held closed in tension (4.5e7 N) beside a compressed one turned a

@@ -305,6 +305,98 @@ TEST(DdaRealization, EndReasons) {
   EXPECT_NEAR(rest.time, set.rest_dwell, 2e-3);
 }
 
+// A plane rising at `slope_deg` from its rim y = −5 (x, y in [−5, 5]): a TIN of two
+// triangles, or a grid of 0.5 m cells.
+terrain::Terrain cross_slope(double slope_deg, bool grid) {
+  const double t = std::tan(slope_deg * M_PI / 180.0);
+  if (grid) {
+    terrain::DemGrid dem;
+    dem.spec = terrain::GridSpec{-5.0, -5.0, 0.5, 0.5, 21, 21};
+    for (std::int32_t j = 0; j < 21; ++j)
+      for (std::int32_t i = 0; i < 21; ++i) dem.z.push_back(0.5 * j * t);
+    terrain::Terrain out = terrain::build_grid_terrain(dem, terrain::Diagonal::alternating, 1, "cross");
+    out.materials = {testing::material(0.8)};
+    return out;
+  }
+  terrain::Terrain out;
+  for (const auto& [x, y] : {std::pair{-5.0, -5.0}, {5.0, -5.0}, {5.0, 5.0}, {-5.0, 5.0}})
+    out.mesh.vertices.emplace_back(x, y, (y + 5.0) * t);
+  out.mesh.triangles = {{0, 1, 3}, {1, 2, 3}};
+  out.material_of_triangle = {0, 0};
+  out.materials = {testing::material(0.8)};
+  return out;
+}
+
+// A slab of 2 × 2 × 0.5 m resting flat on cross_slope(θ), overhanging the rim by
+// `overhang` (m, along the plane), turning about the rim at `spin` (rad/s, > 0 turns its
+// outer side down).
+Release over_rim(double slope_deg, double overhang, double spin) {
+  const double th = slope_deg * M_PI / 180.0;
+  const double foot_y = -5.0 + (1.0 - overhang) * std::cos(th);
+  Release r;
+  r.position = Vec3(0.3, foot_y, (foot_y + 5.0) * std::tan(th)) + 0.25 * Vec3(0.0, -std::sin(th), std::cos(th));
+  r.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(th, Vec3::UnitX()));
+  r.angular_velocity = Vec3(spin, 0.0, 0.0);
+  r.velocity = r.angular_velocity.cross(r.position - Vec3(0.3, -5.0, 0.0));
+  return r;
+}
+
+// The terrain ends at its rim with nothing beyond. A block that only overhangs it rests
+// (its outer vertices lie on the ground's continued plane); a block that tips over it
+// leaves the terrain as soon as a vertex beyond the rim sinks deeper under the continued
+// ground, and below the rim, than the penetration limit, while its centroid is still
+// inside: it never swings under the sheet, and terrain and block never overlap beyond the
+// limit. A block over a crest, where the continued ground rises, stays. On a TIN and on a
+// grid, flat and on 20° cross slopes.
+TEST(DdaRealization, TippingOverTheRimLeavesTheTerrain) {
+  Settings set;
+  set.check_invariants = true;
+  const Model m = Model::build(set, testing::box(2.0, 2.0, 0.5));
+  for (const bool grid : {false, true}) {
+    for (const double slope : {0.0, 20.0}) {
+      const terrain::Terrain t = cross_slope(slope, grid);
+      const terrain::Surface surface = terrain::Surface::realize(t, std::nullopt);
+      const Ground g{&surface, t.materials};
+      const std::string where = std::string(grid ? "grid" : "TIN") + " slope " + std::to_string(slope);
+      // Overhanging by 0.1 m, with the gravity line inside: rest, where it was put.
+      const Release hang = over_rim(slope, 0.1, 0.0);
+      const Summary rest = run(m, g, hang, core::RandomStream(1, core::Stream::impact, 0));
+      EXPECT_EQ(rest.end, EndReason::rest) << where;
+      EXPECT_LT((rest.final_position - hang.position).norm(), 1e-3) << where;
+      EXPECT_EQ(rest.counters.depth_violations, 0u) << where;
+      // Overhanging by 0.6 m and turning outwards: over the rim, ended with the centroid
+      // inside.
+      const Summary tip = run(m, g, over_rim(slope, 0.6, 3.0), core::RandomStream(1, core::Stream::impact, 0));
+      EXPECT_EQ(tip.end, EndReason::left_terrain) << where;
+      EXPECT_GT(tip.final_position.y(), -5.0) << where;
+      EXPECT_LT(tip.time, 0.5) << where;
+      EXPECT_EQ(tip.counters.depth_violations, 0u) << where;
+      EXPECT_EQ(tip.counters.energy_violations, 0u) << where;
+      // Turning inwards about its inner edge (flat ground), it lifts its overhang, falls
+      // back and stays on the terrain.
+      if (slope == 0.0) {
+        Release in = over_rim(slope, 0.6, 0.0);
+        in.angular_velocity = Vec3(-2.0, 0.0, 0.0);
+        in.velocity = in.angular_velocity.cross(in.position - Vec3(0.3, -3.6, 0.0));
+        const Summary back = run(m, g, in, core::RandomStream(1, core::Stream::impact, 0));
+        EXPECT_EQ(back.end, EndReason::rest) << where;
+        EXPECT_EQ(back.counters.depth_violations, 0u) << where;
+      }
+    }
+    // At a crest (the ground falls away from the rim at 20°, its continued plane rises
+    // beyond it), a slab dropped from 0.5 m overhanging by 0.6 m lands and rests on it.
+    const terrain::Terrain t = cross_slope(-20.0, grid);
+    const terrain::Surface surface = terrain::Surface::realize(t, std::nullopt);
+    const Ground g{&surface, t.materials};
+    Release drop = over_rim(-20.0, 0.6, 0.0);
+    drop.position.z() += 0.5;
+    const Summary crest = run(m, g, drop, core::RandomStream(1, core::Stream::impact, 0));
+    EXPECT_EQ(crest.end, EndReason::rest) << (grid ? "grid" : "TIN");
+    EXPECT_GT(crest.final_position.y(), -5.0) << (grid ? "grid" : "TIN");
+    EXPECT_EQ(crest.counters.depth_violations, 0u) << (grid ? "grid" : "TIN");
+  }
+}
+
 }  // namespace
 }  // namespace talus::dda
 

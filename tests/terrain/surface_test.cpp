@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <map>
 #include <set>
 #include <thread>
 
@@ -528,9 +529,6 @@ TEST(TinSurface, EmptyMeshAnswersNothing) {
   EXPECT_FALSE(s.height_at(0.0, 0.0));
 }
 
-}  // namespace
-}  // namespace talus::terrain
-
 namespace talus::terrain {
 namespace {
 
@@ -562,6 +560,91 @@ TEST(GridSurface, GoldenRealizationHash) {
   Terrain t = build_grid_terrain(dem, Diagonal::random, 2024, "golden");
   t.roughness.sigma = 0.1;
   EXPECT_EQ(surface_hash(Surface::realize(t, 3u)), 14531317782559436885ull);
+}
+
+}  // namespace
+}  // namespace talus::terrain
+
+// The rim is where the surface ends. On a grid it is the border: a box strictly inside is
+// clear of it; a point outside meets it at its clamp onto the grid, at the realized
+// elevation there; a point inside at the nearest side.
+TEST(GridSurface, RimIsTheBorderOfTheGrid) {
+  const Terrain t = rough_grid(Diagonal::random, 0.2, 8, 40, 36);
+  const Surface s = Surface::realize(t, 3u);
+  const Aabb& b = s.bounds();  // x in [-10, 48.5], y in [5, 75]
+  EXPECT_FALSE(s.near_rim(Aabb{Vec3(0, 10, -1e3), Vec3(5, 15, 1e3)}));
+  EXPECT_TRUE(s.near_rim(Aabb{Vec3(-10.5, 10, 0), Vec3(-9, 15, 0)}));
+  EXPECT_TRUE(s.near_rim(Aabb{Vec3(0, 74, 0), Vec3(5, 75, 0)}));
+  const auto beside = s.nearest_rim_point(20.0, 4.2, 1.0);
+  ASSERT_TRUE(beside);
+  EXPECT_EQ(beside->point.x(), 20.0);
+  EXPECT_EQ(beside->point.y(), b.lo.y());
+  EXPECT_EQ(beside->point.z(), s.height_at(20.0, b.lo.y())->z);
+  EXPECT_EQ(beside->triangle, s.height_at(20.0, b.lo.y())->triangle);
+  const auto corner = s.nearest_rim_point(49.0, 76.0, 2.0);
+  ASSERT_TRUE(corner);
+  EXPECT_EQ(corner->point.head<2>(), Eigen::Vector2d(b.hi.x(), b.hi.y()));
+  EXPECT_EQ(corner->point.z(), s.vertex(s.vertex_count() - 1).z());
+  EXPECT_EQ(corner->triangle, s.height_at(b.hi.x(), b.hi.y())->triangle);  // the last cell's
+  EXPECT_GE(corner->triangle, static_cast<std::int32_t>(s.triangle_count() - 2));
+  EXPECT_FALSE(s.nearest_rim_point(20.0, 3.0, 1.0));  // 2 m away
+  const auto inside = s.nearest_rim_point(48.0, 40.0, 1.0);
+  ASSERT_TRUE(inside);
+  EXPECT_EQ(inside->point.x(), b.hi.x());
+  EXPECT_EQ(inside->point.y(), 40.0);
+}
+
+// On a TIN the rim is every edge of one triangle, whatever the footprint's shape (the
+// general TIN: a square sheet with a free-standing wall and roof): the nearest rim point
+// matches a brute-force scan of the edges, on a rough realization, and every realization
+// shares the rim.
+TEST(TinSurface, RimIsTheEdgesOfOneTriangleAndMatchesBruteForce) {
+  Terrain t;
+  t.mesh = general_tin();
+  t.roughness = Roughness{0.2, 5};
+  const Surface base = Surface::realize(t, std::nullopt);
+  const Surface s = base.realization(6u);
+  std::map<std::pair<std::int32_t, std::int32_t>, int> count;
+  for (const auto& tri : t.mesh.triangles)
+    for (int k = 0; k < 3; ++k) ++count[{std::min(tri[k], tri[(k + 1) % 3]), std::max(tri[k], tri[(k + 1) % 3])}];
+  std::map<std::pair<std::int32_t, std::int32_t>, std::int32_t> owner;
+  for (std::size_t f = 0; f < t.mesh.triangles.size(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const auto& tri = t.mesh.triangles[f];
+      owner[{std::min(tri[k], tri[(k + 1) % 3]), std::max(tri[k], tri[(k + 1) % 3])}] = static_cast<std::int32_t>(f);
+    }
+  std::vector<std::pair<std::int32_t, std::int32_t>> rim;
+  for (const auto& [e, n] : count)
+    if (n == 1) rim.push_back(e);
+  // The sheet's border, the wall's two triangles (their vertices are not shared), the roof.
+  ASSERT_EQ(rim.size(), 4u * 24u + 6u + 3u);
+  const RandomStream rng(41, Stream::bootstrap, 0);
+  int found = 0;
+  for (std::uint64_t k = 0; k < 300; ++k) {
+    const double x = -3.0 + 30.0 * rng.uniform(2 * k), y = -3.0 + 30.0 * rng.uniform(2 * k + 1);
+    double best = 2.5, best_z = 0.0;
+    std::int32_t best_t = -1;
+    for (const auto& [i, j] : rim) {
+      const Vec3 a = s.vertex(static_cast<std::size_t>(i)), c = s.vertex(static_cast<std::size_t>(j));
+      const Eigen::Vector2d u = (c - a).head<2>();
+      const double f = std::clamp((Eigen::Vector2d(x, y) - a.head<2>()).dot(u) / u.squaredNorm(), 0.0, 1.0);
+      const Vec3 p = a + f * (c - a);
+      const double d = std::hypot(p.x() - x, p.y() - y);
+      if (d < best - 1e-12 || (d < best + 1e-12 && p.z() > best_z))
+        best = std::min(best, d), best_z = p.z(), best_t = owner[{i, j}];
+    }
+    const auto got = s.nearest_rim_point(x, y, 2.5);
+    ASSERT_EQ(got.has_value(), best < 2.5) << x << " " << y;
+    if (!got) continue;
+    ++found;
+    EXPECT_NEAR(std::hypot(got->point.x() - x, got->point.y() - y), best, 1e-12);
+    EXPECT_NEAR(got->point.z(), best_z, 1e-9);
+    EXPECT_EQ(got->triangle, best_t);
+    EXPECT_TRUE(s.near_rim(Aabb{Vec3(x - 2.5, y - 2.5, 0), Vec3(x + 2.5, y + 2.5, 0)}));
+  }
+  EXPECT_GT(found, 100);
+  EXPECT_FALSE(s.near_rim(Aabb{Vec3(15.5, 18.5, -1e3), Vec3(17.5, 20.5, 1e3)}));
+  EXPECT_FALSE(s.nearest_rim_point(16.5, 19.5, 1.0));
 }
 
 }  // namespace

@@ -158,6 +158,36 @@ void check_energy(const Model& model, State& s) {
   s.checked_energy = total;
 }
 
+// Whether part of the block has dropped past the terrain's rim, where the surface ends
+// with nothing beyond: a vertex with no ground under it lies lower than the rim's nearest
+// point, and deeper under the ground continued past the rim (the plane of that rim
+// point's triangle, where it faces up), by more than the penetration limit. Such a block
+// has tipped or fallen over the edge of the modelled ground: it can only fall on past
+// it, or swing under the sheet and come back inside the footprint below the ground,
+// where nothing holds it and it would overlap the terrain beyond the limit (a cube
+// tipping over the side edge of a rough bench slope did that, to 0.49 m under the
+// ground). A block that overhangs the rim while resting on or moving over the ground
+// lies on the continued plane, and one hanging over the crest of a slope that rises
+// beyond the rim lies above the rim: both go on. The test costs nothing while the
+// block's bounding sphere is clear of the rim.
+bool hangs_past_rim(const Model& model, const terrain::Surface& surf, const State& s) {
+  // The bounding sphere with room for the 12-DOF path's strains.
+  const double r = 1.25 * model.radius;
+  const geometry::Aabb plan{s.position - Vec3::Constant(r), s.position + Vec3::Constant(r)};
+  if (!surf.near_rim(plan)) return false;
+  const double limit = model.penetration_limit();
+  for (const Vec3& p : world_vertices(model, s)) {
+    if (surf.height_at(p.x(), p.y())) continue;
+    const auto rim = surf.nearest_rim_point(p.x(), p.y(), 2.0 * r);
+    if (!rim) continue;
+    const Vec3 n = surf.normal(static_cast<std::size_t>(rim->triangle));
+    const double below = rim->point.z() - p.z();
+    const double depth = n.z() > 0.1 ? std::min(below, n.dot(rim->point - p)) : below;
+    if (depth > limit) return true;
+  }
+  return false;
+}
+
 // Bookkeeping after an accepted step: time, kinetic energy, height, maxima, rest,
 // leaving, trajectory, limits. Each is computed once here and kept in the state for
 // whoever else needs it (the rest test, the trajectory, the driver's observers).
@@ -200,6 +230,10 @@ void finish_step(const Model& model, const Ground& ground, State& s, double dt) 
   const geometry::Aabb& b = surf.bounds();
   if (s.position.x() < b.lo.x() || s.position.x() > b.hi.x() || s.position.y() < b.lo.y() ||
       s.position.y() > b.hi.y() || s.position.z() < b.lo.z() - 2.0 * model.radius) {
+    end_with(s, EndReason::left_terrain);
+    return;
+  }
+  if (hangs_past_rim(model, surf, s)) {
     end_with(s, EndReason::left_terrain);
     return;
   }

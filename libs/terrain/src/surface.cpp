@@ -42,6 +42,50 @@ struct Surface::Impl {
   std::shared_ptr<SharedBounds> bounds;
   mutable const Aabb* bounds_ready = nullptr;  // this Surface's shortcut past the once-flag
 
+  // A TIN's rim: its edges that belong to one triangle, found on first use, once for
+  // every realization (the topology does not change with roughness), with a tree of
+  // their plan boxes (z = 0).
+  struct SharedRim {
+    std::once_flag once;
+    std::vector<std::array<std::int32_t, 2>> edges;
+    std::vector<std::int32_t> triangle_of_edge;
+    geometry::BoxTree tree;
+  };
+  std::shared_ptr<SharedRim> rim;
+
+  const SharedRim& shared_rim() const {
+    std::call_once(rim->once, [this] {
+      // (lower vertex, higher vertex, triangle) of every triangle's edges.
+      std::vector<std::array<std::int32_t, 3>> all;
+      all.reserve(3 * terrain->mesh.triangles.size());
+      for (std::size_t t = 0; t < terrain->mesh.triangles.size(); ++t) {
+        const auto& tri = terrain->mesh.triangles[t];
+        for (int k = 0; k < 3; ++k)
+          all.push_back({std::min(tri[k], tri[(k + 1) % 3]), std::max(tri[k], tri[(k + 1) % 3]),
+                         static_cast<std::int32_t>(t)});
+      }
+      std::sort(all.begin(), all.end());
+      std::vector<Aabb> boxes;
+      for (std::size_t a = 0; a < all.size();) {
+        std::size_t b = a + 1;
+        while (b < all.size() && all[b][0] == all[a][0] && all[b][1] == all[a][1]) ++b;
+        if (b - a == 1) {
+          rim->edges.push_back({all[a][0], all[a][1]});
+          rim->triangle_of_edge.push_back(all[a][2]);
+          Aabb box;
+          for (const std::int32_t v : rim->edges.back()) {
+            const Vec3& p = terrain->mesh.vertices[static_cast<std::size_t>(v)];
+            box.add(Vec3(p.x(), p.y(), 0.0));
+          }
+          boxes.push_back(box);
+        }
+        a = b;
+      }
+      rim->tree.build(boxes);
+    });
+    return *rim;
+  }
+
   const Aabb& shared_bounds() const {
     if (bounds_ready) return *bounds_ready;
     std::call_once(bounds->once, [this] { bounds->box = grid_mode ? grid_bounds() : tin_bounds(); });
@@ -396,6 +440,7 @@ Surface Surface::realize(const Terrain& terrain, std::optional<std::uint32_t> in
   check_terrain(terrain);
   auto impl = make_impl(terrain, index, nullptr);
   impl->bounds = std::make_shared<Impl::SharedBounds>();
+  impl->rim = std::make_shared<Impl::SharedRim>();
   return Surface(std::move(impl));
 }
 
@@ -403,6 +448,7 @@ Surface Surface::realization(std::optional<std::uint32_t> index) const {
   auto impl = make_impl(*impl_->terrain, index, impl_->bvh);
   impl->owned = impl_->owned;
   impl->bounds = impl_->bounds;
+  impl->rim = impl_->rim;
   return Surface(std::move(impl));
 }
 
@@ -472,6 +518,73 @@ void Surface::triangles_in_box(const Aabb& box, std::vector<std::int32_t>& out) 
 
 std::optional<Surface::Hit> Surface::height_at(double x, double y) const {
   return impl_->grid_mode ? impl_->grid_height(x, y) : impl_->tin_height(x, y);
+}
+
+bool Surface::near_rim(const Aabb& box) const {
+  if (impl_->grid_mode) {
+    const Aabb& b = bounds();
+    return box.lo.x() <= b.lo.x() || box.lo.y() <= b.lo.y() || box.hi.x() >= b.hi.x() || box.hi.y() >= b.hi.y();
+  }
+  const Aabb plan{Vec3(box.lo.x(), box.lo.y(), -1.0), Vec3(box.hi.x(), box.hi.y(), 1.0)};
+  const Impl::SharedRim& rim = impl_->shared_rim();
+  bool found = false;
+  rim.tree.search([&](const Aabb& b) { return !found && b.overlaps(plan); },
+                  [&](std::int32_t e) {
+                    Aabb eb;
+                    for (const std::int32_t v : rim.edges[static_cast<std::size_t>(e)]) {
+                      const Vec3& p = impl_->terrain->mesh.vertices[static_cast<std::size_t>(v)];
+                      eb.add(Vec3(p.x(), p.y(), 0.0));
+                    }
+                    found = found || eb.overlaps(plan);
+                  });
+  return found;
+}
+
+std::optional<Surface::RimPoint> Surface::nearest_rim_point(double x, double y, double reach) const {
+  if (!(reach >= 0.0) || !std::isfinite(x) || !std::isfinite(y)) return std::nullopt;
+  if (impl_->grid_mode) {
+    const Aabb& b = bounds();
+    double cx = std::clamp(x, b.lo.x(), b.hi.x());
+    double cy = std::clamp(y, b.lo.y(), b.hi.y());
+    if (cx == x && cy == y) {
+      // Inside: the nearest of the four sides.
+      const double d[4] = {x - b.lo.x(), b.hi.x() - x, y - b.lo.y(), b.hi.y() - y};
+      const int k = static_cast<int>(std::min_element(d, d + 4) - d);
+      if (k == 0) cx = b.lo.x();
+      if (k == 1) cx = b.hi.x();
+      if (k == 2) cy = b.lo.y();
+      if (k == 3) cy = b.hi.y();
+    }
+    if (std::hypot(cx - x, cy - y) > reach) return std::nullopt;
+    const auto hit = impl_->grid_height(cx, cy);
+    if (!hit) return std::nullopt;
+    return RimPoint{Vec3(cx, cy, hit->z), hit->triangle};
+  }
+  const Impl::SharedRim& rim = impl_->shared_rim();
+  const Aabb plan{Vec3(x - reach, y - reach, -1.0), Vec3(x + reach, y + reach, 1.0)};
+  double best = reach;
+  std::int32_t best_e = -1;
+  Vec3 best_p = Vec3::Zero();
+  rim.tree.overlapping(plan, [&](std::int32_t e) {
+    const auto& edge = rim.edges[static_cast<std::size_t>(e)];
+    const Vec3 a = impl_->vertex(static_cast<std::size_t>(edge[0]));
+    const Vec3 b = impl_->vertex(static_cast<std::size_t>(edge[1]));
+    const double ux = b.x() - a.x(), uy = b.y() - a.y();
+    const double len2 = ux * ux + uy * uy;
+    const double t = len2 > 0.0 ? std::clamp(((x - a.x()) * ux + (y - a.y()) * uy) / len2, 0.0, 1.0) : 0.0;
+    const Vec3 p = a + t * (b - a);
+    const double d = std::hypot(p.x() - x, p.y() - y);
+    // Nearest first, then the higher point (the top of a vertical rim), then the lower
+    // edge id: the same answer whatever the tree's order.
+    if (best_e < 0 ? d <= best
+                   : (d < best || (d == best && (p.z() > best_p.z() || (p.z() == best_p.z() && e < best_e))))) {
+      best = d;
+      best_e = e;
+      best_p = p;
+    }
+  });
+  if (best_e < 0) return std::nullopt;
+  return RimPoint{best_p, rim.triangle_of_edge[static_cast<std::size_t>(best_e)]};
 }
 
 geometry::TriangleMesh Surface::to_mesh() const {

@@ -195,6 +195,19 @@ class Surface {
     std::int32_t triangle = -1;
   };
   std::optional<Hit> height_at(double x, double y) const;
+  /// The rim is where the surface ends, with nothing beyond it: the border of a grid, the
+  /// edges of a TIN that belong to one triangle (found on first use, once for every
+  /// realization). True when the rim may pass through the plan box (x and y of `box`;
+  /// a grid: the box is not strictly inside the grid).
+  bool near_rim(const Aabb& box) const;
+  /// The rim's point nearest to (x, y) in plan, with its realized elevation (m), and the
+  /// triangle it belongs to, when one lies within `reach` (m); ties go to the higher
+  /// point, then the lower edge id.
+  struct RimPoint {
+    Vec3 point = Vec3::Zero();
+    std::int32_t triangle = -1;
+  };
+  std::optional<RimPoint> nearest_rim_point(double x, double y, double reach) const;
   /// Every triangle, realized (for export and tests; costs the whole terrain).
   geometry::TriangleMesh to_mesh() const;
 

@@ -22,7 +22,7 @@ constexpr double kResearchTimeStep = 2e-4;
 
 void apply_preset(Settings& s, const std::string& preset) {
   // Measured by bench/pareto/pareto.py (docs/benchmarks.md, "Run time against error of the
-  // study's outputs"): screening 12.7, design 22, research 89 ms per realization.
+  // study's outputs"): screening 17.6, design 29, research 108 ms per realization.
   const Settings design;
   s.preset = preset;
   s.dof = design.dof;

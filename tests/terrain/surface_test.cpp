@@ -596,8 +596,8 @@ TEST(GridSurface, RimIsTheBorderOfTheGrid) {
 
 // On a TIN the rim is every edge of one triangle, whatever the footprint's shape (the
 // general TIN: a square sheet with a free-standing wall and roof): the nearest rim point
-// matches a brute-force scan of the edges, on a rough realization, and every realization
-// shares the rim.
+// matches a brute-force scan of the edges, on a rough realization made from the base
+// (whose rim it shares).
 TEST(TinSurface, RimIsTheEdgesOfOneTriangleAndMatchesBruteForce) {
   Terrain t;
   t.mesh = general_tin();

@@ -49,6 +49,7 @@ struct Surface::Impl {
     std::once_flag once;
     std::vector<std::array<std::int32_t, 2>> edges;
     std::vector<std::int32_t> triangle_of_edge;
+    std::vector<Aabb> boxes;  // plan box of each edge (z = 0), the tree's items
     geometry::BoxTree tree;
   };
   std::shared_ptr<SharedRim> rim;
@@ -65,7 +66,6 @@ struct Surface::Impl {
                          static_cast<std::int32_t>(t)});
       }
       std::sort(all.begin(), all.end());
-      std::vector<Aabb> boxes;
       for (std::size_t a = 0; a < all.size();) {
         std::size_t b = a + 1;
         while (b < all.size() && all[b][0] == all[a][0] && all[b][1] == all[a][1]) ++b;
@@ -77,11 +77,11 @@ struct Surface::Impl {
             const Vec3& p = terrain->mesh.vertices[static_cast<std::size_t>(v)];
             box.add(Vec3(p.x(), p.y(), 0.0));
           }
-          boxes.push_back(box);
+          rim->boxes.push_back(box);
         }
         a = b;
       }
-      rim->tree.build(boxes);
+      rim->tree.build(rim->boxes);
     });
     return *rim;
   }
@@ -529,14 +529,7 @@ bool Surface::near_rim(const Aabb& box) const {
   const Impl::SharedRim& rim = impl_->shared_rim();
   bool found = false;
   rim.tree.search([&](const Aabb& b) { return !found && b.overlaps(plan); },
-                  [&](std::int32_t e) {
-                    Aabb eb;
-                    for (const std::int32_t v : rim.edges[static_cast<std::size_t>(e)]) {
-                      const Vec3& p = impl_->terrain->mesh.vertices[static_cast<std::size_t>(v)];
-                      eb.add(Vec3(p.x(), p.y(), 0.0));
-                    }
-                    found = found || eb.overlaps(plan);
-                  });
+                  [&](std::int32_t e) { found = found || rim.boxes[static_cast<std::size_t>(e)].overlaps(plan); });
   return found;
 }
 

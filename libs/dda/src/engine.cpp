@@ -4,6 +4,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
 #include <algorithm>
+#include <memory>
 #include <chrono>
 #include <cmath>
 #include <string>
@@ -519,6 +520,7 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   const double limit = model.max_step_displacement();
   const double depth = model.penetration_limit();
   const Vec3 v_start = s.velocity.head<3>();
+  const VecN<N> v_start_dofs = s.velocity.template head<N>();
   // The kinetic energy once for both (total_energy written out).
   const double kinetic_now = kinetic_energy(model, s);
   const double kinetic_start = model.dof == DofPath::rigid6 ? kinetic_now : rigid_kinetic_energy(model, s);
@@ -620,11 +622,28 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   const double keep_gap = 1e-6 * model.radius;
   s.contacts.clear();
   bool any_closed = false;
-  // The contact closing in this step whose normal the centroid approaches fastest, if
-  // that is at an impact's speed: its approach (m/s), normal and triangle.
+  // The contact closing in this step whose point approaches the ground fastest (along
+  // its normal, translation and spin, at the step start), if that is at an impact's
+  // speed: its approach (m/s), the kinetic energy of that approach on the block's
+  // effective mass at the point (J), normal and triangle.
   double arrival_speed = set.impact_min_normal_speed;
+  double arrival_energy = 0.0;
   Vec3 arrival_normal = Vec3::Zero();
   std::int32_t arrival_triangle = -1;
+  // The fastest point approach of any contact closing in this step (m/s) and its energy
+  // (J), for an episode that starts with this step.
+  double closing_speed = 0.0;
+  double closing_energy = 0.0;
+  std::unique_ptr<Eigen::LLT<MatN<N>>> mass_llt;
+  const auto approach_energy = [&](const VecN<N>& gn, double speed) {
+    if (!mass_llt) mass_llt = std::make_unique<Eigen::LLT<MatN<N>>>(current_mass<N>(model, pose));
+    const double inverse_mass = gn.dot(mass_llt->solve(gn));
+    return inverse_mass > 0.0 ? 0.5 * speed * speed / inverse_mass : 0.0;
+  };
+  // Closed contacts at the end of the step (world point, normal): whether one still
+  // approaches the ground at an impact's speed decides when an impact has rebounded.
+  thread_local std::vector<std::pair<Vec3, Vec3>> closed_end;
+  closed_end.clear();
   double spring_energy = 0.0;
   // Contacts closed through the whole step: their end points (world), normals and, for
   // those that end it locked, the friction impulse they can carry (settle_contacts).
@@ -660,19 +679,35 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
       if (slip.norm() > 1e-12) c.slip_direction = slip.normalized();
     }
     any_closed = true;
-    if (start_modes[i] == ContactMode::open && -v_start.dot(c.normal) >= arrival_speed) {
-      arrival_speed = -v_start.dot(c.normal);
-      arrival_normal = c.normal;
-      arrival_triangle = c.triangle;
+    const VecN<N> gn = dof_matrix<N>(c.point - pose.centre).transpose() * c.normal;
+    const double point_approach = -gn.dot(v_start_dofs);
+    if (start_modes[i] == ContactMode::open) {
+      if (point_approach >= arrival_speed) {
+        arrival_speed = point_approach;
+        arrival_energy = approach_energy(gn, point_approach);
+        arrival_normal = c.normal;
+        arrival_triangle = c.triangle;
+      }
+      if (point_approach > closing_speed) {
+        closing_speed = point_approach;
+        closing_energy = approach_energy(gn, point_approach);
+      }
     }
     spring_energy += 0.5 * p * std::min(0.0, g) * std::min(0.0, g);
-    if (start_modes[i] != ContactMode::open)
+    // A contact whose point still approaches at an impact's speed is in an impact's
+    // compression, not at rest on the ground: it is not settled.
+    if (start_modes[i] != ContactMode::open && point_approach < set.impact_min_normal_speed)
       persistent.push_back({c.point + du, c.normal,
                             c.mode == ContactMode::locked ? friction * c.normal_force * dt : 0.0});
+    closed_end.emplace_back(c.point + du, c.normal);
     s.contacts.push_back(c);
   }
   apply_displacement<N>(model, s, d, dt, freeze_strain);
   s.stored_energy = spring_energy;
+  double end_approach = 0.0;  // fastest approach of a closed contact point at the step end (m/s)
+  for (const auto& [point, normal] : closed_end)
+    end_approach = std::max(end_approach, -(dof_matrix<N>(point - s.position).transpose() * normal)
+                                               .dot(s.velocity.template head<N>()));
   if (set.check_invariants) {
     const double overlap = std::max(terrain_depth_in_block(model, pose_of(model, s), s.patch),
                                     block_depth_below_terrain(world_vertices(model, s), s.patch, model.radius));
@@ -683,16 +718,19 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   s.last_step_contact = true;
   s.touched = s.touched || any_closed;
   if (any_closed && !s.episode.active) {
-    start_episode(model, ground, s, v_start, kinetic_start);
+    start_episode(model, ground, s, v_start, kinetic_start, {closing_speed, closing_energy});
   } else if (s.episode.active && !s.episode.impact && arrival_triangle >= 0) {
     // A contact that closes at an impact's approach speed while others are closed (a
     // block sliding down the slope face at 13 m/s that reaches the flat toe hits it at 9
     // m/s along its normal): an impact along that contact's normal, not part of the
     // rolling or sliding episode, which has no law. Left in it, the stiff spring sent a
     // tetrahedron back up from the toe at 9.5 m/s (S1, realization 312).
-    start_episode_along(model, ground, s, v_start, kinetic_start, arrival_normal, arrival_triangle);
+    start_episode_along(model, ground, s, v_start, kinetic_start, arrival_normal, arrival_triangle,
+                        {arrival_speed, arrival_energy});
   } else if (!any_closed && s.episode.active) end_episode(model, s);
-  else if (s.episode.active && s.episode.impact && rebound_complete(model, s, spring_energy)) finish_impact(model, s);
+  else if (s.episode.active && s.episode.impact && end_approach < set.impact_min_normal_speed &&
+           rebound_complete(model, s, spring_energy))
+    finish_impact(model, s);
   if (!(s.episode.active && s.episode.impact)) settle_contacts<N>(model, s, persistent);
   limit_energy(model, s, energy_start);
   s.clear_until = -1.0;

@@ -42,7 +42,8 @@ double mean_friction(const terrain::Material& mat) {
   return std::tan(mat.friction_angle_mean_deg * kPi / 180.0);
 }
 
-void start_episode(const Model& model, const Ground& ground, State& s, const Vec3& v_in, double kinetic_in) {
+void start_episode(const Model& model, const Ground& ground, State& s, const Vec3& v_in, double kinetic_in,
+                   PointApproach point) {
   // The normal-force-weighted mean normal of the closed contacts; equal weights when no
   // contact carries force yet (an impact's first step ends at the moment of touch).
   double total_force = 0.0;
@@ -61,11 +62,11 @@ void start_episode(const Model& model, const Ground& ground, State& s, const Vec
     }
   }
   start_episode_along(model, ground, s, v_in, kinetic_in, n.norm() > 0.0 ? Vec3(n.normalized()) : Vec3::UnitZ(),
-                      triangle);
+                      triangle, point);
 }
 
 void start_episode_along(const Model& model, const Ground& ground, State& s, const Vec3& v_in, double kinetic_in,
-                         const Vec3& normal, std::int32_t triangle) {
+                         const Vec3& normal, std::int32_t triangle, PointApproach point) {
   Episode& e = s.episode;
   e = Episode{};
   e.active = true;
@@ -74,7 +75,10 @@ void start_episode_along(const Model& model, const Ground& ground, State& s, con
   e.normal = normal;
   const double approach = -v_in.dot(e.normal);
   e.approach_speed = std::max(0.0, approach);
-  if (approach < model.settings.impact_min_normal_speed) return;
+  e.point_approach_energy = point.energy;
+  // A corner of a tumbling or rocking block strikes the ground however slowly its centroid
+  // approaches it: the faster of the two decides.
+  if (std::max(approach, point.speed) < model.settings.impact_min_normal_speed) return;
   const terrain::Material& mat = material_of(ground, triangle);
   // Three draws per impact, always in this order, so a setting never shifts later draws.
   const double z_r = s.impacts_rng.normal();
@@ -123,7 +127,8 @@ void finish_impact(const Model& model, State& s) {
     // landing, a small bounce) loses little, and a chain of ever smaller bounces loses a
     // finite amount however many of them count as impacts (docs/dda.md).
     if (model.bound_by_normal_approach && factor < 1.0 && kinetic_out > 0.0) {
-      const double normal_energy = 0.5 * model.mass * e.approach_speed * e.approach_speed;
+      const double normal_energy =
+          std::max(0.5 * model.mass * e.approach_speed * e.approach_speed, e.point_approach_energy);
       if (kinetic_out * (1.0 - factor * factor) > normal_energy)
         factor = std::sqrt(std::max(0.0, 1.0 - normal_energy / kinetic_out));
     }

@@ -12,14 +12,24 @@ const terrain::Material& material_of(const Ground& ground, std::int32_t triangle
 /// tan of the material's mean friction angle (-).
 double mean_friction(const terrain::Material& mat);
 
+/// The approach of the fastest contact point that closes: its speed along the contact
+/// normal, translation and spin (m/s), and the kinetic energy of that approach on the
+/// block's effective mass at the point (J).
+struct PointApproach {
+  double speed = 0.0;
+  double energy = 0.0;
+};
+
 /// Starts a contact episode with the centroid velocity `v_in` (m/s) and rigid kinetic
-/// energy `kinetic_in` (J) of the step start; an impact when the normal approach speed is
-/// at least impact_min_normal_speed (draws R_v, μ and the lateral tilt).
-void start_episode(const Model& model, const Ground& ground, State& s, const Vec3& v_in, double kinetic_in);
+/// energy `kinetic_in` (J) of the step start; an impact when the normal approach speed of
+/// the centroid or of the closing contact point is at least impact_min_normal_speed
+/// (draws R_v, μ and the lateral tilt).
+void start_episode(const Model& model, const Ground& ground, State& s, const Vec3& v_in, double kinetic_in,
+                   PointApproach point = {});
 /// The same along a given ground `normal` (unit), the material that of `triangle`: an
 /// impact that arrives while other contacts are closed (docs/dda.md, Impact–rebound).
 void start_episode_along(const Model& model, const Ground& ground, State& s, const Vec3& v_in, double kinetic_in,
-                         const Vec3& normal, std::int32_t triangle);
+                         const Vec3& normal, std::int32_t triangle, PointApproach point = {});
 /// Applies the restitution law to the rebound of the impact in progress; the episode
 /// goes on as a rolling/sliding one if contacts stay closed.
 void finish_impact(const Model& model, State& s);

@@ -104,6 +104,9 @@ struct Episode {
   double kinetic_in = 0.0;       ///< rigid kinetic energy (translation and spin) at the start (J)
   Vec3 normal = Vec3::UnitZ();   ///< ground normal at the start, tilted laterally
   double approach_speed = 0.0;   ///< centroid speed towards the ground along the untilted normal (m/s)
+  /// Kinetic energy of the fastest closing contact point's normal approach, on the block's
+  /// effective mass at that point (J): what a plastic impact at that point removes.
+  double point_approach_energy = 0.0;
   double restitution = 1.0;      ///< R_v drawn for this impact (-)
   double tilt_deg = 0.0;         ///< lateral tilt drawn for this impact (deg)
   double restitution_scale = 12.0;  ///< K of the material hit (m/s)

@@ -520,7 +520,6 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   const double limit = model.max_step_displacement();
   const double depth = model.penetration_limit();
   const Vec3 v_start = s.velocity.head<3>();
-  const VecN<N> v_start_dofs = s.velocity.template head<N>();
   // The kinetic energy once for both (total_energy written out).
   const double kinetic_now = kinetic_energy(model, s);
   const double kinetic_start = model.dof == DofPath::rigid6 ? kinetic_now : rigid_kinetic_energy(model, s);
@@ -634,12 +633,16 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   // (J), for an episode that starts with this step.
   double closing_speed = 0.0;
   double closing_energy = 0.0;
-  std::unique_ptr<Eigen::LLT<MatN<N>>> mass_llt;
-  const auto approach_energy = [&](const VecN<N>& gn, double speed) {
-    if (!mass_llt) mass_llt = std::make_unique<Eigen::LLT<MatN<N>>>(current_mass<N>(model, pose));
+  // An impact is a rigid-body event on both DOF paths (the 12-DOF path holds its strains
+  // through it, and the law acts on the rigid velocity): approaches and the effective
+  // mass at a point are those of the rigid block.
+  std::unique_ptr<Eigen::LLT<Mat6>> mass_llt;
+  const auto approach_energy = [&](const VecN<6>& gn, double speed) {
+    if (!mass_llt) mass_llt = std::make_unique<Eigen::LLT<Mat6>>(current_mass<6>(model, pose));
     const double inverse_mass = gn.dot(mass_llt->solve(gn));
     return inverse_mass > 0.0 ? 0.5 * speed * speed / inverse_mass : 0.0;
   };
+  const VecN<6> v_start_rigid = s.velocity.head<6>();
   // Closed contacts at the end of the step (world point, normal): whether one still
   // approaches the ground at an impact's speed decides when an impact has rebounded.
   thread_local std::vector<std::pair<Vec3, Vec3>> closed_end;
@@ -679,8 +682,8 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
       if (slip.norm() > 1e-12) c.slip_direction = slip.normalized();
     }
     any_closed = true;
-    const VecN<N> gn = dof_matrix<N>(c.point - pose.centre).transpose() * c.normal;
-    const double point_approach = -gn.dot(v_start_dofs);
+    const VecN<6> gn = dof_matrix<6>(c.point - pose.centre).transpose() * c.normal;
+    const double point_approach = -gn.dot(v_start_rigid);
     if (start_modes[i] == ContactMode::open) {
       if (point_approach >= arrival_speed) {
         arrival_speed = point_approach;
@@ -706,8 +709,8 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   s.stored_energy = spring_energy;
   double end_approach = 0.0;  // fastest approach of a closed contact point at the step end (m/s)
   for (const auto& [point, normal] : closed_end)
-    end_approach = std::max(end_approach, -(dof_matrix<N>(point - s.position).transpose() * normal)
-                                               .dot(s.velocity.template head<N>()));
+    end_approach = std::max(end_approach, -(dof_matrix<6>(point - s.position).transpose() * normal)
+                                               .dot(s.velocity.head<6>()));
   if (set.check_invariants) {
     const double overlap = std::max(terrain_depth_in_block(model, pose_of(model, s), s.patch),
                                     block_depth_below_terrain(world_vertices(model, s), s.patch, model.radius));

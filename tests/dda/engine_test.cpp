@@ -187,28 +187,26 @@ TEST(DdaImpact, NormalImpactFollowsTheLaw) {
 // corner takes one of two courses by the step (docs/dda.md, Known limits), so it is not
 // asserted here.
 TEST(DdaImpact, ReboundDoesNotDependOnTheStep) {
-  for (const double mu : {std::tan(10.0 * M_PI / 180.0)}) {
-    const terrain::Surface flat = incline(0.0);
-    const std::vector<terrain::Material> mats{material(mu, 0.95)};
-    const Ground g{&flat, mats};
-    const auto first_rebound = [&](double dt) {
-      Settings set;
-      set.time_step = dt;
-      const Model m = Model::build(set, cube(1.0));
-      Release r;
-      r.position = Vec3(0.0, 0.0, 3.0);
-      r.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(20.0 * M_PI / 180.0, Vec3::UnitZ()) *
-                                         Eigen::AngleAxisd(10.0 * M_PI / 180.0, Vec3::UnitY()));
-      State s = start(m, r, impacts());
-      while (s.end == EndReason::running && s.time < 3.0) step(m, g, s);
-      EXPECT_FALSE(is_failure(s.end)) << to_string(s.end);
-      return s.max_jump_height;
-    };
-    const double reference = first_rebound(1e-4);
-    EXPECT_GT(reference, 1.0) << "mu " << mu;
-    for (const double dt : {2e-3, 1e-3, 5e-4})
-      EXPECT_NEAR(first_rebound(dt), reference, 0.02 * reference) << "mu " << mu << ", time step " << dt;
-  }
+  const terrain::Surface flat = incline(0.0);
+  const std::vector<terrain::Material> mats{material(std::tan(10.0 * M_PI / 180.0), 0.95)};
+  const Ground g{&flat, mats};
+  const auto first_rebound = [&](double dt) {
+    Settings set;
+    set.time_step = dt;
+    const Model m = Model::build(set, cube(1.0));
+    Release r;
+    r.position = Vec3(0.0, 0.0, 3.0);
+    r.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(20.0 * M_PI / 180.0, Vec3::UnitZ()) *
+                                       Eigen::AngleAxisd(10.0 * M_PI / 180.0, Vec3::UnitY()));
+    State s = start(m, r, impacts());
+    while (s.end == EndReason::running && s.time < 3.0) step(m, g, s);
+    EXPECT_FALSE(is_failure(s.end)) << to_string(s.end);
+    return s.max_jump_height;
+  };
+  const double reference = first_rebound(1e-4);
+  EXPECT_GT(reference, 1.0);
+  for (const double dt : {2e-3, 1e-3, 5e-4})
+    EXPECT_NEAR(first_rebound(dt), reference, 0.02 * reference) << "time step " << dt;
 }
 
 // A corner that strikes the ground is an impact however slowly the centroid approaches:

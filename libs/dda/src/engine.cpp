@@ -4,9 +4,9 @@
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
 #include <algorithm>
-#include <memory>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <string>
 
 #include "contact_law.hpp"
@@ -636,9 +636,9 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   // An impact is a rigid-body event on both DOF paths (the 12-DOF path holds its strains
   // through it, and the law acts on the rigid velocity): approaches and the effective
   // mass at a point are those of the rigid block.
-  std::unique_ptr<Eigen::LLT<Mat6>> mass_llt;
+  std::optional<Eigen::LLT<Mat6>> mass_llt;
   const auto approach_energy = [&](const VecN<6>& gn, double speed) {
-    if (!mass_llt) mass_llt = std::make_unique<Eigen::LLT<Mat6>>(current_mass<6>(model, pose));
+    if (!mass_llt) mass_llt.emplace(current_mass<6>(model, pose));
     const double inverse_mass = gn.dot(mass_llt->solve(gn));
     return inverse_mass > 0.0 ? 0.5 * speed * speed / inverse_mass : 0.0;
   };
@@ -684,16 +684,19 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
     any_closed = true;
     const VecN<6> gn = dof_matrix<6>(c.point - pose.centre).transpose() * c.normal;
     const double point_approach = -gn.dot(v_start_rigid);
-    if (start_modes[i] == ContactMode::open) {
-      if (point_approach >= arrival_speed) {
+    const bool arrives = start_modes[i] == ContactMode::open && point_approach >= arrival_speed;
+    const bool closes_fastest = start_modes[i] == ContactMode::open && point_approach > closing_speed;
+    if (arrives || closes_fastest) {
+      const double energy = approach_energy(gn, point_approach);
+      if (arrives) {
         arrival_speed = point_approach;
-        arrival_energy = approach_energy(gn, point_approach);
+        arrival_energy = energy;
         arrival_normal = c.normal;
         arrival_triangle = c.triangle;
       }
-      if (point_approach > closing_speed) {
+      if (closes_fastest) {
         closing_speed = point_approach;
-        closing_energy = approach_energy(gn, point_approach);
+        closing_energy = energy;
       }
     }
     spring_energy += 0.5 * p * std::min(0.0, g) * std::min(0.0, g);
@@ -707,10 +710,15 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   }
   apply_displacement<N>(model, s, d, dt, freeze_strain);
   s.stored_energy = spring_energy;
-  double end_approach = 0.0;  // fastest approach of a closed contact point at the step end (m/s)
-  for (const auto& [point, normal] : closed_end)
-    end_approach = std::max(end_approach, -(dof_matrix<6>(point - s.position).transpose() * normal)
-                                               .dot(s.velocity.head<6>()));
+  // The fastest approach of a closed contact point at the step end (m/s); only an impact
+  // in progress asks.
+  const auto end_approach = [&] {
+    double fastest = 0.0;
+    for (const auto& [point, normal] : closed_end)
+      fastest = std::max(fastest, -(dof_matrix<6>(point - s.position).transpose() * normal)
+                                       .dot(s.velocity.head<6>()));
+    return fastest;
+  };
   if (set.check_invariants) {
     const double overlap = std::max(terrain_depth_in_block(model, pose_of(model, s), s.patch),
                                     block_depth_below_terrain(world_vertices(model, s), s.patch, model.radius));
@@ -731,7 +739,7 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
     start_episode_along(model, ground, s, v_start, kinetic_start, arrival_normal, arrival_triangle,
                         {arrival_speed, arrival_energy});
   } else if (!any_closed && s.episode.active) end_episode(model, s);
-  else if (s.episode.active && s.episode.impact && end_approach < set.impact_min_normal_speed &&
+  else if (s.episode.active && s.episode.impact && end_approach() < set.impact_min_normal_speed &&
            rebound_complete(model, s, spring_energy))
     finish_impact(model, s);
   if (!(s.episode.active && s.episode.impact)) settle_contacts<N>(model, s, persistent);

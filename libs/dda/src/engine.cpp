@@ -304,14 +304,27 @@ bool clear_of_terrain(const Model& model, const Ground& ground, State& s, double
       if (t.box.overlaps(box) && !above(t.normal, t.p[0])) return false;
     return true;
   }
-  s.scratch_triangles.clear();
-  ground.surface->triangles_in_box(box, s.scratch_triangles);
-  for (std::int32_t t : s.scratch_triangles) {
-    const auto corners = ground.surface->triangle_vertices(static_cast<std::size_t>(t));
-    geometry::Aabb tb;
-    for (const Vec3& p : corners) tb.add(p);
-    if (tb.overlaps(box) && !above(ground.surface->normal(static_cast<std::size_t>(t)), corners[0])) return false;
+  // Otherwise the triangles gathered for an earlier box, if that box holds this one; a
+  // new gathering takes a margin so that the next steps' boxes fall inside it.
+  FlightPatch& flight = s.flight_patch;
+  if (flight.surface != ground.surface || flight.box.empty() || !flight.box.contains(box.lo) ||
+      !flight.box.contains(box.hi)) {
+    flight.surface = ground.surface;
+    flight.box = box.inflated(std::max(model.radius, 0.5 * box.extent().maxCoeff()));
+    flight.triangles.clear();
+    s.scratch_triangles.clear();
+    ground.surface->triangles_in_box(flight.box, s.scratch_triangles);
+    for (std::int32_t t : s.scratch_triangles) {
+      const auto corners = ground.surface->triangle_vertices(static_cast<std::size_t>(t));
+      FlightPatch::Triangle d;
+      for (const Vec3& p : corners) d.box.add(p);
+      d.normal = ground.surface->normal(static_cast<std::size_t>(t));
+      d.corner = corners[0];
+      flight.triangles.push_back(d);
+    }
   }
+  for (const FlightPatch::Triangle& t : flight.triangles)
+    if (t.box.overlaps(box) && !above(t.normal, t.corner)) return false;
   return true;
 }
 

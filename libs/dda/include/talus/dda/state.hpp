@@ -158,6 +158,19 @@ struct TerrainPatch {
   std::vector<std::int32_t> query;   ///< scratch for Surface::triangles_in_box
 };
 
+/// The terrain triangles the flight test last gathered from the surface (when the block's
+/// swept box lies outside the contact search's patch), with what the test reads of each.
+struct FlightPatch {
+  const void* surface = nullptr;     ///< the Surface it was gathered from
+  geometry::Aabb box;                ///< the queried box (m)
+  struct Triangle {
+    geometry::Aabb box;              ///< of its corners (m)
+    Vec3 normal = Vec3::UnitZ();     ///< Surface::normal
+    Vec3 corner = Vec3::Zero();      ///< its first corner (m)
+  };
+  std::vector<Triangle> triangles;
+};
+
 /// Release conditions of one realization.
 struct Release {
   Vec3 position = Vec3::Zero();  ///< centroid (m)
@@ -218,6 +231,7 @@ struct State {
   // Scratch buffers, kept to avoid allocations per step. A State is stepped with one
   // Ground throughout (the patch is re-gathered if the surface changes).
   TerrainPatch patch;
+  FlightPatch flight_patch;
   std::vector<std::int32_t> scratch_triangles;
   std::vector<Contact> scratch_contacts;
   /// The search distance (m) of the contact search whose candidates scratch_contacts

@@ -74,6 +74,14 @@ STUDY = [
     ("full12", "DOF path", "alternating", ["engine.dof=full12"]),
     ("tri=fixed", "triangulation", "fixed", []),
     ("tri=random", "triangulation", "random", []),
+    # The grid's points through terrain-gen's TIN path (CGAL's Delaunay triangulation):
+    # every cell of a regular grid is cocircular, and CGAL's symbolic perturbation cuts
+    # them all along the same diagonal.
+    ("tri=delaunay", "triangulation", "delaunay", []),
+    # What a skip saves (docs/dda.md, What is skipped when): the flight test off makes
+    # every step a contact step; sampled trajectories are stored only when asked.
+    ("flight test off", "skips", "alternating", ["engine.flight_test=false"]),
+    ("trajectories 10 ms", "skips", "alternating", ["engine.trajectory_interval=0.01"]),
     ("rest x10", "rest rule", "alternating", ["engine.rest_kinetic_energy=X10"]),
     ("rest x0.1", "rest rule", "alternating", ["engine.rest_kinetic_energy=X0.1"]),
     ("dwell x0.25", "rest rule", "alternating", ["engine.rest_dwell=X0.25"]),
@@ -214,12 +222,24 @@ def compare(ref, other):
 
 
 def study_inputs(runner):
-    for tri in sorted({s[2] for s in STUDY}):
+    grids = sorted({s[2] for s in STUDY} - {"delaunay"} | {"alternating"})
+    for tri in grids:
         for name, index in LEVELS:
             path = os.path.join(runner.inputs, "terrain-%s-%s.h5" % (name, tri))
             if not os.path.exists(path):
                 runner.tool("terrain-gen", "-c", os.path.join(ROOT, "samples/bench-slope/terrain.yaml"), "--set",
                             "roughness.roughness_index=%g" % index, "--set", "triangulation=" + tri, "-o", path)
+    for name, _ in LEVELS:
+        # The same points and roughness sigma as a surveyed point cloud (x y z per line).
+        path = os.path.join(runner.inputs, "terrain-%s-delaunay.h5" % name)
+        if os.path.exists(path):
+            continue
+        with h5py.File(os.path.join(runner.inputs, "terrain-%s-alternating.h5" % name), "r") as f:
+            points, sigma = f["trn/vertices"][:], float(f["roughness"].attrs["sigma"])
+        cloud = os.path.join(runner.inputs, "points-%s.xyz" % name)
+        np.savetxt(cloud, points, fmt="%.9g")
+        runner.tool("terrain-gen", cloud, "-c", os.path.join(ROOT, "samples/bench-slope/terrain.yaml"), "--set",
+                    "roughness.sigma=%.17g" % sigma, "--set", "roughness.roughness_index=~", "-o", path)
     path = os.path.join(runner.inputs, "platonic.h5")
     if not os.path.exists(path):
         runner.tool("block-gen", "-c", os.path.join(ROOT, "samples/blocks/platonic.yaml"), "-o", path)

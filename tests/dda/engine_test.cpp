@@ -92,6 +92,46 @@ TEST(DdaFlight, HopNearTheGroundIsFlight) {
   EXPECT_EQ(s.end, EndReason::running);
 }
 
+// With the flight test off (`flight_test: false`, for measuring what it saves) every step
+// is a contact step, and one in which no contact closes is still the free motion: the
+// cube of the hop above follows the same parabola and spin to round-off until it lands.
+TEST(DdaFlight, WithoutTheFlightTestEveryStepSearchesAndFliesTheSame) {
+  const double theta = 30.0;
+  const terrain::Surface ground_surface = incline(theta);
+  const std::vector<terrain::Material> materials{material(0.5)};
+  const Ground g{&ground_surface, materials};
+  Settings set;
+  set.flight_test = false;
+  const Model m = Model::build(set, cube(1.0));
+  Release r = testing::on_incline(theta, 1.0, 0.0, 0.0);
+  const Vec3 n = testing::incline_normal(theta);
+  r.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(10.0 * M_PI / 180.0, Vec3::UnitX())) * r.orientation;
+  const auto clearance = [&](const State& state) {
+    double least = std::numeric_limits<double>::infinity();
+    for (const Vec3& v : world_vertices(m, state)) least = std::min(least, n.dot(v));
+    return least;
+  };
+  r.position += (1e-3 - clearance(start(m, r, impacts()))) * n;
+  r.velocity = 1.0 * n + 0.5 * testing::incline_down(theta);
+  r.angular_velocity = 2.0 * n;
+  State s = start(m, r, impacts());
+  const Vec3 p0 = r.position;
+  const Vec3 gravity(0.0, 0.0, -kG);
+  // Up and back down along the normal takes 0.24 s; until 0.2 s nothing can touch.
+  while (s.end == EndReason::running && s.time < 0.2) {
+    step(m, g, s);
+    const double t = s.time;
+    EXPECT_LT((s.position - (p0 + r.velocity * t + 0.5 * gravity * t * t)).norm(), 1e-12) << t;
+    EXPECT_LT((s.velocity.segment<3>(3) - r.angular_velocity).norm(), 1e-12) << t;
+    EXPECT_GT(clearance(s), 0.0) << t;
+    EXPECT_TRUE(s.contacts.empty()) << t;
+  }
+  EXPECT_EQ(s.end, EndReason::running);
+  EXPECT_GT(s.counters.steps, 190u);
+  EXPECT_EQ(s.counters.flight_steps, 0u);
+  EXPECT_EQ(s.counters.contact_steps, s.counters.steps);
+}
+
 // A cube at rest on flat ground stays at rest; it sinks by mg/(n·k) with n = 4 vertex
 // springs.
 TEST(DdaContact, RestOnFlatGround) {

@@ -818,7 +818,7 @@ void step(const Model& model, const Ground& ground, State& s) {
   // The last step ends exactly at the time limit.
   if (s.time + s.dt > s.time_limit) s.dt = std::max(s.time_limit - s.time, 1e-3 * model.settings.min_time_step);
   bool flew = false;
-  if (std::none_of(s.contacts.begin(), s.contacts.end(),
+  if (model.settings.flight_test && std::none_of(s.contacts.begin(), s.contacts.end(),
                    [](const Contact& c) { return c.mode != ContactMode::open; })) {
     PhaseTimer timer(model.settings.time_phases, s.times.flight);
     const double dt = s.dt;

@@ -90,6 +90,9 @@ void Settings::visit(core::SettingsVisitor& v) {
   v.field("poisson_ratio", poisson_ratio, "-", "block Poisson's ratio (full12 only)");
   v.field("check_invariants", check_invariants,
           "check depth and energy invariants at every step (counted per realization; slow)");
+  v.field("flight_test", flight_test,
+          "move the block without a contact search while no contact can close (off: every step searches and "
+          "solves; for measuring what the test saves)");
   v.field("time_phases", time_phases, "time each step phase (reporting only)");
 }
 

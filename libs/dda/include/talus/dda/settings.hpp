@@ -81,6 +81,12 @@ struct Settings {
   /// nor block vertex deeper in the terrain, than the penetration limit; no rise of the
   /// total energy): counted in Counters, slow, for stress tests.
   bool check_invariants = false;
+  /// Test before each step with no closed contact whether any contact can close in it,
+  /// and move the block on its free motion without a contact search when none can
+  /// (docs/dda.md, The step). Off, every step is a contact step (a search, and a solve
+  /// that gives the free motion to round-off when nothing closes): the records part as
+  /// chaotic trajectories do; for measuring what the test saves (docs/benchmarks.md).
+  bool flight_test = true;
   bool time_phases = false;                 ///< time each phase with steady_clock (costs ~0.1 µs/step)
 
   void visit(core::SettingsVisitor& v);

@@ -467,8 +467,9 @@ roll_case() {
   # impacts and rolling): 7 % over 3 s for the 2-4 deg facets of the 5120-triangle sphere,
   # 13-20 % for the 4-8 deg of the 1280-triangle one. A facet landing whose point strikes
   # at 0.5 m/s or more is an impact, and the law takes at most that point's plastic
-  # approach energy (measured 3.0-5.6 % and 8.6-14.1 % short, --quick, main 1aae7ba).
-  case $sphere in sphere5120) target=0.07 ;; *) target=0.15 ;; esac
+  # approach energy (measured 3.0-5.6 % and 8.6-14.1 % short, --quick, main 1aae7ba; in
+  # --full on 7aefcf2 the 1280-triangle sphere at yaw 30 once 16.0 %, inside its 13-20 %).
+  case $sphere in sphere5120) target=0.07 ;; *) target=0.20 ;; esac
   roll_analytic="{\"kind\": \"slide\", \"angle\": 20, \"mu\": 0, \"rolling\": 0.7142857142857143, \"target\": $target}"
   roll_settings=(terrain="$I/analytic-plane20.h5" block_file="$I/spheres.h5" "blocks=[$sphere]"
     "materials=[{name: ground, friction_angle_mean_deg: $(atan_deg 0.4)}]"

@@ -71,6 +71,9 @@ STUDY = [
     ("oc=16", "open-close iterations", "alternating", ["engine.max_open_close_iterations=16"]),
     ("disp=0.005", "step control", "alternating", ["engine.max_displacement_ratio=0.005"]),
     ("disp=0.05", "step control", "alternating", ["engine.max_displacement_ratio=0.05"]),
+    # The step control's other cut: a contact step that gains energy is redone shorter.
+    ("energy cuts off", "step control", "alternating", ["engine.max_step_energy_gain=0"]),
+    ("energy gain x10", "step control", "alternating", ["engine.max_step_energy_gain=X10"]),
     ("full12", "DOF path", "alternating", ["engine.dof=full12"]),
     ("tri=fixed", "triangulation", "fixed", []),
     ("tri=random", "triangulation", "random", []),

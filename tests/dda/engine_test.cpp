@@ -47,43 +47,52 @@ TEST(DdaFlight, ProjectileIsExact) {
   }
 }
 
-// A block that flies close to the ground without touching it makes no contact step: the
-// flight test looks at the block's vertices against the planes of the triangles below,
-// then at the contact search's candidates on the free motion, and only a step in which a
-// contact closes is a contact step. A cube hops from 1 mm above a 30° incline, tilted
-// 10° so that one edge is lowest, spinning at 2 rad/s about the normal: until it comes back down it is on
-// the exact parabola and spin, and it lands with the first contact step.
-TEST(DdaFlight, HopNearTheGroundIsFlight) {
-  const double theta = 30.0;
-  const terrain::Surface ground_surface = incline(theta);
-  const std::vector<terrain::Material> materials{material(0.5)};
-  const Ground g{&ground_surface, materials};
-  Settings set;
-  const Model m = Model::build(set, cube(1.0));
+// A cube hopping from 1 mm above a 30° incline, tilted 10° so that one edge is lowest,
+// launched at 1 m/s off the plane and 0.5 m/s down it, spinning at 2 rad/s about the
+// normal (no point approaches the plane by turning); `set` chooses the engine settings.
+struct Hop {
+  static constexpr double theta = 30.0;
+  terrain::Surface ground_surface = incline(theta);
+  std::vector<terrain::Material> materials{material(0.5)};
+  Ground g{&ground_surface, materials};
+  Model m;
+  Vec3 n = testing::incline_normal(theta);
   Release r = testing::on_incline(theta, 1.0, 0.0, 0.0);
-  const Vec3 n = testing::incline_normal(theta);
-  r.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(10.0 * M_PI / 180.0, Vec3::UnitX())) * r.orientation;
-  // Lifted so that the lowest vertex is 1 mm off the plane (n·x = 0).
-  const auto clearance = [&](const State& state) {
+
+  explicit Hop(const Settings& set) : m(Model::build(set, cube(1.0))) {
+    r.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(10.0 * M_PI / 180.0, Vec3::UnitX())) * r.orientation;
+    // Lifted so that the lowest vertex is 1 mm off the plane (n·x = 0).
+    r.position += (1e-3 - clearance(start(m, r, impacts()))) * n;
+    r.velocity = 1.0 * n + 0.5 * testing::incline_down(theta);
+    r.angular_velocity = 2.0 * n;
+  }
+  // Height of the lowest vertex above the plane (m).
+  double clearance(const State& state) const {
     double least = std::numeric_limits<double>::infinity();
     for (const Vec3& v : world_vertices(m, state)) least = std::min(least, n.dot(v));
     return least;
-  };
-  r.position += (1e-3 - clearance(start(m, r, impacts()))) * n;
-  r.velocity = 1.0 * n + 0.5 * testing::incline_down(theta);
-  r.angular_velocity = 2.0 * n;  // about the normal: no point approaches the plane by turning
-  State s = start(m, r, impacts());
-  const Vec3 p0 = r.position;
-  const Vec3 gravity(0.0, 0.0, -kG);
+  }
+  // The free parabola from the release, at time t.
+  Vec3 parabola(double t) const { return r.position + r.velocity * t + 0.5 * Vec3(0.0, 0.0, -kG) * t * t; }
+};
+
+// A block that flies close to the ground without touching it makes no contact step: the
+// flight test looks at the block's vertices against the planes of the triangles below,
+// then at the contact search's candidates on the free motion, and only a step in which a
+// contact closes is a contact step. The cube of Hop: until it comes back down it is on
+// the exact parabola and spin, and it lands with the first contact step.
+TEST(DdaFlight, HopNearTheGroundIsFlight) {
+  const Hop hop{Settings{}};
+  State s = start(hop.m, hop.r, impacts());
   std::uint64_t steps_in_flight = 0;
   while (s.end == EndReason::running && s.counters.contact_steps == 0) {
-    step(m, g, s);
+    step(hop.m, hop.g, s);
     if (s.counters.contact_steps > 0) break;
     ++steps_in_flight;
     const double t = s.time;
-    EXPECT_LT((s.position - (p0 + r.velocity * t + 0.5 * gravity * t * t)).norm(), 1e-12) << t;
-    EXPECT_LT((s.velocity.segment<3>(3) - r.angular_velocity).norm(), 1e-12) << t;
-    EXPECT_GT(clearance(s), 0.0) << t;  // nothing of the block below the plane
+    EXPECT_LT((s.position - hop.parabola(t)).norm(), 1e-12) << t;
+    EXPECT_LT((s.velocity.segment<3>(3) - hop.r.angular_velocity).norm(), 1e-12) << t;
+    EXPECT_GT(hop.clearance(s), 0.0) << t;  // nothing of the block below the plane
   }
   // Up and back down along the normal: 2·v_n/(g cos θ) = 0.24 s, less the last steps.
   EXPECT_GT(steps_in_flight, 200u);
@@ -94,36 +103,19 @@ TEST(DdaFlight, HopNearTheGroundIsFlight) {
 
 // With the flight test off (`flight_test: false`, for measuring what it saves) every step
 // is a contact step, and one in which no contact closes is still the free motion: the
-// cube of the hop above follows the same parabola and spin to round-off until it lands.
+// cube of Hop follows the same parabola and spin to round-off until it lands.
 TEST(DdaFlight, WithoutTheFlightTestEveryStepSearchesAndFliesTheSame) {
-  const double theta = 30.0;
-  const terrain::Surface ground_surface = incline(theta);
-  const std::vector<terrain::Material> materials{material(0.5)};
-  const Ground g{&ground_surface, materials};
   Settings set;
   set.flight_test = false;
-  const Model m = Model::build(set, cube(1.0));
-  Release r = testing::on_incline(theta, 1.0, 0.0, 0.0);
-  const Vec3 n = testing::incline_normal(theta);
-  r.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(10.0 * M_PI / 180.0, Vec3::UnitX())) * r.orientation;
-  const auto clearance = [&](const State& state) {
-    double least = std::numeric_limits<double>::infinity();
-    for (const Vec3& v : world_vertices(m, state)) least = std::min(least, n.dot(v));
-    return least;
-  };
-  r.position += (1e-3 - clearance(start(m, r, impacts()))) * n;
-  r.velocity = 1.0 * n + 0.5 * testing::incline_down(theta);
-  r.angular_velocity = 2.0 * n;
-  State s = start(m, r, impacts());
-  const Vec3 p0 = r.position;
-  const Vec3 gravity(0.0, 0.0, -kG);
+  const Hop hop{set};
+  State s = start(hop.m, hop.r, impacts());
   // Up and back down along the normal takes 0.24 s; until 0.2 s nothing can touch.
   while (s.end == EndReason::running && s.time < 0.2) {
-    step(m, g, s);
+    step(hop.m, hop.g, s);
     const double t = s.time;
-    EXPECT_LT((s.position - (p0 + r.velocity * t + 0.5 * gravity * t * t)).norm(), 1e-12) << t;
-    EXPECT_LT((s.velocity.segment<3>(3) - r.angular_velocity).norm(), 1e-12) << t;
-    EXPECT_GT(clearance(s), 0.0) << t;
+    EXPECT_LT((s.position - hop.parabola(t)).norm(), 1e-12) << t;
+    EXPECT_LT((s.velocity.segment<3>(3) - hop.r.angular_velocity).norm(), 1e-12) << t;
+    EXPECT_GT(hop.clearance(s), 0.0) << t;
     EXPECT_TRUE(s.contacts.empty()) << t;
   }
   EXPECT_EQ(s.end, EndReason::running);

@@ -51,6 +51,7 @@ Terrain grid_terrain() {
   t.name = "ridge";
   terrain::Material scree;
   scree.name = "scree";
+  scree.class_name = "loose_scree";  // the class it started from (parameters then edited)
   scree.restitution_mean = 0.8;
   scree.friction_angle_mean_deg = 25.0;
   scree.lateral_tilt_sd_deg = 3.0;
@@ -102,6 +103,7 @@ void expect_same_terrain(const Terrain& a, const Terrain& b) {
     EXPECT_EQ(p.friction_angle_mean_deg, q.friction_angle_mean_deg);
     EXPECT_EQ(p.friction_coefficient_sd, q.friction_coefficient_sd);
     EXPECT_EQ(p.lateral_tilt_sd_deg, q.lateral_tilt_sd_deg);
+    EXPECT_EQ(p.class_name, q.class_name);
   }
   EXPECT_EQ(a.roughness.sigma, b.roughness.sigma);
   EXPECT_EQ(a.roughness.seed, b.roughness.seed);

@@ -9,6 +9,7 @@
 #include "talus/mc/clearance.hpp"
 #include "talus/mc/realization.hpp"
 #include "talus/mc/runner.hpp"
+#include "talus/terrain/material_classes.hpp"
 
 namespace talus::mc {
 namespace {
@@ -65,6 +66,28 @@ TEST(Scene, RefusesBadScenesWithOneLineReasons) {
     EXPECT_EQ(message.find('\n'), std::string::npos);
   }
   EXPECT_EQ(build_error(bench_scene()), "");
+}
+
+// A scene's material override may name a class: it sets the six parameters, and the
+// fields given beside it override them.
+TEST(Scene, MaterialOverrideByClass) {
+  SceneSettings s = bench_scene();
+  MaterialOverride o;
+  o.name = "slope";
+  o.class_name = "compact_scree";
+  o.lateral_tilt_sd_deg = 6.0;
+  s.materials = {o};
+  const Scene scene = Scene::build(s, bench_terrain(), library({block::SolidKind::cube}), "scene.yaml");
+  const terrain::Material& m = scene.materials().at(0);
+  const terrain::MaterialClass& c = *terrain::find_material_class("compact_scree");
+  EXPECT_EQ(m.class_name, "compact_scree");
+  EXPECT_EQ(m.restitution_mean, c.restitution_mean);
+  EXPECT_EQ(m.restitution_scale, c.restitution_scale);
+  EXPECT_EQ(m.friction_angle_mean_deg, c.friction_angle_mean_deg);
+  EXPECT_EQ(m.lateral_tilt_sd_deg, 6.0);
+  o.class_name = "granite";
+  s.materials = {o};
+  EXPECT_NE(build_error(s).find("unknown class 'granite'"), std::string::npos) << build_error(s);
 }
 
 TEST(Scene, ClassifiesStopsByZoneInOrder) {

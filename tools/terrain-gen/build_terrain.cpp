@@ -516,6 +516,9 @@ std::string summary(const Built& built) {
   const geometry::Aabb box = t.mesh.bounds();
   out << "extent (local): x [" << num(box.lo.x()) << ", " << num(box.hi.x()) << "] m, y [" << num(box.lo.y()) << ", "
       << num(box.hi.y()) << "] m, z [" << num(box.lo.z()) << ", " << num(box.hi.z()) << "] m\n";
+  const Vec3 lo = box.lo + t.origin_shift, hi = box.hi + t.origin_shift;
+  out << "extent (input coordinates, the scene's): x [" << num(lo.x()) << ", " << num(hi.x()) << "] m, y ["
+      << num(lo.y()) << ", " << num(hi.y()) << "] m, z [" << num(lo.z()) << ", " << num(hi.z()) << "] m\n";
   out << "CRS: " << io::crs_name(t.crs_wkt) << "\n";
   out << "origin shift: [" << num(t.origin_shift.x()) << ", " << num(t.origin_shift.y()) << ", "
       << num(t.origin_shift.z()) << "] m (added to local coordinates gives input coordinates)\n";
@@ -527,7 +530,9 @@ std::string summary(const Built& built) {
   out << "materials: " << t.materials.size() << "\n";
   for (std::size_t m = 0; m < t.materials.size(); ++m) {
     const auto& p = t.materials[m];
-    out << "  " << m << " " << p.name << ": " << count[m] << " triangles; R_v " << num(p.restitution_mean) << " (sd "
+    out << "  " << m << " " << p.name << ": " << count[m] << " triangles; ";
+    if (p.class_name != "none") out << "class " << p.class_name << ", ";
+    out << "R_v " << num(p.restitution_mean) << " (sd "
         << num(p.restitution_sd) << "), K " << num(p.restitution_scale) << " m/s, friction angle "
         << num(p.friction_angle_mean_deg) << " deg (sd of tan " << num(p.friction_coefficient_sd)
         << "), lateral tilt sd " << num(p.lateral_tilt_sd_deg) << " deg\n";

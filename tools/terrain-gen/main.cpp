@@ -15,6 +15,7 @@
 #include "talus/io/paths.hpp"
 #include "talus/io/terrain_file.hpp"
 #include "talus/io/xdmf.hpp"
+#include "talus/terrain/material_classes.hpp"
 
 namespace {
 
@@ -34,6 +35,7 @@ std::optional<std::uint32_t> parse_realization(const std::string& text) {
 int main(int argc, char** argv) {
   terrain_gen::Settings settings;
   bool print_summary = false;
+  bool list_classes = false;
   std::string export_path;
   std::string realization_text;
 
@@ -47,13 +49,21 @@ int main(int argc, char** argv) {
   spec.set_example = "roughness.sigma=0.2";
   spec.settings = [&settings](core::SettingsVisitor& v) { settings.visit(v); };
   spec.flags = {{"--summary", "print a summary of the built terrain (kind, sizes, extent, materials, roughness)",
-                 &print_summary}};
+                 &print_summary},
+                {"--list-material-classes",
+                 "print the built-in ground-material classes (materials[].class) with their parameters and sources",
+                 &list_classes}};
   spec.options = {
       {"--export-mesh", "also write a realization of the surface as a mesh (.obj or .ply with material per face)",
        &export_path, "FILE"},
       {"--realization", "realization exported by --export-mesh (default: the smooth base)", &realization_text, "N"}};
 
   spec.check = [&](const cli::Invocation& inv) {
+    if (list_classes) {
+      if (!inv.output.empty() || !inv.inputs.empty() || print_summary || !export_path.empty())
+        throw core::UsageError("--list-material-classes takes no inputs, outputs or other flags");
+      return;
+    }
     if (inv.output.empty() && !print_summary && export_path.empty())
       throw core::UsageError("no output file given (-o FILE; or --summary / --export-mesh alone)");
     if (!realization_text.empty() && export_path.empty())
@@ -81,6 +91,10 @@ int main(int argc, char** argv) {
   };
 
   spec.run = [&](const cli::Invocation& inv) {
+    if (list_classes) {
+      std::fputs(terrain::material_classes_table().c_str(), stdout);
+      return;
+    }
     const std::string settings_source = inv.config_path.empty() ? "settings" : inv.config_path;
     core::Stopwatch clock;
     const terrain_gen::Built built = terrain_gen::build_terrain(settings, inv.inputs, settings_source);

@@ -172,6 +172,9 @@ void write_terrain_file(const std::string& path, const Terrain& terrain, const P
     std::vector<std::string> names;
     for (const auto& m : terrain.materials) names.push_back(m.name);
     g_mat.write_strings("name", names);
+    std::vector<std::string> classes;
+    for (const auto& m : terrain.materials) classes.push_back(m.class_name);
+    g_mat.write_strings("class", classes);
     for (const auto& c : kMaterialColumns) {
       std::vector<double> column;
       for (const auto& m : terrain.materials) column.push_back(m.*(c.field));
@@ -255,6 +258,13 @@ terrain::Terrain read_terrain_file(const std::string& path, TerrainFileInfo& inf
   const auto names = g_mat.read_strings("name");
   t.materials.resize(names.size());
   for (std::size_t m = 0; m < names.size(); ++m) t.materials[m].name = names[m];
+  if (g_mat.has("class")) {  // absent in files of earlier versions: "none"
+    const auto classes = g_mat.read_strings("class");
+    if (classes.size() != names.size())
+      throw InputError(path, "/materials/class has " + count_text(classes.size()) + " entries for " +
+                                 count_text(names.size()) + " materials");
+    for (std::size_t m = 0; m < names.size(); ++m) t.materials[m].class_name = classes[m];
+  }
   for (const auto& c : kMaterialColumns) {
     const auto column = g_mat.read_doubles(c.name, {u64(names.size())});
     for (std::size_t m = 0; m < names.size(); ++m) t.materials[m].*(c.field) = column[m];

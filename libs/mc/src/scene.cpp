@@ -7,6 +7,7 @@
 #include <set>
 
 #include "talus/core/error.hpp"
+#include "talus/terrain/material_classes.hpp"
 
 namespace talus::mc {
 
@@ -15,6 +16,7 @@ using core::InputError;
 
 void MaterialOverride::visit(core::SettingsVisitor& v) {
   v.field("name", name, "name of the terrain file's material to override");
+  terrain::visit_material_class(v, class_name, nullptr);
   terrain::Material::visit_properties(v, *this);
 }
 
@@ -296,7 +298,11 @@ void check_release(const SceneSettings& s, const terrain::Surface& base, const E
   if (!std::isfinite(r.main_direction_deg)) throw InputError(source, "release.main_direction_deg must be finite");
 }
 
-void apply_override(terrain::Material& m, const MaterialOverride& o) {
+void apply_override(terrain::Material& m, const MaterialOverride& o, const std::string& source) {
+  if (o.class_name != "none") {
+    terrain::apply_material_class(m, o.class_name, source);
+    m.class_name = o.class_name;
+  }
   if (o.restitution_mean) m.restitution_mean = *o.restitution_mean;
   if (o.restitution_sd) m.restitution_sd = *o.restitution_sd;
   if (o.restitution_scale) m.restitution_scale = *o.restitution_scale;
@@ -377,7 +383,7 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
     bool found = false;
     for (auto& m : scene.materials_)
       if (m.name == o.name) {
-        apply_override(m, o);
+        apply_override(m, o, source);
         found = true;
       }
     if (!found) throw InputError(source, "material '" + o.name + "' is not in the terrain file");

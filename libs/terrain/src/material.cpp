@@ -4,6 +4,7 @@
 #include <string>
 
 #include "talus/core/error.hpp"
+#include "talus/terrain/material_classes.hpp"
 #include "talus/terrain/materials.hpp"
 #include "talus/terrain/terrain.hpp"
 
@@ -11,6 +12,7 @@ namespace talus::terrain {
 
 void Material::visit(core::SettingsVisitor& v) {
   v.field("name", name, "material name");
+  visit_material_class(v, class_name, this);
   visit_properties(v, *this);
 }
 

@@ -20,10 +20,12 @@ namespace talus::mc {
 inline constexpr int kSceneSchemaMajor = 1;
 inline constexpr const char* kSceneSchemaVersion = "1.0";
 
-/// Overrides of one ground material of the terrain file, matched by name. Absent fields
-/// keep the terrain file's value.
+/// Overrides of one ground material of the terrain file, matched by name. A class sets
+/// all six parameters first; the fields given then override it; absent fields keep the
+/// terrain file's value.
 struct MaterialOverride {
   std::string name;
+  std::string class_name = "none";                ///< starting class (material_classes.hpp), none = keep
   std::optional<double> restitution_mean;         ///< R_v mean (-)
   std::optional<double> restitution_sd;           ///< R_v sd (-)
   std::optional<double> restitution_scale;        ///< K (m/s)

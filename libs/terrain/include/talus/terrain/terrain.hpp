@@ -55,6 +55,9 @@ enum class Diagonal : std::uint8_t {
 /// Ground material: the distributions of SPEC §4 drawn per impact.
 struct Material {
   std::string name = "default";
+  /// Starting class the six parameters were set from (material_classes.hpp); "none" =
+  /// the parameters as given. Parameters given beside a class override it.
+  std::string class_name = "none";
   double restitution_mean = 0.95;          ///< scaled restitution R_v mean (-)
   double restitution_sd = 0.05;            ///< R_v standard deviation (-)
   double restitution_scale = 12.0;         ///< K of SF = 1/(1+(V_in/K)²) (m/s)

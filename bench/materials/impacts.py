@@ -20,7 +20,7 @@ energy (spin included, from the sampled energy) E_out / E_in.
 Usage:
   impacts.py --bin build/bin --out DIR [--classes a,b,...] [--speed 10] [--incidence 90]
              [--realizations 64] [--block cube|platonic] [--orientation random|face]
-             [--stochastic] [--json FILE]
+             [--stochastic] [--json FILE] [--check TOL]
   impacts.py --bin build/bin --out DIR --fit NAME:RN:PHI [--fit ...] [--realizations 256]
              finds, by bisection, the mean restitution R_v (no speed scaling, K = 1000 m/s,
              no scatter) whose median e_n is RN at the given impact, friction angle PHI (deg):
@@ -54,13 +54,15 @@ def run(cmd, log):
 
 
 def list_classes(bindir):
+    """{class name: published normal restitution R_n} from terrain-gen --list-material-classes."""
     out = subprocess.run([os.path.join(bindir, "terrain-gen"), "--list-material-classes"],
                          check=True, capture_output=True, text=True).stdout
-    names = []
+    classes = {}
     for line in out.splitlines():
         if line and not line.startswith((" ", "#", "class")):
-            names.append(line.split()[0])
-    return names
+            fields = line.split()
+            classes[fields[0]] = float(fields[-1])
+    return classes
 
 
 def terrain_yaml(material):
@@ -245,6 +247,8 @@ def main():
     ap.add_argument("--stochastic", action="store_true", help="draw R_v and friction per impact")
     ap.add_argument("--json", default="")
     ap.add_argument("--fit", action="append", default=[], help="NAME:RN:PHI, see above")
+    ap.add_argument("--check", type=float, default=0.0,
+                    help="fail (exit 1) when a class's median e_n is further than this from its R_n")
     args = ap.parse_args()
     if args.fit:
         fit(args)
@@ -253,12 +257,14 @@ def main():
     os.makedirs(args.out, exist_ok=True)
     log = os.path.join(args.out, "commands.log")
     materials = []
+    known = {}
     if args.material:
         for spec in args.material:
             name, _, kv = spec.partition(":")
             materials.append((name, dict(p.split("=") for p in kv.split(",") if p)))
     else:
-        names = args.classes.split(",") if args.classes else list_classes(args.bin)
+        known = list_classes(args.bin)
+        names = args.classes.split(",") if args.classes else list(known)
         materials = [(n, {"class": n}) for n in names]
 
     results = {}
@@ -271,10 +277,19 @@ def main():
         f3 = lambda xs: " / ".join("%.2f" % x for x in xs)
         print("| %s | %d | %d | %.1f | %s | %s | %s |" % (name, s["n"], s["rebounds"], s["speed_in"],
                                                         f3(s["e_n"]), f3(s["e_t"]), f3(s["energy_ratio"])))
+    failures = []
+    if args.check > 0.0:
+        for name, s in results.items():
+            target = known.get(name)
+            if target is not None and not abs(s["e_n"][1] - target) <= args.check:
+                failures.append("%s: median e_n %.3f, R_n %.2f" % (name, s["e_n"][1], target))
     if args.json:
         with open(args.json, "w") as f:
             json.dump({"speed": args.speed, "incidence": args.incidence, "block": args.block,
                        "orientation": args.orientation, "results": results}, f, indent=1)
+    if failures:
+        sys.exit("impacts.py: median normal restitution off its class's R_n by more than %g: %s"
+                 % (args.check, "; ".join(failures)))
 
 
 if __name__ == "__main__":

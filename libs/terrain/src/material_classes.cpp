@@ -20,7 +20,8 @@ namespace {
 // speed (K = 1000 m/s: SF > 0.999 below 30 m/s). The sd of R_v spreads it as Rockyfor3D's
 // R_n range read as a uniform spread: sd = R_v · (half range / R_n) / √3. Friction angles:
 // rock on rock and on asphalt 30° (basic friction angles of 25–35°, Barton & Choubey
-// 1977); granular grounds 35° (their angle of repose); soils 30°, vegetated soil 35°.
+// 1977); scree 35° (its angle of repose); soils 30°. Ground under grass or shrubs has no
+// class of its own: like Rockyfor3D, take the class of the soil beneath (docs/materials.md).
 constexpr std::array kClasses{
     MaterialClass{"bedrock", "hard bedrock, outcrops, clean rock faces", "Rockyfor3D soil type 6 (R_n 0.53, 0.48-0.58)",
                   0.53, 0.82, 0.045, 1000.0, 30.0, 0.05, 0.0},
@@ -35,9 +36,6 @@ constexpr std::array kClasses{
                   "Rockyfor3D soil type 2 (R_n 0.28, 0.25-0.31)", 0.28, 0.44, 0.027, 1000.0, 30.0, 0.05, 0.0},
     MaterialClass{"deep_soil", "fine soil deeper than ~1 m", "Rockyfor3D soil type 1 (R_n 0.23, 0.21-0.25)", 0.23,
                   0.36, 0.018, 1000.0, 30.0, 0.05, 0.0},
-    MaterialClass{"vegetated_soil", "fine soil under grass, shrubs or litter (trees are not modelled)",
-                  "Rockyfor3D soil type 1 (R_n 0.23, 0.21-0.25), friction raised to 35 deg for the cover", 0.23, 0.36,
-                  0.018, 1000.0, 35.0, 0.05, 0.0},
     MaterialClass{"asphalt", "asphalt road", "Rockyfor3D soil type 7 (R_n 0.35, 0.32-0.39)", 0.35, 0.54, 0.031,
                   1000.0, 30.0, 0.05, 0.0},
 };
@@ -72,7 +70,7 @@ void visit_material_class(core::SettingsVisitor& v, std::string& class_name, Mat
   // The list must name every entry of kClasses (a test checks it).
   v.choice("class", class_name,
            {"none", "bedrock", "bedrock_thin_cover", "compact_scree", "loose_scree", "soil", "deep_soil",
-            "vegetated_soil", "asphalt"},
+            "asphalt"},
            "starting material class (docs/materials.md, terrain-gen --list-material-classes): sets the six "
            "parameters below, which override it where given; none: the parameters alone");
   if (target != nullptr && class_name != before && class_name != "none")

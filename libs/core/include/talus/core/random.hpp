@@ -21,6 +21,7 @@ enum class Stream : std::uint32_t {
   impact = 4,             ///< per-impact restitution, friction and lateral tilt draws
   block_shape = 5,        ///< random rock shapes, block-library sampling
   bootstrap = 6,          ///< statistical resampling
+  calibration = 7,        ///< parameter proposals of a calibration (realization field = generation)
 };
 
 /// A counter-based random stream: draw k of stream (seed, purpose, realization) is a pure

@@ -14,6 +14,7 @@
 #include "talus/core/error.hpp"
 #include "talus/core/log.hpp"
 #include "talus/dda/state.hpp"
+#include "talus/io/observed.hpp"
 #include "talus/io/paths.hpp"
 #include "talus/io/terrain_file.hpp"
 #include "talus/io/vector.hpp"
@@ -512,87 +513,6 @@ Analysis analyze(const std::vector<Run>& runs, const Settings& settings) {
   return a;
 }
 
-}  // namespace talus::stats_tool
-
-namespace talus::stats_tool {
-
-namespace {
-
-std::string lower(std::string s) {
-  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return s;
-}
-
-// The fields of a CSV line (separators: comma, semicolon, tab or spaces; quotes dropped).
-std::vector<std::string> fields_of(const std::string& line) {
-  std::vector<std::string> out;
-  std::string cur;
-  bool any = false;
-  for (char c : line) {
-    if (c == ',' || c == ';' || c == '\t' || c == ' ' || c == '\r') {
-      if (any) out.push_back(cur);
-      cur.clear();
-      any = false;
-      continue;
-    }
-    if (c == '"' || c == '\'') continue;
-    cur += c;
-    any = true;
-  }
-  if (any) out.push_back(cur);
-  return out;
-}
-
-bool parse_number(const std::string& text, double& value) {
-  char* end = nullptr;
-  value = std::strtod(text.c_str(), &end);
-  return end != text.c_str() && *end == '\0' && std::isfinite(value);
-}
-
-// Observed points of a CSV: a header naming x and y (or easting and northing) picks the
-// columns, otherwise the first two.
-std::vector<std::array<double, 2>> read_points_csv(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw core::InputError(path, "cannot open the observed stop points");
-  std::vector<std::array<double, 2>> points;
-  std::string line;
-  std::size_t number = 0, cx = 0, cy = 1;
-  bool first = true;
-  while (std::getline(in, line)) {
-    ++number;
-    const auto f = fields_of(line);
-    if (f.empty() || f[0].rfind('#', 0) == 0) continue;
-    double x = 0.0, y = 0.0;
-    if (first) {
-      first = false;
-      if (!parse_number(f[0], x)) {
-        bool found_x = false, found_y = false;
-        for (std::size_t k = 0; k < f.size(); ++k) {
-          const std::string name = lower(f[k]);
-          if ((name == "x" || name == "easting" || name == "east") && !found_x) cx = k, found_x = true;
-          if ((name == "y" || name == "northing" || name == "north") && !found_y) cy = k, found_y = true;
-        }
-        if (!found_x || !found_y)
-          throw core::InputError(path, "line " + std::to_string(number) +
-                                           ": the header names no x and y (or easting and northing) column");
-        continue;
-      }
-    }
-    if (f.size() <= std::max(cx, cy) || !parse_number(f[cx], x) || !parse_number(f[cy], y))
-      throw core::InputError(path, "line " + std::to_string(number) + ": expected the x and y of a stop point (m)");
-    points.push_back({x, y});
-  }
-  if (points.empty()) throw core::InputError(path, "holds no observed stop point");
-  return points;
-}
-
-bool is_csv(const std::string& path) {
-  const std::string ext = io::lower_extension(path);
-  return ext == ".csv" || ext == ".txt" || ext == ".xy" || ext == ".xyz";
-}
-
-}  // namespace
-
 std::optional<Validation> validate_against_observed(const Analysis& a, const Settings& settings) {
   const Observed& o = settings.observed;
   if (o.file.empty()) return std::nullopt;
@@ -606,20 +526,12 @@ std::optional<Validation> validate_against_observed(const Analysis& a, const Set
   if (series->stop_points.empty())
     throw core::InputError("settings", "observed: run '" + series->run + "' has no realization at rest to compare");
 
-  std::vector<std::array<double, 2>> observed;
-  if (is_csv(o.file)) {
-    observed = read_points_csv(o.file);
-  } else {
-    io::VectorRequest request;
-    request.path = o.file;
-    request.layer = o.layer;
-    request.kind = "point";
-    request.key = "observed.file";
-    for (const mc::PlanFeature& f : io::read_plan_features(request, a.runs[series->run_index].crs_wkt))
-      for (const auto& part : f.parts)
-        for (const auto& ring : part)
-          for (const Eigen::Vector2d& p : ring) observed.push_back({p.x(), p.y()});
-  }
+  const io::ObservedStops stops =
+      io::read_observed_stops(o.file, o.layer, a.runs[series->run_index].crs_wkt, "observed.file");
+  if (!stops.has_points())
+    throw core::InputError(o.file, "gives runouts; stats compares stop points (x and y columns), as the simulated "
+                                   "ones are measured from observed.origin");
+  const std::vector<std::array<double, 2>>& observed = stops.points;
 
   const double azimuth = o.main_direction_deg * M_PI / 180.0;
   const double dx = std::cos(azimuth), dy = std::sin(azimuth);

@@ -1,0 +1,29 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+#include <array>
+#include <string>
+#include <vector>
+
+namespace talus::io {
+
+/// Observed stops of a field campaign or a past event, as a file gives them: stop points
+/// (plan x, y in the terrain's input coordinates, m), or runouts from a known origin (m)
+/// with, optionally, their lateral offsets (m, positive to the left).
+struct ObservedStops {
+  std::vector<std::array<double, 2>> points;  ///< when the file gives points
+  std::vector<double> runout;                 ///< when the file gives runouts (a `runout` column)
+  std::vector<double> lateral;                ///< with runouts, when it has a `lateral` column
+  bool has_points() const { return !points.empty(); }
+};
+
+/// Reads observed stops from a CSV (columns separated by commas, semicolons, tabs or
+/// spaces; `#` comment lines): a header naming x and y (or easting and northing) picks
+/// those columns; a header naming `runout` (and `lateral`) gives runouts; no header: the
+/// first two columns are x and y. Any other extension is a vector file of points (read by
+/// OGR; a layer whose CRS differs from `terrain_crs_wkt` is refused with the ogr2ogr
+/// command). Throws core::InputError(path, …) naming the line of a bad value, or when the
+/// file holds no stop.
+ObservedStops read_observed_stops(const std::string& path, const std::string& layer, const std::string& terrain_crs_wkt,
+                                  const std::string& key);
+
+}  // namespace talus::io

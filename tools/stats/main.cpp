@@ -9,6 +9,7 @@
 #include "analysis.hpp"
 #include "outputs.hpp"
 #include "settings.hpp"
+#include "talus/cli/plot_helper.hpp"
 #include "talus/cli/tool.hpp"
 #include "talus/core/error.hpp"
 #include "talus/core/log.hpp"
@@ -113,7 +114,7 @@ int main(int argc, char** argv) {
     if (inv.output.empty()) throw core::UsageError("-o OUTDIR is required");
     settings.validate();
     // Before any work: a missing matplotlib is reported at once, not after the analysis.
-    if (settings.plots) stats_tool::check_plotting();
+    if (settings.plots) cli::check_plotting();
     check_outputs(inv, settings);
   };
   spec.run = [&](const cli::Invocation& inv) {

@@ -1,7 +1,5 @@
 #include "outputs.hpp"
 
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <charconv>
@@ -15,6 +13,7 @@
 #include <map>
 #include <set>
 
+#include "talus/cli/plot_helper.hpp"
 #include "talus/core/error.hpp"
 #include "talus/dda/state.hpp"
 #include "talus/io/atomic_output.hpp"
@@ -585,67 +584,12 @@ std::vector<std::string> write_vector_layers(const std::string& dir, const std::
   return written;
 }
 
-std::string python_interpreter() {
-  const char* env = std::getenv("TALUS_PYTHON");
-  return env && *env ? env : "/usr/bin/python3";
-}
-
-std::string plot_helper() {
-  const char* env = std::getenv("TALUS_PLOT");
-  if (env && *env) return env;
-  std::error_code ec;
-  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
-  return ((ec ? fs::path(".") : self.parent_path()) / "talus-plot").string();
-}
-
-namespace {
-
-std::string quote(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
-}
-
-// Runs a shell command with stderr captured; returns (exit code, first line of stderr).
-std::pair<int, std::string> run_captured(const std::string& command) {
-  const fs::path err = fs::temp_directory_path() / ("talus-stats-" + std::to_string(::getpid()) + ".err");
-  const int status = std::system((command + " > /dev/null 2> " + quote(err.string())).c_str());
-  std::string line;
-  {
-    std::ifstream in(err);
-    std::string text;
-    // The helper's own message is its last line (a traceback, if any, comes before it).
-    while (std::getline(in, text))
-      if (!text.empty()) line = text;
-  }
-  fs::remove(err);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : 128, line};
-}
-
-}  // namespace
-
-void check_plotting() {
-  const std::string python = python_interpreter();
-  const auto [code, line] = run_captured(quote(python) + " -c 'import matplotlib, h5py, numpy'");
-  if (code == 127 || code == 126)
-    throw core::RuntimeError("plots: cannot run the Python interpreter '" + python +
-                             "' (set TALUS_PYTHON, or --set plots=false)");
-  if (code != 0)
-    throw core::RuntimeError("plots: " + python + " cannot import matplotlib, h5py and numpy (" + line +
-                             "): install python3-matplotlib python3-h5py, set TALUS_PYTHON, or --set plots=false");
-  if (!fs::exists(plot_helper()))
-    throw core::RuntimeError("plots: the helper " + plot_helper() + " is missing (set TALUS_PLOT, or --set plots=false)");
-}
-
 void draw_plots(const std::string& summary_path, const std::string& dir, const Settings& settings) {
   std::string formats;
   for (const auto& f : settings.plot_formats) formats += (formats.empty() ? "" : ",") + f;
   if (formats.empty()) return;
-  const auto [code, line] = run_captured(quote(python_interpreter()) + " " + quote(plot_helper()) + " " +
-                                         quote(summary_path) + " " + quote(dir) + " --formats " + formats +
-                                         " --jobs " + std::to_string(settings.plot_jobs));
-  if (code != 0)
-    throw core::RuntimeError("plots: " + (line.empty() ? "talus-plot failed with exit code " + std::to_string(code) : line));
+  cli::run_plot_helper(cli::shell_quote(summary_path) + " " + cli::shell_quote(dir) + " --formats " + formats +
+                       " --jobs " + std::to_string(settings.plot_jobs));
 }
 
 }  // namespace talus::stats_tool

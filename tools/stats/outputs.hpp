@@ -43,13 +43,6 @@ std::vector<std::string> write_vector_layers(const std::string& dir, const std::
 /// The layers of one run as write_vector_layers writes them (exposed for tests).
 std::vector<io::VectorLayer> vector_layers(const Run& run, const RunResult& result);
 
-/// The Python interpreter of the plot helper: $TALUS_PYTHON, else /usr/bin/python3.
-std::string python_interpreter();
-/// The talus-plot helper next to this executable (or $TALUS_PLOT).
-std::string plot_helper();
-/// Throws core::RuntimeError with one line when the interpreter cannot import matplotlib,
-/// h5py and numpy.
-void check_plotting();
 /// Draws the plots of a summary file into `dir` with the helper; throws core::RuntimeError
 /// with the helper's one-line message when it fails.
 void draw_plots(const std::string& summary_path, const std::string& dir, const Settings& settings);

@@ -34,8 +34,11 @@ std::vector<std::uint32_t> all_indices(std::uint32_t n) {
 class BenchRun : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    scene_ = new Scene(Scene::build(bench_scene(4), bench_terrain(),
-                                    library({block::SolidKind::cube, block::SolidKind::octahedron}), "test"));
+    // The blocks in turn (not the default weighted draw), so every run has both.
+    SceneSettings s = bench_scene(4);
+    s.block_selection = "cycle";
+    scene_ = new Scene(
+        Scene::build(s, bench_terrain(), library({block::SolidKind::cube, block::SolidKind::octahedron}), "test"));
     single_ = new RunData(run_all(*scene_, all_indices(4), 1));
   }
   static void TearDownTestSuite() {

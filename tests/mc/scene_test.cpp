@@ -2,6 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
 #include <functional>
 
 #include "mc_fixtures.hpp"
@@ -44,6 +48,8 @@ TEST(Scene, RefusesBadScenesWithOneLineReasons) {
       {[](SceneSettings& s) { s.outputs.chunk = 0; }, "outputs.chunk must be positive"},
       {[](SceneSettings& s) { s.release.points = {{70.0, 10.0}}; }, "release point (70, 10) is outside the terrain"},
       {[](SceneSettings& s) { s.release.kind = "line"; }, "needs at least 2 points"},
+      {[](SceneSettings& s) { s.release.points.clear(); },
+       "release.kind 'point' needs at least 1 point in release.points, got 0"},
       {[](SceneSettings& s) {
          s.release.height_reference = "lowest_point";
          s.release.height = -0.1;
@@ -381,6 +387,184 @@ TEST(Release, CheckReleasesReportsTheLowestFailingRealization) {
   }
   s.release.clearance = "lift";
   EXPECT_NO_THROW(check_releases(PlaneRelease(s).scene, all, 2));
+}
+
+// x, y and z of the "(at x …, y …, z …)" of a release message (NaN without one).
+Vec3 message_point(const std::string& message) {
+  Vec3 p = Vec3::Constant(std::nan(""));
+  const auto at = message.find("(at x ");
+  if (at != std::string::npos) std::sscanf(message.c_str() + at, "(at x %lf, y %lf, z %lf)", &p.x(), &p.y(), &p.z());
+  return p;
+}
+
+// A block placed in the ground on a terrain with an origin shift: the message gives the
+// release point and the deepest point in the terrain's input coordinates, as the scene
+// was written, not in the shifted frame the engine works in (frame: local keeps that one).
+TEST(Release, ErrorsGivePositionsInTheTerrainsInputCoordinates) {
+  terrain::Terrain shifted = testing::plane_terrain(45.0);
+  const Vec3 shift(2601000.0, 1180000.0, 400.0);
+  shifted.origin_shift = shift;
+  const auto cube = library({block::SolidKind::cube});
+  auto error = [&](const SceneSettings& s) {
+    try {
+      const Scene scene = Scene::build(s, shifted, cube, "site.yaml");
+      draw_release(scene, scene.base_surface().realization(std::nullopt), 0);
+    } catch (const core::InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  SceneSettings input = plane_scene(0.3);
+  for (auto& p : input.release.points) p = {p[0] + shift.x(), p[1] + shift.y()};
+  SceneSettings local = plane_scene(0.3);
+  local.frame = "local";
+  const std::string in_input = error(input), in_local = error(local);
+  EXPECT_EQ(in_input.rfind("site.yaml: release of realization 0 at (2601005, 1180005): block 'cube' reaches 0.7 m "
+                           "into the ground (at x 2601004.5, y 11800",
+                           0),
+            0u)
+      << in_input;
+  EXPECT_EQ(in_local.rfind("site.yaml: release of realization 0 at (5, 5): block 'cube' reaches 0.7 m into the "
+                           "ground (at x 4.5, y ",
+                           0),
+            0u)
+      << in_local;
+  // The same point, shifted; the messages print 10 significant digits, so a 7-digit
+  // coordinate keeps 3 decimals.
+  const Vec3 a = message_point(in_input), b = message_point(in_local);
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(a[k], b[k] + shift[k], 1e-3) << k << ": " << in_input;
+  EXPECT_NEAR(a.z(), 414.8, 1e-9);  // the cube's uphill bottom edge: 15 + 0.3 − 0.5 m local
+  // A block too near the ground: the same point, also in input coordinates.
+  input.release.height = 1.2;
+  input.release.clearance_gap = 0.5;
+  const std::string near = error(input);
+  EXPECT_EQ(near.rfind("site.yaml: release of realization 0 at (2601005, 1180005): block 'cube' is only 0.2 m above "
+                       "the ground (at x 2601004.5, y 11800",
+                       0),
+            0u)
+      << near;
+  EXPECT_NEAR(message_point(near).z(), 415.7, 1e-9);
+  EXPECT_EQ(near.find('\n'), std::string::npos);
+}
+
+// The blocks of realizations 0 … n−1 (on the smooth ground).
+std::vector<std::int32_t> block_draws(const Scene& scene, std::uint32_t n) {
+  std::vector<std::int32_t> blocks;
+  const terrain::Surface ground = scene.base_surface().realization(std::nullopt);
+  for (std::uint32_t i = 0; i < n; ++i) blocks.push_back(draw_release(scene, ground, i).block);
+  return blocks;
+}
+
+// Block weights are honoured by default: each realization draws its block with the
+// library's weights (one of weight 0 never), a pure function of the seed and the index;
+// cycle still takes them in turn.
+TEST(Release, BlocksAreDrawnByTheirWeightsByDefault) {
+  EXPECT_EQ(SceneSettings{}.block_selection, "weighted");
+  auto blocks = library({block::SolidKind::cube, block::SolidKind::octahedron, block::SolidKind::tetrahedron});
+  blocks[0].weight = 3.0;
+  blocks[1].weight = 1.0;
+  blocks[2].weight = 0.0;
+  SceneSettings s = bench_scene();
+  s.release.clearance = "lift";
+  const Scene scene = Scene::build(s, bench_terrain(), blocks, "s");
+  constexpr std::uint32_t n = 800;
+  const std::vector<std::int32_t> drawn = block_draws(scene, n);
+  // Within 4.5 binomial standard deviations of n·3/4 (the draws are fixed by the seed: a
+  // check of the method, not a flaky one).
+  EXPECT_NEAR(static_cast<double>(std::count(drawn.begin(), drawn.end(), 0)), 0.75 * n, 4.5 * std::sqrt(n * 0.75 * 0.25));
+  EXPECT_EQ(std::count(drawn.begin(), drawn.end(), 2), 0);
+  // The same draws from another scene of the same seed; other ones from another seed.
+  EXPECT_EQ(block_draws(Scene::build(s, bench_terrain(), blocks, "s"), n), drawn);
+  s.seed = 12;
+  EXPECT_NE(block_draws(Scene::build(s, bench_terrain(), blocks, "s"), n), drawn);
+  // Cycle: block i mod 3, whatever the weights.
+  s.block_selection = "cycle";
+  const Scene cycled = Scene::build(s, bench_terrain(), blocks, "s");
+  const terrain::Surface ground = cycled.base_surface().realization(std::nullopt);
+  for (std::uint32_t i = 0; i < 6; ++i) EXPECT_EQ(draw_release(cycled, ground, i).block, static_cast<std::int32_t>(i % 3));
+  // Nothing to draw from: refused, with the way out.
+  s.block_selection = "weighted";
+  for (auto& b : blocks) b.weight = 0.0;
+  try {
+    Scene::build(s, bench_terrain(), blocks, "s.yaml");
+    ADD_FAILURE() << "no error";
+  } catch (const core::InputError& e) {
+    EXPECT_EQ(std::string(e.what()), "s.yaml: every block has sampling weight 0, so block_selection weighted has none to "
+                                     "draw: give some a weight (block-gen 'weight') or set block_selection: cycle");
+  }
+  // One block is used whatever its weight.
+  EXPECT_NO_THROW(Scene::build(s, bench_terrain(), {blocks[0]}, "s.yaml"));
+}
+
+// Three release points written inline: each realization starts at one of them, all
+// equally likely (the rule of a file of Point features without weight_field, drawn by
+// the same code), the same ones for the same seed.
+TEST(Release, SeveralPointsAreDrawnWithEqualProbability) {
+  SceneSettings s = bench_scene();
+  const std::vector<Eigen::Vector2d> points = {{3.0, 10.0}, {18.0, 6.0}, {26.0, 14.0}};
+  s.release.points.clear();
+  for (const auto& p : points) s.release.points.push_back({p.x(), p.y()});
+  s.release.clearance = "lift";
+  const auto cube = library({block::SolidKind::cube});
+  const Scene scene = Scene::build(s, bench_terrain(), cube, "s");
+  EXPECT_EQ(scene.release_zone(), points);
+  constexpr std::uint32_t n = 600;
+  const terrain::Surface ground = scene.base_surface().realization(std::nullopt);
+  auto assignment = [&](const Scene& sc) {
+    std::vector<int> which;
+    for (std::uint32_t i = 0; i < n; ++i) {
+      const Eigen::Vector2d xy = draw_release(sc, ground, i).release.position.head<2>();
+      const auto it = std::find(points.begin(), points.end(), xy);
+      EXPECT_NE(it, points.end()) << "realization " << i << " starts at " << xy.transpose();
+      which.push_back(static_cast<int>(it - points.begin()));
+    }
+    return which;
+  };
+  const std::vector<int> which = assignment(scene);
+  // Within 4.5 binomial standard deviations of n/3 each (fixed by the seed).
+  for (int k = 0; k < 3; ++k)
+    EXPECT_NEAR(static_cast<double>(std::count(which.begin(), which.end(), k)), n / 3.0, 4.5 * std::sqrt(n * (1.0 / 3.0) * (2.0 / 3.0)))
+        << "point " << k;
+  // Same seed, same assignment; another seed, another one.
+  EXPECT_EQ(assignment(Scene::build(s, bench_terrain(), cube, "s")), which);
+  SceneSettings other = s;
+  other.seed = 12;
+  EXPECT_NE(assignment(Scene::build(other, bench_terrain(), cube, "s")), which);
+  // The draws of a release file holding the same three Point features, bit for bit.
+  SceneSettings file = s;
+  file.release.points = ReleaseSettings{}.points;
+  file.release.file = "points.gpkg";
+  SceneVectors vectors;
+  for (const auto& p : points) vectors.release.push_back({"feature", "", std::nullopt, {{{p}}}});
+  const Scene from_file = Scene::build(file, bench_terrain(), cube, "s", vectors);
+  for (std::uint32_t i = 0; i < 50; ++i) {
+    const ReleaseDraw a = draw_release(scene, ground, i), b = draw_release(from_file, ground, i);
+    EXPECT_EQ(a.release.position, b.release.position) << i;
+    EXPECT_EQ(a.release.orientation.coeffs(), b.release.orientation.coeffs()) << i;
+  }
+}
+
+// One release point draws exactly what it did before several were allowed (values of
+// main ea1e533): nothing is drawn to choose it, so records of one-point scenes keep
+// their bits.
+TEST(Release, OnePointDrawsAsItAlwaysDid) {
+  SceneSettings s = bench_scene(3);
+  s.block_selection = "cycle";
+  const Scene scene =
+      Scene::build(s, bench_terrain(), library({block::SolidKind::cube, block::SolidKind::octahedron}), "s");
+  const std::array<std::array<double, 5>, 3> expected = {{
+      {0x1.902a35e310174p+3, 0x1.c5eacd4fdb2b2p-3, 0x1.3a69b867250e6p-2, -0x1.36f4afba578eep-6, -0x1.d9c527afe8adcp-1},
+      {0x1.8c777db645eb1p+3, 0x1.edd1d72321cbap-3, -0x1.8c7ffe9486aeep-1, -0x1.83e249255c58fp-5, 0x1.2a804b988e279p-1},
+      {0x1.8ab7e31dba1e9p+3, 0x1.9147351cf9461p-4, -0x1.ea7be400fccbap-1, 0x1.13ba0297ff5ecp-2, 0x1.b7b764d07b5b6p-7},
+  }};
+  for (std::uint32_t i = 0; i < 3; ++i) {
+    const ReleaseDraw d = draw_release(scene, scene.base_surface().realization(i), i);
+    const auto& e = expected[i];
+    EXPECT_EQ(d.release.position, Vec3(26.0, 10.0, e[0])) << i;
+    const Eigen::Quaterniond& q = d.release.orientation;
+    const std::array<double, 4> wxyz = {q.w(), q.x(), q.y(), q.z()};
+    EXPECT_EQ(wxyz, (std::array<double, 4>{e[1], e[2], e[3], e[4]})) << i;
+  }
 }
 
 }  // namespace

@@ -37,8 +37,8 @@ std::size_t pick(const std::vector<double>& weights, double u) {
 // Plan point of the release zone from `rs`: draw 1 picks the feature when there are
 // several, draw 2 the part of a multi-part point or polygon feature, draw 0 the position
 // along a line (over all its parts), draws 16 onwards (pairs) the point in a polygon;
-// draws 3–5 are the orientation. One feature of one part (an inline zone) uses the draws
-// and arithmetic it always did.
+// draws 3–5 are the orientation. One feature of one part (an inline line, polygon or
+// single point) uses the draws and arithmetic it always did.
 Eigen::Vector2d release_point(const std::string& kind, const std::vector<ReleaseFeature>& features,
                               const RandomStream& rs) {
   std::size_t chosen = 0;
@@ -258,14 +258,22 @@ class Observer {
   Current current_;
 };
 
+// "(x, y)" of a local plan point in the scene's frame, as the user wrote it.
+std::string plan_text(const Scene& scene, const Eigen::Vector2d& xy) {
+  const Vec3 shift = scene.frame_shift();
+  return "(" + core::format_number(xy.x() + shift.x()) + ", " + core::format_number(xy.y() + shift.y()) + ")";
+}
+
 // Sets the release height of `block` (orientation already drawn) at plan point `xy`,
 // where the realized ground is at `ground_z` (docs/dda-run.md, "Release clearance").
+// Positions in its messages are in the scene's frame, not the engine's local one.
 void place_block(const Scene& scene, const SceneBlock& block, const terrain::Surface& ground, std::uint32_t index,
                  const Eigen::Vector2d& xy, double ground_z, dda::Release& rel) {
   const ReleaseSettings& r = scene.settings().release;
   using core::format_number;
-  const std::string where = "release of realization " + std::to_string(index) + " at (" + format_number(xy.x()) +
-                            ", " + format_number(xy.y()) + "): block '" + block.name + "'";
+  const Vec3 shift = scene.frame_shift();
+  const std::string where = "release of realization " + std::to_string(index) + " at " + plan_text(scene, xy) +
+                            ": block '" + block.name + "'";
   if (r.height_reference == "lowest_point") {
     // Lowered from any height onto the ground, then raised by `height`: the clearance
     // changes by exactly the vertical shift, so one evaluation suffices.
@@ -277,9 +285,7 @@ void place_block(const Scene& scene, const SceneBlock& block, const terrain::Sur
   }
   // An elevation is in the scene's frame: the terrain's input coordinates (frame: input)
   // less the origin shift the engine works in.
-  const double elevation_shift = scene.settings().frame == "input" ? scene.terrain().origin_shift.z() : 0.0;
-  rel.position = Vec3(xy.x(), xy.y(),
-                      r.height_reference == "elevation" ? r.height - elevation_shift : ground_z + r.height);
+  rel.position = Vec3(xy.x(), xy.y(), r.height_reference == "elevation" ? r.height - shift.z() : ground_z + r.height);
   const Clearance c = vertical_clearance(block.model, rel.position, rel.orientation, ground);
   if (!(c.gap < r.clearance_gap)) return;
   const double raise = r.clearance_gap - c.gap;
@@ -287,8 +293,9 @@ void place_block(const Scene& scene, const SceneBlock& block, const terrain::Sur
     rel.position.z() += raise;
     return;
   }
-  const std::string point = " (at x " + format_number(c.point.x()) + ", y " + format_number(c.point.y()) + ", z " +
-                            format_number(c.point.z()) + ")";
+  const Vec3 at = c.point + shift;
+  const std::string point =
+      " (at x " + format_number(at.x()) + ", y " + format_number(at.y()) + ", z " + format_number(at.z()) + ")";
   const std::string state = c.gap < 0.0 ? " reaches " + format_number(-c.gap) + " m into the ground" + point
                                         : " is only " + format_number(c.gap) + " m above the ground" + point +
                                               ", less than release.clearance_gap " +
@@ -305,18 +312,9 @@ ReleaseDraw draw_release(const Scene& scene, const terrain::Surface& ground, std
   ReleaseDraw draw;
   const auto blocks = static_cast<std::uint32_t>(scene.blocks().size());
   if (s.block_selection == "weighted" && blocks > 1) {
-    double total = 0.0;
-    for (const auto& b : scene.blocks()) total += b.weight;
-    const double u = RandomStream(s.seed, Stream::block_shape, index).uniform(0) * total;
-    double sum = 0.0;
-    draw.block = static_cast<std::int32_t>(blocks - 1);
-    for (std::uint32_t k = 0; k < blocks; ++k) {
-      sum += scene.blocks()[k].weight;
-      if (u < sum) {
-        draw.block = static_cast<std::int32_t>(k);
-        break;
-      }
-    }
+    std::vector<double> weights;
+    for (const auto& b : scene.blocks()) weights.push_back(b.weight);
+    draw.block = static_cast<std::int32_t>(pick(weights, RandomStream(s.seed, Stream::block_shape, index).uniform(0)));
   } else {
     draw.block = static_cast<std::int32_t>(index % blocks);
   }
@@ -325,8 +323,7 @@ ReleaseDraw draw_release(const Scene& scene, const terrain::Surface& ground, std
   const Eigen::Vector2d xy = release_point(r.kind, scene.release_features(), rs);
   const auto hit = ground.height_at(xy.x(), xy.y());
   if (!hit)
-    throw core::InputError(scene.source(), "release point (" + core::format_number(xy.x()) + ", " +
-                                               core::format_number(xy.y()) + ") of realization " +
+    throw core::InputError(scene.source(), "release point " + plan_text(scene, xy) + " of realization " +
                                                std::to_string(index) + " is outside the realized terrain");
   dda::Release& rel = draw.release;
   if (r.orientation == "random") {

@@ -22,8 +22,9 @@ void MaterialOverride::visit(core::SettingsVisitor& v) {
 
 void ReleaseSettings::visit(core::SettingsVisitor& v) {
   v.choice("kind", kind, {"point", "line", "polygon"},
-           "release zone: one point, a polyline (uniform along it) or a polygon (uniform inside)");
-  v.field("points", points, "m", "plan [x, y] of the point, the line's vertices or the polygon's");
+           "release zone: one or more points (each realization draws one, all equally likely), a polyline "
+           "(uniform along it) or a polygon (uniform inside)");
+  v.field("points", points, "m", "plan [x, y] of the points, the line's vertices or the polygon's");
   v.field("file", file,
           "vector file of release features instead of points (GeoPackage, GeoJSON, Shapefile …; points, lines or "
           "polygons as kind says, in the terrain's input coordinates and CRS); empty = points");
@@ -100,7 +101,8 @@ void SceneSettings::visit(core::SettingsVisitor& v) {
   v.field("block_file", block_file, "block file (block-gen output; one block or a library)");
   v.field("blocks", blocks, "names of the library's blocks to use; empty = all");
   v.choice("block_selection", block_selection, {"cycle", "weighted"},
-           "cycle: realization i uses block i mod B; weighted: drawn with the library weights");
+           "weighted: each realization draws a block with the library's weights (weight 0: never); "
+           "cycle: realization i uses block i mod B");
   v.list_of("materials", "overrides of the terrain file's materials, by name", materials);
   v.section("release", "release conditions", [this](core::SettingsVisitor& s) { release.visit(s); });
   v.section("engine", "DDA numerical and physical settings", [this](core::SettingsVisitor& s) { engine.visit(s); });
@@ -238,8 +240,8 @@ void check_release_points(const SceneSettings& s, const terrain::Surface& base, 
                           const std::string& source) {
   const ReleaseSettings& r = s.release;
   const std::size_t n = r.points.size();
-  if (r.kind == "point" && n != 1)
-    throw InputError(source, "release.kind 'point' needs exactly 1 point in release.points, got " + std::to_string(n));
+  if (r.kind == "point" && n < 1)
+    throw InputError(source, "release.kind 'point' needs at least 1 point in release.points, got " + std::to_string(n));
   if (r.kind == "line" && n < 2)
     throw InputError(source, "release.kind 'line' needs at least 2 points in release.points, got " + std::to_string(n));
   if (r.kind == "polygon" && n < 3)
@@ -372,9 +374,18 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
     dda::Settings engine = s.engine;
     engine.density = b->density;
     SceneBlock sb{b->name, dda::Model::build(engine, b->polyhedron), b->weight};
-    if (s.block_selection == "weighted" && !(sb.weight > 0.0 && std::isfinite(sb.weight)))
-      throw InputError(source, "block '" + b->name + "' has a non-positive sampling weight");
+    if (s.block_selection == "weighted" && !(sb.weight >= 0.0 && std::isfinite(sb.weight)))
+      throw InputError(source, "block '" + b->name + "' has sampling weight " + format_number(sb.weight) +
+                                   ": weights must be finite and >= 0");
     scene.blocks_.push_back(std::move(sb));
+  }
+  // A block of weight 0 is never drawn (block-gen allows it), but one of them must be.
+  if (s.block_selection == "weighted" && scene.blocks_.size() > 1) {
+    double total = 0.0;
+    for (const SceneBlock& b : scene.blocks_) total += b.weight;
+    if (!(total > 0.0))
+      throw InputError(source, "every block has sampling weight 0, so block_selection weighted has none to draw: "
+                               "give some a weight (block-gen 'weight') or set block_selection: cycle");
   }
 
   // Materials: overrides by name, then the stochastic switches.
@@ -410,8 +421,18 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
   // file holds the coordinates of its CRS.
   const Eigen::Vector2d input_shift(scene.terrain_->origin_shift.x(), scene.terrain_->origin_shift.y());
   check_release(s, *scene.base_, shift, source);
-  if (s.release.file.empty()) {
-    // The inline zone is one feature of one part.
+  if (s.release.file.empty() && s.release.kind == "point") {
+    // Each point is a feature of weight 1, as a file of Point features without a
+    // weight_field: equally likely, and one point draws nothing to choose it.
+    scene.release_zone_ = local(s.release.points);
+    for (const Eigen::Vector2d& p : scene.release_zone_) {
+      ReleaseFeature point;
+      point.parts = {{{p}}};
+      point.part_sizes = {1.0};
+      scene.release_features_.push_back(std::move(point));
+    }
+  } else if (s.release.file.empty()) {
+    // An inline line or polygon is one feature of one part.
     scene.release_zone_ = local(s.release.points);
     ReleaseFeature zone;
     zone.parts = {{scene.release_zone_}};
@@ -532,6 +553,10 @@ bool point_in_polygon(const std::vector<Eigen::Vector2d>& poly, const Eigen::Vec
       in = !in;
   }
   return in;
+}
+
+Eigen::Vector3d Scene::frame_shift() const {
+  return settings_.frame == "input" ? terrain_->origin_shift : Eigen::Vector3d::Zero();
 }
 
 std::vector<std::string> Scene::stop_classes() const {

@@ -37,7 +37,9 @@ struct MaterialOverride {
 
 /// Where and how blocks are released.
 struct ReleaseSettings {
-  std::string kind = "point";  ///< "point" (1 point), "line" (polyline, ≥ 2), "polygon" (≥ 3)
+  /// "point" (≥ 1 points: a realization draws one of them with equal probability), "line"
+  /// (polyline, ≥ 2 vertices), "polygon" (≥ 3 vertices).
+  std::string kind = "point";
   std::vector<std::array<double, 2>> points = {{1.0, 20.0}};  ///< plan coordinates (m)
   /// A vector file of release features instead of `points` (path relative to the working
   /// directory): points, lines or polygons as `kind` says, in the terrain's input
@@ -125,9 +127,10 @@ struct SceneSettings {
   std::string frame = "input";
   std::string block_file;               ///< block file (one block or a library)
   std::vector<std::string> blocks;      ///< names of the blocks to use; empty = every block
-  /// "cycle": realization i uses block i mod B (equal shares); "weighted": drawn from the
-  /// block_shape stream with the library's sampling weights.
-  std::string block_selection = "cycle";
+  /// "weighted": drawn from the block_shape stream with the library's sampling weights (a
+  /// block of weight 0 is never drawn); "cycle": realization i uses block i mod B (equal
+  /// shares, whatever the weights).
+  std::string block_selection = "weighted";
   std::vector<MaterialOverride> materials;
   ReleaseSettings release;
   dda::Settings engine;
@@ -218,6 +221,10 @@ class Scene {
   /// The scene's name in messages (its file).
   const std::string& source() const { return source_; }
   const terrain::Terrain& terrain() const { return *terrain_; }
+  /// Add to a position in the terrain's local frame to get it in the scene's frame (m):
+  /// the terrain's origin shift with frame "input", zero with "local". Messages report
+  /// positions in the scene's frame, as the user wrote them.
+  Eigen::Vector3d frame_shift() const;
   const std::vector<terrain::Material>& materials() const { return materials_; }
   const std::vector<SceneBlock>& blocks() const { return blocks_; }
   const std::vector<Barrier>& barriers() const { return barriers_; }
@@ -225,9 +232,10 @@ class Scene {
   /// Zone names, then "other" (in no zone), then "out of domain" (left the terrain).
   std::vector<std::string> stop_classes() const;
   const HazardGridSpec& hazard_grid() const { return hazard_; }
-  /// The release point, line or polygon vertices in plan (m); empty with release.file.
+  /// The release points, line or polygon vertices in plan (m); empty with release.file.
   const std::vector<Eigen::Vector2d>& release_zone() const { return release_zone_; }
-  /// The release zone as features (the inline points are one feature of one part).
+  /// The release zone as features: an inline line or polygon is one feature of one part,
+  /// inline points one feature each (as a file of Point features without weight_field).
   const std::vector<ReleaseFeature>& release_features() const { return release_features_; }
   Eigen::Vector2d main_direction() const { return main_direction_; }
   std::uint32_t realizations() const { return static_cast<std::uint32_t>(settings_.realizations); }

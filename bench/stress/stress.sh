@@ -249,6 +249,7 @@ cat > "$inputs/scene.yaml" <<'EOF'
 schema_version: "1.0"
 terrain: none
 block_file: none
+block_selection: cycle     # realization i takes block i mod B: the cases' repro indices stay put
 release:
   kind: point
   points: [[1, 20]]

@@ -7,6 +7,7 @@
 
 #include "talus/core/error.hpp"
 #include "talus/io/paths.hpp"
+#include "talus/io/run_file.hpp"
 #include "talus/io/vector.hpp"
 
 namespace talus::io {
@@ -106,6 +107,17 @@ bool is_csv(const std::string& path) {
 ObservedStops read_observed_stops(const std::string& path, const std::string& layer, const std::string& terrain_crs_wkt,
                                   const std::string& key) {
   if (is_csv(path)) return read_csv(path);
+  if (lower_extension(path) == ".h5") {
+    // A run of dda-run (a synthetic experiment, or another model's run): its
+    // realizations at rest, in the terrain's input coordinates.
+    const RunFile run = read_run_file(path);
+    ObservedStops out;
+    for (const mc::Record& r : run.data.records)
+      if (r.end == dda::EndReason::rest)
+        out.points.push_back({r.final_position.x() + run.info.origin_shift[0], r.final_position.y() + run.info.origin_shift[1]});
+    if (out.points.empty()) throw core::InputError(path, "holds no realization at rest");
+    return out;
+  }
   VectorRequest request;
   request.path = path;
   request.layer = layer;

@@ -19,7 +19,8 @@ struct ObservedStops {
 /// Reads observed stops from a CSV (columns separated by commas, semicolons, tabs or
 /// spaces; `#` comment lines): a header naming x and y (or easting and northing) picks
 /// those columns; a header naming `runout` (and `lateral`) gives runouts; no header: the
-/// first two columns are x and y. Any other extension is a vector file of points (read by
+/// first two columns are x and y. A `.h5` is a dda-run run file: the stop points of its
+/// realizations at rest (a synthetic experiment). Any other extension is a vector file of points (read by
 /// OGR; a layer whose CRS differs from `terrain_crs_wkt` is refused with the ogr2ogr
 /// command). Throws core::InputError(path, …) naming the line of a bad value, or when the
 /// file holds no stop.

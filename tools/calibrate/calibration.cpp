@@ -1,0 +1,249 @@
+#include "calibration.hpp"
+
+#include <cmath>
+#include <numeric>
+#include <set>
+
+#include "talus/core/error.hpp"
+#include "talus/io/block_file.hpp"
+#include "talus/io/observed.hpp"
+#include "talus/io/settings_yaml.hpp"
+#include "talus/io/terrain_file.hpp"
+#include "talus/io/vector.hpp"
+#include "talus/mc/runner.hpp"
+#include "talus/terrain/terrain.hpp"
+
+namespace talus::calibrate {
+
+namespace {
+
+using core::InputError;
+
+// FNV-1a over the bytes of the values given: a simulation's seed from its identity.
+struct Fnv1a {
+  std::uint64_t h = 14695981039346656037ull;
+  template <class T>
+  void value(const T& v) {
+    const auto* p = reinterpret_cast<const unsigned char*>(&v);
+    for (std::size_t k = 0; k < sizeof v; ++k) h = (h ^ p[k]) * 1099511628211ull;
+  }
+};
+
+mc::SceneSettings read_scene(const std::string& path, const std::vector<std::string>& overrides) {
+  mc::SceneSettings s;
+  io::read_settings_file(path, overrides, [&s](core::SettingsVisitor& v) { s.visit(v); });
+  return s;
+}
+
+void set_property(mc::MaterialOverride& o, const std::string& parameter, double value) {
+  if (parameter == "restitution_mean") o.restitution_mean = value;
+  else if (parameter == "restitution_sd") o.restitution_sd = value;
+  else if (parameter == "restitution_scale") o.restitution_scale = value;
+  else if (parameter == "friction_angle_mean_deg") o.friction_angle_mean_deg = value;
+  else if (parameter == "friction_coefficient_sd") o.friction_coefficient_sd = value;
+  else if (parameter == "lateral_tilt_sd_deg") o.lateral_tilt_sd_deg = value;
+  else throw std::logic_error("unknown material property " + parameter);
+}
+
+double sample_sd(const std::vector<double>& x) {
+  if (x.size() < 2) return 0.0;
+  const double mean = std::accumulate(x.begin(), x.end(), 0.0) / static_cast<double>(x.size());
+  double s = 0.0;
+  for (double v : x) s += (v - mean) * (v - mean);
+  return std::sqrt(s / static_cast<double>(x.size() - 1));
+}
+
+}  // namespace
+
+Problem::Problem(const Settings& settings, const std::string& source, unsigned threads)
+    : settings_(settings), threads_(threads) {
+  const Settings& s = settings_;
+  if (s.scene.empty()) throw InputError(source, "scene: no scene file given");
+  if (s.groups.empty()) throw InputError(source, "groups: at least one observed case is needed");
+  if (s.parameters.empty()) throw InputError(source, "parameters: at least one fitted parameter is needed");
+  if (s.realizations < 2) throw InputError(source, "realizations must be at least 2");
+  if (s.particles < 2) throw InputError(source, "particles must be at least 2");
+  if (s.generations < 1) throw InputError(source, "generations must be at least 1");
+  if (!(s.quantile > 0.0 && s.quantile < 1.0)) throw InputError(source, "quantile must be in (0, 1)");
+  if (!(s.min_acceptance >= 0.0 && s.min_acceptance < 1.0)) throw InputError(source, "min_acceptance must be in [0, 1)");
+  if (s.max_simulations < 0) throw InputError(source, "max_simulations must be >= 0");
+  if (s.predictive_draws < 2) throw InputError(source, "predictive_draws must be at least 2");
+  variables_ = s.variables == "runout" ? std::vector<std::string>{"runout"} : std::vector<std::string>{"runout", "lateral"};
+
+  base_scene_ = read_scene(s.scene, s.set);
+  std::set<std::string> labels;
+  for (std::size_t k = 0; k < s.parameters.size(); ++k) {
+    const FittedParameter& p = s.parameters[k];
+    const std::string where = "parameters[" + std::to_string(k) + "] (" + p.label() + "): ";
+    if (p.material.empty()) throw InputError(source, where + "no material named");
+    if (!labels.insert(p.label()).second) throw InputError(source, where + "fitted twice");
+    if (!(std::isfinite(p.min) && std::isfinite(p.max) && p.min < p.max))
+      throw InputError(source, where + "the prior needs finite min < max");
+    if (p.prior == "normal" && !(p.sd > 0.0 && std::isfinite(p.mean)))
+      throw InputError(source, where + "a normal prior needs a finite mean and sd > 0");
+    // The ranges the material is read with (terrain-gen, scene overrides).
+    terrain::Material probe;
+    const terrain::Material::Ranges r = terrain::Material::ranges();
+    const core::Range& range = p.parameter == "restitution_mean"          ? r.restitution_mean
+                               : p.parameter == "restitution_sd"          ? r.restitution_sd
+                               : p.parameter == "restitution_scale"       ? r.restitution_scale
+                               : p.parameter == "friction_angle_mean_deg" ? r.friction_angle_mean_deg
+                               : p.parameter == "friction_coefficient_sd" ? r.friction_coefficient_sd
+                                                                          : r.lateral_tilt_sd_deg;
+    if (!range.contains(p.min) || !range.contains(p.max))
+      throw InputError(source, where + "the prior [" + core::format_number(p.min) + ", " + core::format_number(p.max) +
+                                   "] leaves the property's range " + range.text(""));
+    priors_.push_back(stats::Prior{p.prior, p.min, p.max, p.mean, p.sd});
+  }
+
+  for (std::size_t g = 0; g < s.groups.size(); ++g) {
+    const Group& group = s.groups[g];
+    Case c;
+    c.name = group.name.empty() ? "group " + std::to_string(g) : group.name;
+    const std::string where = "groups[" + std::to_string(g) + "] (" + c.name + "): ";
+    std::vector<std::string> overrides = s.set;
+    overrides.insert(overrides.end(), group.set.begin(), group.set.end());
+    c.scene = read_scene(s.scene, overrides);
+    c.source = s.scene;
+    if (c.scene.terrain.empty()) throw InputError(s.scene, "no terrain file given (key 'terrain')");
+    if (c.scene.block_file.empty()) throw InputError(s.scene, "no block file given (key 'block_file')");
+    auto& terrain = terrains_[c.scene.terrain];
+    if (!terrain) terrain = std::make_unique<terrain::Terrain>(io::read_terrain_file(c.scene.terrain));
+    auto& library = libraries_[c.scene.block_file];
+    if (!library) library = std::make_unique<std::vector<block::Block>>(io::read_block_file(c.scene.block_file));
+    c.terrain = terrain.get();
+    c.library = library.get();
+    c.vectors = io::read_scene_vectors(c.scene, terrain->crs_wkt);
+    // Validates the case as dda-run would (names, points, the fitted materials).
+    const mc::Scene scene = mc::Scene::build(c.scene, *terrain, *library, c.source, c.vectors);
+    for (const FittedParameter& p : s.parameters) {
+      bool found = false;
+      for (const auto& m : scene.materials()) found = found || m.name == p.material;
+      if (!found) throw InputError(source, where + "material '" + p.material + "' is not in the terrain file " +
+                                               c.scene.terrain);
+    }
+    // Where runout is measured from, in the terrain's input coordinates.
+    const Eigen::Vector3d to_input = terrain->origin_shift - scene.frame_shift();
+    if (group.origin.empty()) {
+      if (c.scene.release.points.empty())
+        throw InputError(source, where + "origin: give it (the release comes from a file, not a point)");
+      c.origin = Eigen::Vector2d(c.scene.release.points[0][0], c.scene.release.points[0][1]) + to_input.head<2>();
+    } else if (group.origin.size() != 2 || !std::isfinite(group.origin[0]) || !std::isfinite(group.origin[1])) {
+      throw InputError(source, where + "origin must be [x, y] (m)");
+    } else {
+      c.origin = Eigen::Vector2d(group.origin[0], group.origin[1]);
+    }
+    const double azimuth =
+        (group.main_direction_deg ? *group.main_direction_deg : c.scene.release.main_direction_deg) * M_PI / 180.0;
+    if (!std::isfinite(azimuth)) throw InputError(source, where + "main_direction_deg must be finite");
+    c.direction = Eigen::Vector2d(std::cos(azimuth), std::sin(azimuth));
+
+    if (group.observed.empty()) throw InputError(source, where + "observed: no file of observed stops given");
+    const io::ObservedStops stops =
+        io::read_observed_stops(group.observed, group.layer, terrain->crs_wkt, "groups[" + std::to_string(g) + "].observed");
+    if (stops.has_points()) {
+      for (const auto& p : stops.points) {
+        const Eigen::Vector2d d = Eigen::Vector2d(p[0], p[1]) - c.origin;
+        const double runout = c.direction.dot(d), lateral = c.direction.x() * d.y() - c.direction.y() * d.x();
+        c.observed.push_back(variables_.size() == 1 ? std::vector<double>{runout} : std::vector<double>{runout, lateral});
+      }
+    } else {
+      if (variables_.size() == 2 && stops.lateral.empty())
+        throw InputError(group.observed, "gives runouts without lateral offsets: set variables: runout, or add a "
+                                         "lateral column");
+      for (std::size_t k = 0; k < stops.runout.size(); ++k)
+        c.observed.push_back(variables_.size() == 1 ? std::vector<double>{stops.runout[k]}
+                                                    : std::vector<double>{stops.runout[k], stops.lateral[k]});
+    }
+    cases_.push_back(std::move(c));
+  }
+
+  // Each variable is compared in units of its observed spread, over every case.
+  for (std::size_t v = 0; v < variables_.size(); ++v) {
+    std::vector<double> all;
+    for (const Case& c : cases_)
+      for (const auto& o : c.observed) all.push_back(o[v]);
+    const double sd = sample_sd(all);
+    scale_.push_back(sd > 1e-6 ? sd : 1.0);
+  }
+}
+
+mc::SceneSettings Problem::with_parameters(const mc::SceneSettings& base, const std::vector<double>& theta) const {
+  mc::SceneSettings s = base;
+  for (std::size_t k = 0; k < settings_.parameters.size(); ++k) {
+    const FittedParameter& p = settings_.parameters[k];
+    auto it = std::find_if(s.materials.begin(), s.materials.end(), [&](const auto& o) { return o.name == p.material; });
+    if (it == s.materials.end()) {
+      s.materials.emplace_back();
+      s.materials.back().name = p.material;
+      it = s.materials.end() - 1;
+    }
+    set_property(*it, p.parameter, theta[k]);
+  }
+  return s;
+}
+
+Simulated Problem::simulate(const std::vector<double>& theta, std::size_t c, std::uint64_t draw) const {
+  const Case& cs = cases_[c];
+  mc::SceneSettings s = with_parameters(cs.scene, theta);
+  Fnv1a seed;
+  seed.value(settings_.seed);
+  seed.value(static_cast<std::uint64_t>(c));
+  seed.value(draw);
+  for (double t : theta) seed.value(t);
+  s.seed = seed.h;
+  s.realizations = settings_.realizations;
+  s.outputs.hazard_cell_size = 0.0;
+  s.engine.trajectory_interval = 0.0;
+  const mc::Scene scene = mc::Scene::build(s, *cs.terrain, *cs.library, cs.source, cs.vectors);
+  std::vector<std::uint32_t> indices(static_cast<std::size_t>(s.realizations));
+  std::iota(indices.begin(), indices.end(), 0u);
+  std::vector<mc::Record> records(indices.size());
+  mc::run_realizations(scene, indices, threads_,
+                       [&](mc::RealizationResult&& r) { records[r.record.realization] = r.record; });
+  Simulated out;
+  const Eigen::Vector2d shift = cs.terrain->origin_shift.head<2>();
+  for (const mc::Record& r : records) {
+    if (dda::is_failure(r.end)) {
+      ++out.failures;
+      continue;
+    }
+    const Eigen::Vector2d d = r.final_position.head<2>() + shift - cs.origin;
+    const double runout = cs.direction.dot(d), lateral = cs.direction.x() * d.y() - cs.direction.y() * d.x();
+    out.values.push_back(variables_.size() == 1 ? std::vector<double>{runout} : std::vector<double>{runout, lateral});
+  }
+  realizations_run_ += static_cast<std::int64_t>(records.size());
+  failures_ += out.failures;
+  return out;
+}
+
+double Problem::distance(const std::vector<double>& theta) const {
+  double total = 0.0;
+  for (std::size_t c = 0; c < cases_.size(); ++c) {
+    const Simulated sim = simulate(theta, c);
+    if (sim.values.empty()) return std::numeric_limits<double>::infinity();
+    total += stats::energy_distance(sim.values, cases_[c].observed, scale_);
+  }
+  return total / static_cast<double>(cases_.size());
+}
+
+std::vector<ParameterSummary> summarize(const stats::AbcGeneration& g) {
+  std::vector<ParameterSummary> out;
+  const std::size_t dim = g.theta.empty() ? 0 : g.theta[0].size();
+  for (std::size_t k = 0; k < dim; ++k) {
+    std::vector<double> x;
+    for (const auto& t : g.theta) x.push_back(t[k]);
+    ParameterSummary s;
+    for (std::size_t i = 0; i < x.size(); ++i) s.mean += g.weight[i] * x[i];
+    double var = 0.0;
+    for (std::size_t i = 0; i < x.size(); ++i) var += g.weight[i] * (x[i] - s.mean) * (x[i] - s.mean);
+    s.sd = std::sqrt(var);
+    s.p05 = stats::weighted_quantile(x, g.weight, 0.05);
+    s.p50 = stats::weighted_quantile(x, g.weight, 0.50);
+    s.p95 = stats::weighted_quantile(x, g.weight, 0.95);
+    out.push_back(s);
+  }
+  return out;
+}
+
+}  // namespace talus::calibrate

@@ -1,0 +1,457 @@
+// calibrate: fits ground-material parameters to observed stops by approximate Bayesian
+// computation, and predicts other cases with the posterior. See docs/calibration.md.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <sstream>
+
+#include "calibration.hpp"
+#include "settings.hpp"
+#include "talus/cli/plot_helper.hpp"
+#include "talus/cli/tool.hpp"
+#include "talus/core/error.hpp"
+#include "talus/core/log.hpp"
+#include "talus/core/random.hpp"
+#include "talus/core/threads.hpp"
+#include "talus/core/timer.hpp"
+#include "talus/io/atomic_output.hpp"
+#include "talus/io/file_header.hpp"
+#include "talus/io/hdf5.hpp"
+#include "talus/io/settings_yaml.hpp"
+#include "talus/stats/sample.hpp"
+
+namespace {
+
+using namespace talus;
+namespace fs = std::filesystem;
+using calibrate::Problem;
+using calibrate::Settings;
+using stats::AbcGeneration;
+
+constexpr io::SchemaVersion kCalibrationSchema{1, 0};
+constexpr const char* kPosterior = "posterior.h5";
+const std::vector<double> kQuantiles = {0.05, 0.10, 0.25, 0.50, 0.75, 0.90, 0.95};
+
+std::string num(double x) { return core::format_number(x); }
+
+unsigned parse_threads(const std::string& text) {
+  if (text.empty()) return 0;
+  char* end = nullptr;
+  const long v = std::strtol(text.c_str(), &end, 10);
+  if (*end != '\0' || v < 0 || v > 4096) throw core::UsageError("--threads expects 0 … 4096, got '" + text + "'");
+  return static_cast<unsigned>(v);
+}
+
+std::string generation_name(std::int64_t index) {
+  char name[32];
+  std::snprintf(name, sizeof name, "%03lld", static_cast<long long>(index));
+  return name;
+}
+
+// Writes text to `path` through a temporary renamed when complete.
+void write_text(const std::string& path, const std::string& text) {
+  io::AtomicOutput out(path);
+  {
+    std::ofstream f(out.temp_path());
+    f << text;
+    if (!f) throw core::RuntimeError("cannot write " + path);
+  }
+  out.commit();
+}
+
+// ------------------------------------------------------------------ the posterior file
+
+struct Checkpoint {
+  std::vector<AbcGeneration> generations;
+  std::int64_t realizations = 0;
+  std::int64_t failures = 0;
+  bool finished = false;
+};
+
+void write_posterior(const std::string& path, const Problem& problem, const Checkpoint& cp,
+                     const io::Provenance& provenance, const std::vector<std::vector<std::vector<double>>>& fit) {
+  io::AtomicOutput out(path);
+  {
+    const io::h5::File f = io::h5::File::create(out.temp_path());
+    const io::h5::Group root = f.root();
+    io::write_header(root, "calibration", kCalibrationSchema, provenance);
+    const Settings& s = problem.settings();
+    root.set_attr("finished", static_cast<std::int64_t>(cp.finished ? 1 : 0));
+    root.set_attr("realizations_run", cp.realizations);
+    root.set_attr("numerical_failures", cp.failures);
+    const io::h5::Group p = root.create_group("parameters");
+    std::vector<std::string> labels, priors;
+    std::vector<double> lo, hi;
+    for (const auto& fp : s.parameters) {
+      labels.push_back(fp.label());
+      priors.push_back(fp.prior);
+      lo.push_back(fp.min);
+      hi.push_back(fp.max);
+    }
+    p.write_strings("name", labels);
+    p.write_strings("prior", priors);
+    p.write("min", lo.data(), {lo.size()});
+    p.write("max", hi.data(), {hi.size()});
+    const std::size_t dim = labels.size();
+    const io::h5::Group gens = root.create_group("generations");
+    for (const AbcGeneration& g : cp.generations) {
+      const io::h5::Group gg = gens.create_group(generation_name(g.index));
+      std::vector<double> theta;
+      for (const auto& t : g.theta) theta.insert(theta.end(), t.begin(), t.end());
+      gg.write("theta", theta.data(), {g.theta.size(), dim});
+      gg.write("weight", g.weight.data(), {g.weight.size()}, "-");
+      gg.write("distance", g.distance.data(), {g.distance.size()}, "-");
+      gg.set_attr("index", g.index);
+      gg.set_attr("tolerance", g.tolerance);
+      gg.set_attr("proposed", g.proposed);
+    }
+    const io::h5::Group cases = root.create_group("cases");
+    std::vector<std::string> names;
+    for (const auto& c : problem.cases()) names.push_back(c.name);
+    cases.write_strings("name", names);
+    cases.write_strings("variables", problem.variables());
+    cases.write("scale", problem.scale().data(), {problem.scale().size()}, "m");
+    for (std::size_t c = 0; c < problem.cases().size(); ++c) {
+      const io::h5::Group cg = cases.create_group(std::to_string(c));
+      const auto& obs = problem.cases()[c].observed;
+      std::vector<double> flat;
+      for (const auto& o : obs) flat.insert(flat.end(), o.begin(), o.end());
+      cg.write("observed", flat.data(), {obs.size(), problem.variables().size()}, "m");
+      if (c < fit.size() && !fit[c].empty()) {
+        flat.clear();
+        for (const auto& o : fit[c]) flat.insert(flat.end(), o.begin(), o.end());
+        cg.write("fitted", flat.data(), {fit[c].size(), problem.variables().size()}, "m");
+      }
+    }
+  }
+  out.commit();
+}
+
+Checkpoint read_checkpoint(const std::string& path, const Problem& problem, const std::string& settings_yaml) {
+  const io::h5::File f = io::h5::File::open(path);
+  const io::h5::Group root = f.root();
+  io::check_header(root, "calibration", kCalibrationSchema);
+  if (io::read_provenance(root).settings_yaml != settings_yaml)
+    throw core::InputError(path, "was written with other settings: run with the settings it was started with, or "
+                                 "delete it (or choose another -o) to start afresh");
+  Checkpoint cp;
+  cp.finished = root.attr_int("finished") != 0;
+  cp.realizations = root.attr_int("realizations_run");
+  cp.failures = root.attr_int("numerical_failures");
+  const std::size_t dim = problem.priors().size();
+  const io::h5::Group gens = root.open_group("generations");
+  for (const std::string& name : gens.children()) {
+    const io::h5::Group gg = gens.open_group(name);
+    AbcGeneration g;
+    g.index = gg.attr_int("index");
+    g.tolerance = gg.attr_double("tolerance");
+    g.proposed = gg.attr_int("proposed");
+    const auto theta = gg.read_doubles("theta");
+    g.weight = gg.read_doubles("weight");
+    g.distance = gg.read_doubles("distance");
+    for (std::size_t i = 0; i < g.weight.size(); ++i)
+      g.theta.emplace_back(theta.begin() + static_cast<std::ptrdiff_t>(i * dim),
+                           theta.begin() + static_cast<std::ptrdiff_t>((i + 1) * dim));
+    cp.generations.push_back(std::move(g));
+  }
+  std::sort(cp.generations.begin(), cp.generations.end(), [](const auto& a, const auto& b) { return a.index < b.index; });
+  return cp;
+}
+
+// ------------------------------------------------------------------ text outputs
+
+std::string csv_posterior(const Problem& problem, const AbcGeneration& g) {
+  std::ostringstream out;
+  out << "particle,weight,distance";
+  for (const auto& p : problem.settings().parameters) out << "," << p.label();
+  out << "\n";
+  for (std::size_t i = 0; i < g.theta.size(); ++i) {
+    out << i << "," << num(g.weight[i]) << "," << num(g.distance[i]);
+    for (double t : g.theta[i]) out << "," << num(t);
+    out << "\n";
+  }
+  return out.str();
+}
+
+std::string csv_generations(const std::vector<AbcGeneration>& gens) {
+  std::ostringstream out;
+  out << "generation,tolerance,proposed,accepted,acceptance\n";
+  for (const auto& g : gens)
+    out << g.index << "," << num(g.tolerance) << "," << g.proposed << "," << g.theta.size() << "," << num(g.acceptance())
+        << "\n";
+  return out.str();
+}
+
+const char* unit_of(const std::string& parameter) {
+  if (parameter == "restitution_scale") return "m/s";
+  if (parameter == "friction_angle_mean_deg" || parameter == "lateral_tilt_sd_deg") return "deg";
+  return "-";
+}
+
+std::string csv_summary(const Problem& problem, const AbcGeneration& g) {
+  const auto summary = calibrate::summarize(g);
+  std::ostringstream out;
+  out << "parameter,unit,prior,min,max,mean,sd,P5,P50,P95\n";
+  for (std::size_t k = 0; k < summary.size(); ++k) {
+    const auto& p = problem.settings().parameters[k];
+    const auto& s = summary[k];
+    out << p.label() << "," << unit_of(p.parameter) << "," << p.prior << "," << num(p.min) << "," << num(p.max) << ","
+        << num(s.mean) << "," << num(s.sd) << "," << num(s.p05) << "," << num(s.p50) << "," << num(s.p95) << "\n";
+  }
+  return out.str();
+}
+
+std::string table(const Problem& problem, const AbcGeneration& g) {
+  const auto summary = calibrate::summarize(g);
+  std::ostringstream out;
+  out << "parameter                          P5          P50         P95         mean        sd\n";
+  for (std::size_t k = 0; k < summary.size(); ++k) {
+    char line[256];
+    const auto& s = summary[k];
+    std::snprintf(line, sizeof line, "%-32s %-11.4g %-11.4g %-11.4g %-11.4g %.4g\n",
+                  problem.settings().parameters[k].label().c_str(), s.p05, s.p50, s.p95, s.mean, s.sd);
+    out << line;
+  }
+  return out.str();
+}
+
+std::vector<double> medians(const AbcGeneration& g) {
+  std::vector<double> m;
+  for (const auto& s : calibrate::summarize(g)) m.push_back(s.p50);
+  return m;
+}
+
+// ------------------------------------------------------------------ prediction
+
+// Draws k particles of g by systematic resampling (one uniform of the calibration stream),
+// so heavy particles are drawn in proportion to their weight.
+std::vector<std::size_t> resample(const AbcGeneration& g, std::size_t k, std::uint64_t seed) {
+  const core::RandomStream stream(seed, core::Stream::calibration, 0xffffffffu);
+  const double u0 = stream.uniform(0);
+  std::vector<std::size_t> picks;
+  double cumulative = 0.0;
+  std::size_t i = 0;
+  for (std::size_t j = 0; j < k; ++j) {
+    const double target = (static_cast<double>(j) + u0) / static_cast<double>(k);
+    while (i + 1 < g.weight.size() && cumulative + g.weight[i] < target) cumulative += g.weight[i++];
+    picks.push_back(i);
+  }
+  return picks;
+}
+
+void predict(const Problem& problem, const std::string& posterior_path, const std::string& dir,
+             const io::Provenance& provenance) {
+  const io::h5::File f = io::h5::File::open(posterior_path);
+  const io::h5::Group root = f.root();
+  io::check_header(root, "calibration", kCalibrationSchema);
+  const auto labels = root.open_group("parameters").read_strings("name");
+  std::vector<std::string> wanted;
+  for (const auto& p : problem.settings().parameters) wanted.push_back(p.label());
+  if (labels != wanted)
+    throw core::InputError(posterior_path, "fits other parameters than the settings name (its parameters must be "
+                                           "listed, in the same order)");
+  const io::h5::Group gens = root.open_group("generations");
+  const auto names = gens.children();
+  if (names.empty()) throw core::InputError(posterior_path, "holds no generation");
+  const io::h5::Group last = gens.open_group(*std::max_element(names.begin(), names.end()));
+  AbcGeneration g;
+  g.weight = last.read_doubles("weight");
+  const auto theta = last.read_doubles("theta");
+  const std::size_t dim = labels.size();
+  for (std::size_t i = 0; i < g.weight.size(); ++i)
+    g.theta.emplace_back(theta.begin() + static_cast<std::ptrdiff_t>(i * dim),
+                         theta.begin() + static_cast<std::ptrdiff_t>((i + 1) * dim));
+
+  const Settings& s = problem.settings();
+  const auto picks = resample(g, static_cast<std::size_t>(s.predictive_draws), s.seed);
+  std::ostringstream csv;
+  csv << "case,variable,p,predicted,band_low,band_median,band_high,observed,inside\n";
+  std::ostringstream ks;
+  ks << "case,variable,n_observed,n_predicted,ks_distance,ks_p_value\n";
+  io::AtomicOutput h5out((fs::path(dir) / "predictive.h5").string());
+  {
+    const io::h5::File out = io::h5::File::create(h5out.temp_path());
+    io::write_header(out.root(), "calibration-prediction", kCalibrationSchema, provenance);
+    out.root().write_strings("variables", problem.variables());
+    for (std::size_t c = 0; c < problem.cases().size(); ++c) {
+      const auto& cs = problem.cases()[c];
+      std::vector<std::vector<std::vector<double>>> per_draw;
+      std::vector<double> pooled_flat;
+      for (std::size_t d = 0; d < picks.size(); ++d) {
+        const calibrate::Simulated sim = problem.simulate(g.theta[picks[d]], c, d + 1);
+        per_draw.push_back(sim.values);
+        for (const auto& v : sim.values) pooled_flat.insert(pooled_flat.end(), v.begin(), v.end());
+      }
+      const std::size_t nv = problem.variables().size();
+      const io::h5::Group cg = out.root().create_group(std::to_string(c));
+      cg.set_attr("name", cs.name);
+      cg.write("predicted", pooled_flat.data(), {pooled_flat.size() / nv, nv}, "m");
+      std::vector<double> obs_flat;
+      for (const auto& o : cs.observed) obs_flat.insert(obs_flat.end(), o.begin(), o.end());
+      cg.write("observed", obs_flat.data(), {cs.observed.size(), nv}, "m");
+      for (std::size_t v = 0; v < nv; ++v) {
+        std::vector<double> pooled, observed;
+        for (const auto& draw : per_draw)
+          for (const auto& x : draw) pooled.push_back(x[v]);
+        for (const auto& o : cs.observed) observed.push_back(o[v]);
+        const stats::Sample ps(pooled), os(observed);
+        for (double p : kQuantiles) {
+          std::vector<double> per;
+          for (const auto& draw : per_draw) {
+            std::vector<double> x;
+            for (const auto& r : draw) x.push_back(r[v]);
+            if (!x.empty()) per.push_back(stats::Sample(x).quantile(p));
+          }
+          const stats::Sample band(per);
+          const double q_obs = os.quantile(p);
+          const double lo = band.quantile(0.05), hi = band.quantile(0.95);
+          csv << cs.name << "," << problem.variables()[v] << "," << num(p) << "," << num(ps.quantile(p)) << ","
+              << num(lo) << "," << num(band.quantile(0.5)) << "," << num(hi) << "," << num(q_obs) << ","
+              << (q_obs >= lo && q_obs <= hi ? 1 : 0) << "\n";
+        }
+        const double d = stats::ks_distance(ps, os);
+        ks << cs.name << "," << problem.variables()[v] << "," << os.size() << "," << ps.size() << "," << num(d) << ","
+           << num(stats::ks_p_value(d, os.size(), ps.size())) << "\n";
+      }
+    }
+  }
+  h5out.commit();
+  write_text((fs::path(dir) / "predictive.csv").string(), csv.str());
+  write_text((fs::path(dir) / "predictive-ks.csv").string(), ks.str());
+  std::fputs(csv.str().c_str(), stdout);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Settings settings;
+  std::string threads_text, predict_path;
+  bool resume = false;
+
+  cli::ToolSpec spec;
+  spec.name = "calibrate";
+  spec.summary = "Fit ground-material parameters to observed stops (ABC-SMC) and predict other cases with the posterior";
+  spec.inputs_doc = "none: the settings name the scene and the observed stops";
+  spec.max_inputs = 0;
+  spec.set_example = "particles=200";
+  spec.settings = [&settings](core::SettingsVisitor& v) { settings.visit(v); };
+  spec.flags = {{"--resume", "continue the calibration in OUTDIR from its last complete generation", &resume}};
+  spec.options = {{"--threads", "worker threads of the simulations (default 0 = every available core)", &threads_text, "N"},
+                  {"--predict", "predict the settings' cases with the posterior of an earlier calibration", &predict_path,
+                   "POSTERIOR.h5"}};
+  spec.check = [&](const cli::Invocation& inv) {
+    if (inv.output.empty()) throw core::UsageError("no output directory given (-o DIR)");
+    parse_threads(threads_text);
+    if (resume && !predict_path.empty()) throw core::UsageError("--resume and --predict exclude each other");
+    if (!predict_path.empty() && !fs::exists(predict_path))
+      throw core::InputError(predict_path, "no such file (--predict takes the posterior.h5 of a calibration)");
+  };
+  spec.run = [&](const cli::Invocation& inv) {
+    const std::string source = inv.config_path.empty() ? "settings" : inv.config_path;
+    if (settings.plots) cli::check_plotting();
+    core::Stopwatch clock;
+    const Problem problem(settings, source, parse_threads(threads_text));
+    fs::create_directories(inv.output);
+    const io::OutputLock lock((fs::path(inv.output) / kPosterior).string());
+    io::Provenance provenance = inv.provenance("calibrate", settings.seed);
+    if (!predict_path.empty()) {
+      predict(problem, predict_path, inv.output, provenance);
+      if (settings.plots) cli::run_plot_helper("--calibration-prediction " + cli::shell_quote((fs::path(inv.output) / "predictive.h5").string()) + " " + cli::shell_quote(inv.output));
+      core::log_info("predicted " + std::to_string(problem.cases().size()) + " case(s) in " + num(clock.seconds()) + " s");
+      return;
+    }
+
+    const std::string posterior_path = (fs::path(inv.output) / kPosterior).string();
+    stats::AbcSettings abc_settings;
+    abc_settings.particles = settings.particles;
+    abc_settings.generations = settings.generations;
+    abc_settings.quantile = settings.quantile;
+    abc_settings.min_acceptance = settings.min_acceptance;
+    abc_settings.max_simulations = settings.max_simulations;
+    abc_settings.seed = settings.seed;
+    const stats::AbcSmc abc(problem.priors(), abc_settings);
+    const stats::AbcSimulator simulate = [&](const std::vector<std::vector<double>>& batch) {
+      std::vector<double> d;
+      for (const auto& theta : batch) d.push_back(problem.distance(theta));
+      return d;
+    };
+
+    Checkpoint cp;
+    if (resume && fs::exists(posterior_path)) {
+      cp = read_checkpoint(posterior_path, problem, inv.settings_yaml);
+      core::log_info("resuming after generation " + std::to_string(cp.generations.back().index));
+    } else if (fs::exists(posterior_path) && !resume) {
+      throw core::InputError(posterior_path, "exists: add --resume to continue that calibration, or choose another -o");
+    }
+    auto simulations = [&] {
+      std::int64_t n = 0;
+      for (const auto& g : cp.generations) n += g.proposed;
+      return n;
+    };
+    const std::int64_t realizations_before = cp.realizations - problem.realizations_run();
+    const std::int64_t failures_before = cp.failures - problem.failures();
+    auto checkpoint = [&](bool finished) {
+      cp.realizations = realizations_before + problem.realizations_run();
+      cp.failures = failures_before + problem.failures();
+      cp.finished = finished;
+      write_posterior(posterior_path, problem, cp, provenance, {});
+    };
+    if (cp.generations.empty()) {
+      core::Stopwatch g_clock;
+      cp.generations.push_back(abc.first(simulate));
+      checkpoint(false);
+      core::log_info("generation 0 (prior): " + std::to_string(cp.generations.back().proposed) + " simulations in " +
+                     num(g_clock.seconds()) + " s");
+    }
+    while (!cp.finished && !abc.finished(cp.generations.back())) {
+      core::Stopwatch g_clock;
+      std::int64_t budget = 0;
+      if (settings.max_simulations > 0) {
+        budget = settings.max_simulations - simulations();
+        if (budget <= 0) break;
+      }
+      AbcGeneration g = abc.next(cp.generations.back(), simulate, budget);
+      if (static_cast<std::int64_t>(g.theta.size()) < settings.particles) {
+        core::log_warn("the simulation budget (max_simulations) ran out during generation " + std::to_string(g.index) +
+                       ": the posterior is generation " + std::to_string(cp.generations.back().index));
+        break;
+      }
+      cp.generations.push_back(std::move(g));
+      checkpoint(false);
+      const auto& last = cp.generations.back();
+      core::log_info("generation " + std::to_string(last.index) + ": tolerance " + num(last.tolerance) + ", " +
+                     std::to_string(last.proposed) + " simulations (acceptance " + num(last.acceptance()) + ") in " +
+                     num(g_clock.seconds()) + " s");
+    }
+
+    const AbcGeneration& post = cp.generations.back();
+    // The fit: every case simulated at the posterior medians.
+    const std::vector<double> best = medians(post);
+    std::vector<std::vector<std::vector<double>>> fit;
+    for (std::size_t c = 0; c < problem.cases().size(); ++c) fit.push_back(problem.simulate(best, c).values);
+    cp.realizations = realizations_before + problem.realizations_run();
+    cp.failures = failures_before + problem.failures();
+    cp.finished = true;
+    write_posterior(posterior_path, problem, cp, provenance, fit);
+    write_text((fs::path(inv.output) / "posterior.csv").string(), csv_posterior(problem, post));
+    write_text((fs::path(inv.output) / "generations.csv").string(), csv_generations(cp.generations));
+    write_text((fs::path(inv.output) / "summary.csv").string(), csv_summary(problem, post));
+    mc::SceneSettings calibrated = problem.with_parameters(problem.base_scene(), best);
+    write_text((fs::path(inv.output) / "calibrated-scene.yaml").string(),
+               "# " + settings.scene + " with the calibrated materials (posterior medians; " + kPosterior +
+                   " holds the whole posterior). Written by calibrate.\n" +
+                   io::write_settings([&calibrated](core::SettingsVisitor& v) { calibrated.visit(v); }, true));
+    if (settings.plots) cli::run_plot_helper("--calibration " + cli::shell_quote(posterior_path) + " " + cli::shell_quote(inv.output));
+    std::fputs(table(problem, post).c_str(), stdout);
+    if (cp.failures > 0)
+      core::log_warn(std::to_string(cp.failures) + " of " + std::to_string(cp.realizations) +
+                     " realizations ended in a numerical failure and were left out of the comparison");
+    core::log_info("calibrated in " + num(clock.seconds()) + " s: " + std::to_string(simulations()) + " simulations of " +
+                   std::to_string(settings.realizations) + " realizations per case, " +
+                   std::to_string(cp.generations.size() - 1) + " generation(s) after the prior");
+  };
+  return cli::run_tool(argc, argv, spec);
+}

@@ -1,0 +1,60 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "talus/core/settings.hpp"
+
+namespace talus::calibrate {
+
+/// One fitted parameter: a material property of the terrain's ground, with its prior.
+struct FittedParameter {
+  std::string material;                       ///< name of a terrain material
+  std::string parameter = "restitution_mean"; ///< one of the six material properties
+  std::string prior = "uniform";              ///< "uniform" on [min, max], or "normal" truncated to it
+  double min = 0.0;                           ///< in the parameter's unit
+  double max = 1.0;
+  double mean = 0.5;                          ///< normal prior
+  double sd = 0.1;                            ///< normal prior, > 0
+  void visit(core::SettingsVisitor& v);
+  /// "talus.restitution_mean": how outputs name it.
+  std::string label() const { return material + "." + parameter; }
+};
+
+/// One observed case: the scene as run for it and the stops observed.
+struct Group {
+  std::string name;                       ///< names the case in outputs; empty: "group K"
+  std::vector<std::string> set;           ///< scene overrides of this case (KEY=VALUE, as dda-run --set)
+  std::string observed;                   ///< observed stops: CSV of x, y or of runout[, lateral], or a vector file of points
+  std::string layer;                      ///< layer of a vector file; empty: its only layer
+  /// Where runout is measured from ([x, y], m, the terrain's input coordinates); empty:
+  /// the scene's first release point.
+  std::vector<double> origin;
+  /// Azimuth of the runout direction (deg from +x, counter-clockwise); none: the scene's
+  /// release.main_direction_deg.
+  std::optional<double> main_direction_deg;
+  void visit(core::SettingsVisitor& v);
+};
+
+/// What `calibrate` fits and how (docs/calibration.md).
+struct Settings {
+  std::string scene;                      ///< the dda-run scene file (terrain, blocks, release, engine)
+  std::vector<std::string> set;           ///< scene overrides for every group (KEY=VALUE)
+  std::vector<Group> groups;              ///< observed cases, at least one
+  std::vector<FittedParameter> parameters;
+  std::string variables = "runout_lateral";  ///< compared: "runout_lateral" (stop points in plan) or "runout"
+  std::int64_t realizations = 100;        ///< realizations per simulation and group
+  std::int64_t particles = 100;           ///< ABC population size
+  std::int64_t generations = 6;           ///< generations after the prior's
+  double quantile = 0.5;                  ///< tolerance = this quantile of the previous generation's distances
+  double min_acceptance = 0.05;           ///< stop once a generation accepts fewer of its proposals
+  std::int64_t max_simulations = 0;       ///< simulations (parameter sets) at most, 0 = no limit
+  std::uint64_t seed = 1;                 ///< proposals and simulations
+  std::int64_t predictive_draws = 40;     ///< posterior draws of a prediction (--predict)
+  bool plots = true;                      ///< draw plots with talus-plot (Python 3, matplotlib, h5py)
+  void visit(core::SettingsVisitor& v);
+};
+
+}  // namespace talus::calibrate

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -36,6 +37,13 @@ constexpr const char* kPosterior = "posterior.h5";
 const std::vector<double> kQuantiles = {0.05, 0.10, 0.25, 0.50, 0.75, 0.90, 0.95};
 
 std::string num(double x) { return core::format_number(x); }
+
+// Test hook: exit abruptly after writing the checkpoint of this generation (0 = never), as
+// a killed job would (tests/tools/calibration_recovery.py).
+std::int64_t abort_after_generation() {
+  const char* text = std::getenv("TALUS_CALIBRATE_ABORT_AFTER_GENERATION");
+  return text ? std::strtoll(text, nullptr, 10) : 0;
+}
 
 unsigned parse_threads(const std::string& text) {
   if (text.empty()) return 0;
@@ -421,6 +429,7 @@ int main(int argc, char** argv) {
       }
       cp.generations.push_back(std::move(g));
       checkpoint(false);
+      if (cp.generations.back().index == abort_after_generation()) std::_Exit(137);
       const auto& last = cp.generations.back();
       core::log_info("generation " + std::to_string(last.index) + ": tolerance " + num(last.tolerance) + ", " +
                      std::to_string(last.proposed) + " simulations (acceptance " + num(last.acceptance()) + ") in " +

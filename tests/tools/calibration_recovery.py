@@ -1,0 +1,128 @@
+#!/usr/bin/python3
+"""Synthetic recovery test of calibrate (docs/calibration.md), through the tools.
+
+Stops "observed" at two drop points of samples/calibration are made by dda-run with known
+ground parameters (restitution_mean 0.59, friction angle 35 deg). calibrate fits both
+parameters to drop point A, then predicts drop point B with the posterior. Checked:
+
+- each true value lies inside the posterior's [P5, P95] (summary.csv);
+- the data taught something: the friction angle's posterior sd is below the prior's, and
+  the tolerance fell from generation to generation;
+- drop point B's observed runout quantiles lie inside the predictive band (all but one),
+  and the pooled predictive runout is not refused by a KS test at 1 %;
+- a calibration killed after its first generation and resumed (on one thread) gives the
+  posterior an uninterrupted run (on two threads) gives, byte for byte.
+
+Usage: calibration_recovery.py --bin BUILD/bin [--quick] [--keep DIR]
+Without --quick: the benchmark version (docs/benchmarks.md); --quick: the CI version.
+Exit 0 on success, 1 on a failed check.
+Only the standard library is used (the tools write CSV).
+"""
+import argparse
+import csv
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+SAMPLE = os.path.join(ROOT, "samples", "calibration")
+TRUTH = {"ground.restitution_mean": 0.59, "ground.friction_angle_mean_deg": 35.0}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--bin", required=True)
+    ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--keep", default="")
+    args = ap.parse_args()
+    work = args.keep or tempfile.mkdtemp(prefix="talus-calibration-")
+    os.makedirs(work, exist_ok=True)
+    failures = []
+
+    def tool(name, *argv, env=None, expect=0):
+        cmd = [os.path.join(args.bin, name)] + list(argv)
+        r = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
+        if r.returncode != expect:
+            sys.exit("calibration_recovery: %s exited %d (expected %d): %s" % (" ".join(cmd), r.returncode, expect,
+                                                                              r.stderr.strip()[-600:]))
+        return r
+
+    terrain, blocks = os.path.join(work, "terrain.h5"), os.path.join(work, "blocks.h5")
+    tool("terrain-gen", "-c", os.path.join(SAMPLE, "terrain.yaml"), "-o", terrain, "-q")
+    tool("block-gen", "-c", os.path.join(SAMPLE, "blocks.yaml"), "-o", blocks, "-q")
+    paths = ["--set", "terrain=" + terrain, "--set", "block_file=" + blocks]
+    truth = "materials=[{name: ground, restitution_mean: 0.59, friction_angle_mean_deg: 35}]"
+    obs_a, obs_b = os.path.join(work, "observed-A.h5"), os.path.join(work, "observed-B.h5")
+    n_obs = "40" if args.quick else "60"
+    tool("dda-run", "-c", os.path.join(SAMPLE, "drop.yaml"), *paths, "--set", "seed=101", "--set", truth,
+         "--set", "realizations=" + n_obs, "-o", obs_a, "-q")
+    tool("dda-run", "-c", os.path.join(SAMPLE, "drop.yaml"), *paths, "--set", "seed=102", "--set", truth,
+         "--set", "realizations=" + n_obs, "--set", "release.points=[[20, 50]]", "-o", obs_b, "-q")
+
+    size = ["particles=12", "generations=2", "realizations=20"] if args.quick else \
+           ["particles=24", "generations=3", "realizations=30"]
+    common = ["-c", os.path.join(SAMPLE, "calibrate.yaml"),
+              "--set", "set=[terrain=%s, block_file=%s]" % (terrain, blocks),
+              "--set", "groups[0].observed=" + obs_a, "--set", "plots=false"]
+    for kv in size:
+        common += ["--set", kv]
+    fit = os.path.join(work, "fit")
+    tool("calibrate", *common, "-o", fit, "--threads", "2", "-q")
+
+    # Interrupted after generation 1, resumed on one thread: the same posterior.
+    resumed = os.path.join(work, "resumed")
+    env = dict(os.environ, TALUS_CALIBRATE_ABORT_AFTER_GENERATION="1")
+    tool("calibrate", *common, "-o", resumed, "--threads", "2", "-q", env=env, expect=137)
+    tool("calibrate", *common, "-o", resumed, "--threads", "1", "--resume", "-q")
+    for name in ("posterior.csv", "generations.csv", "summary.csv"):
+        with open(os.path.join(fit, name)) as a, open(os.path.join(resumed, name)) as b:
+            if a.read() != b.read():
+                failures.append("%s differs between the uninterrupted and the resumed calibration" % name)
+
+    with open(os.path.join(fit, "summary.csv")) as f:
+        rows = {r["parameter"]: r for r in csv.DictReader(f)}
+    for name, true in TRUTH.items():
+        r = rows[name]
+        p5, p50, p95 = float(r["P5"]), float(r["P50"]), float(r["P95"])
+        print("%s: truth %g, posterior P5 %.4g, P50 %.4g, P95 %.4g" % (name, true, p5, p50, p95))
+        if not p5 <= true <= p95:
+            failures.append("%s: the truth %g is outside the posterior's [P5, P95] = [%.4g, %.4g]" % (name, true, p5, p95))
+    friction = rows["ground.friction_angle_mean_deg"]
+    prior_sd = (float(friction["max"]) - float(friction["min"])) / 12 ** 0.5
+    if not float(friction["sd"]) < prior_sd:
+        failures.append("the friction angle's posterior sd %s is not below the prior's %.4g" % (friction["sd"], prior_sd))
+    with open(os.path.join(fit, "generations.csv")) as f:
+        tolerances = [float(r["tolerance"]) for r in csv.DictReader(f)][1:]
+    if not all(b < a for a, b in zip(tolerances, tolerances[1:])):
+        failures.append("the tolerance did not fall at every generation: %s" % tolerances)
+
+    predict = os.path.join(work, "predict")
+    draws = ["predictive_draws=8", "realizations=20"] if args.quick else ["predictive_draws=16", "realizations=30"]
+    pargs = ["-c", os.path.join(SAMPLE, "predict.yaml"), "--set", "set=[terrain=%s, block_file=%s]" % (terrain, blocks),
+             "--set", "groups[0].observed=" + obs_b, "--set", "plots=false"]
+    for kv in draws:
+        pargs += ["--set", kv]
+    tool("calibrate", *pargs, "--predict", os.path.join(fit, "posterior.h5"), "-o", predict, "-q")
+    with open(os.path.join(predict, "predictive.csv")) as f:
+        runout = [r for r in csv.DictReader(f) if r["variable"] == "runout"]
+    inside = sum(int(r["inside"]) for r in runout)
+    print("drop B: %d of %d observed runout quantiles inside the predictive band" % (inside, len(runout)))
+    if inside < len(runout) - 1:
+        failures.append("drop B: only %d of %d observed runout quantiles inside the predictive band" % (inside, len(runout)))
+    with open(os.path.join(predict, "predictive-ks.csv")) as f:
+        ks = {r["variable"]: r for r in csv.DictReader(f)}
+    print("drop B: runout KS %s (p %s)" % (ks["runout"]["ks_distance"], ks["runout"]["ks_p_value"]))
+    if float(ks["runout"]["ks_p_value"]) < 0.01:
+        failures.append("drop B: the predictive runout is refused by KS (p = %s)" % ks["runout"]["ks_p_value"])
+
+    if not args.keep:
+        shutil.rmtree(work, ignore_errors=True)
+    for f in failures:
+        print("FAILED: " + f)
+    sys.exit(1 if failures else 0)
+
+
+if __name__ == "__main__":
+    main()

@@ -208,12 +208,19 @@ Simulated Problem::simulate(const std::vector<double>& theta, std::size_t c, std
       ++out.failures;
       continue;
     }
+    // Compared as observed stops are: where blocks came to rest (those that left the
+    // terrain or ran out of steps are counted, not compared).
+    if (r.end != dda::EndReason::rest) {
+      ++out.not_at_rest;
+      continue;
+    }
     const Eigen::Vector2d d = r.final_position.head<2>() + shift - cs.origin;
     const double runout = cs.direction.dot(d), lateral = cs.direction.x() * d.y() - cs.direction.y() * d.x();
     out.values.push_back(variables_.size() == 1 ? std::vector<double>{runout} : std::vector<double>{runout, lateral});
   }
   realizations_run_ += static_cast<std::int64_t>(records.size());
   failures_ += out.failures;
+  not_at_rest_ += out.not_at_rest;
   return out;
 }
 
@@ -221,7 +228,7 @@ double Problem::distance(const std::vector<double>& theta) const {
   double total = 0.0;
   for (std::size_t c = 0; c < cases_.size(); ++c) {
     const Simulated sim = simulate(theta, c);
-    if (sim.values.empty()) return std::numeric_limits<double>::infinity();
+    if (sim.values.size() < 2) return std::numeric_limits<double>::infinity();
     total += stats::energy_distance(sim.values, cases_[c].observed, scale_);
   }
   return total / static_cast<double>(cases_.size());

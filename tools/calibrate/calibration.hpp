@@ -30,10 +30,12 @@ struct Case {
   std::vector<std::vector<double>> observed;            ///< [n][variables] (m)
 };
 
-/// One simulation of a case: the compared values of its realizations, and how many
-/// ended in a numerical failure (left out of the comparison, and reported).
+/// One simulation of a case: the compared values of its realizations at rest, how many
+/// ended elsewhere (left the terrain, step limit) and how many in a numerical failure
+/// (both left out of the comparison, and reported).
 struct Simulated {
-  std::vector<std::vector<double>> values;  ///< [realizations][variables] (m)
+  std::vector<std::vector<double>> values;  ///< [realizations at rest][variables] (m)
+  std::int64_t not_at_rest = 0;
   std::int64_t failures = 0;
 };
 
@@ -57,7 +59,8 @@ class Problem {
   /// set gives the same values however the calibration is threaded or resumed.
   Simulated simulate(const std::vector<double>& theta, std::size_t c, std::uint64_t draw = 0) const;
   /// The distance of one parameter set: the mean over the cases of the energy distance
-  /// between simulated and observed values (each variable divided by its scale).
+  /// between simulated and observed values (each variable divided by its scale);
+  /// infinite when a case has fewer than 2 realizations at rest.
   double distance(const std::vector<double>& theta) const;
   /// The scene settings of case `c` (or of the scene without the group overrides, c =
   /// npos) with `theta` as material overrides.
@@ -68,6 +71,7 @@ class Problem {
   /// Realizations simulated and numerical failures among them, so far.
   std::int64_t realizations_run() const { return realizations_run_; }
   std::int64_t failures() const { return failures_; }
+  std::int64_t not_at_rest() const { return not_at_rest_; }
 
  private:
   Settings settings_;
@@ -81,6 +85,7 @@ class Problem {
   std::vector<Case> cases_;
   mutable std::int64_t realizations_run_ = 0;
   mutable std::int64_t failures_ = 0;
+  mutable std::int64_t not_at_rest_ = 0;
 };
 
 /// Weighted summary of one parameter in a generation.

@@ -455,6 +455,10 @@ int main(int argc, char** argv) {
                    io::write_settings([&calibrated](core::SettingsVisitor& v) { calibrated.visit(v); }, true));
     if (settings.plots) cli::run_plot_helper("--calibration " + cli::shell_quote(posterior_path) + " " + cli::shell_quote(inv.output));
     std::fputs(table(problem, post).c_str(), stdout);
+    if (problem.not_at_rest() > 0)
+      core::log_info(std::to_string(problem.not_at_rest()) + " of " + std::to_string(problem.realizations_run()) +
+                     " realizations of this invocation did not come to rest (left the terrain or reached the step "
+                     "limit) and were not compared");
     if (cp.failures > 0)
       core::log_warn(std::to_string(cp.failures) + " of " + std::to_string(cp.realizations) +
                      " realizations ended in a numerical failure and were left out of the comparison");

@@ -75,16 +75,19 @@ Problem::Problem(const Settings& settings, const std::string& source, unsigned t
   for (std::size_t k = 0; k < s.parameters.size(); ++k) {
     const FittedParameter& p = s.parameters[k];
     const std::string where = "parameters[" + std::to_string(k) + "] (" + p.label() + "): ";
-    if (p.material.empty()) throw InputError(source, where + "no material named");
+    if (p.is_roughness() && !p.material.empty())
+      throw InputError(source, where + "roughness_sigma is the terrain's: name no material");
+    if (!p.is_roughness() && p.material.empty()) throw InputError(source, where + "no material named");
     if (!labels.insert(p.label()).second) throw InputError(source, where + "fitted twice");
     if (!(std::isfinite(p.min) && std::isfinite(p.max) && p.min < p.max))
       throw InputError(source, where + "the prior needs finite min < max");
     if (p.prior == "normal" && !(p.sd > 0.0 && std::isfinite(p.mean)))
       throw InputError(source, where + "a normal prior needs a finite mean and sd > 0");
     // The ranges the material is read with (terrain-gen, scene overrides).
-    terrain::Material probe;
     const terrain::Material::Ranges r = terrain::Material::ranges();
-    const core::Range& range = p.parameter == "restitution_mean"          ? r.restitution_mean
+    const core::Range sigma_range = core::Range::closed(0.0, 100.0);  // the terrain file's
+    const core::Range& range = p.is_roughness()                           ? sigma_range
+                               : p.parameter == "restitution_mean"          ? r.restitution_mean
                                : p.parameter == "restitution_sd"          ? r.restitution_sd
                                : p.parameter == "restitution_scale"       ? r.restitution_scale
                                : p.parameter == "friction_angle_mean_deg" ? r.friction_angle_mean_deg
@@ -117,6 +120,7 @@ Problem::Problem(const Settings& settings, const std::string& source, unsigned t
     // Validates the case as dda-run would (names, points, the fitted materials).
     const mc::Scene scene = mc::Scene::build(c.scene, *terrain, *library, c.source, c.vectors);
     for (const FittedParameter& p : s.parameters) {
+      if (p.is_roughness()) continue;
       bool found = false;
       for (const auto& m : scene.materials()) found = found || m.name == p.material;
       if (!found) throw InputError(source, where + "material '" + p.material + "' is not in the terrain file " +
@@ -172,6 +176,7 @@ mc::SceneSettings Problem::with_parameters(const mc::SceneSettings& base, const 
   mc::SceneSettings s = base;
   for (std::size_t k = 0; k < settings_.parameters.size(); ++k) {
     const FittedParameter& p = settings_.parameters[k];
+    if (p.is_roughness()) continue;  // the terrain's, set in simulate()
     auto it = std::find_if(s.materials.begin(), s.materials.end(), [&](const auto& o) { return o.name == p.material; });
     if (it == s.materials.end()) {
       s.materials.emplace_back();
@@ -195,7 +200,10 @@ Simulated Problem::simulate(const std::vector<double>& theta, std::size_t c, std
   s.realizations = settings_.realizations;
   s.outputs.hazard_cell_size = 0.0;
   s.engine.trajectory_interval = 0.0;
-  const mc::Scene scene = mc::Scene::build(s, *cs.terrain, *cs.library, cs.source, cs.vectors);
+  terrain::Terrain ground = *cs.terrain;
+  for (std::size_t k = 0; k < settings_.parameters.size(); ++k)
+    if (settings_.parameters[k].is_roughness()) ground.roughness.sigma = theta[k];
+  const mc::Scene scene = mc::Scene::build(s, std::move(ground), *cs.library, cs.source, cs.vectors);
   std::vector<std::uint32_t> indices(static_cast<std::size_t>(s.realizations));
   std::iota(indices.begin(), indices.end(), 0u);
   std::vector<mc::Record> records(indices.size());

@@ -195,6 +195,7 @@ std::string csv_generations(const std::vector<AbcGeneration>& gens) {
 
 const char* unit_of(const std::string& parameter) {
   if (parameter == "restitution_scale") return "m/s";
+  if (parameter == "roughness_sigma") return "m";
   if (parameter == "friction_angle_mean_deg" || parameter == "lateral_tilt_sd_deg") return "deg";
   return "-";
 }
@@ -449,9 +450,14 @@ int main(int argc, char** argv) {
     write_text((fs::path(inv.output) / "generations.csv").string(), csv_generations(cp.generations));
     write_text((fs::path(inv.output) / "summary.csv").string(), csv_summary(problem, post));
     mc::SceneSettings calibrated = problem.with_parameters(problem.base_scene(), best);
+    std::string roughness_note;
+    for (std::size_t k = 0; k < settings.parameters.size(); ++k)
+      if (settings.parameters[k].is_roughness())
+        roughness_note = "# The calibrated roughness is the terrain's: rebuild it with terrain-gen --set roughness.sigma=" +
+                         num(best[k]) + " (m).\n";
     write_text((fs::path(inv.output) / "calibrated-scene.yaml").string(),
                "# " + settings.scene + " with the calibrated materials (posterior medians; " + kPosterior +
-                   " holds the whole posterior). Written by calibrate.\n" +
+                   " holds the whole posterior). Written by calibrate.\n" + roughness_note +
                    io::write_settings([&calibrated](core::SettingsVisitor& v) { calibrated.visit(v); }, true));
     if (settings.plots) cli::run_plot_helper("--calibration " + cli::shell_quote(posterior_path) + " " + cli::shell_quote(inv.output));
     std::fputs(table(problem, post).c_str(), stdout);

@@ -11,16 +11,17 @@ namespace talus::calibrate {
 
 /// One fitted parameter: a material property of the terrain's ground, with its prior.
 struct FittedParameter {
-  std::string material;                       ///< name of a terrain material
-  std::string parameter = "restitution_mean"; ///< one of the six material properties
+  std::string material;                       ///< name of a terrain material (none for roughness_sigma)
+  std::string parameter = "restitution_mean"; ///< one of the six material properties, or roughness_sigma
   std::string prior = "uniform";              ///< "uniform" on [min, max], or "normal" truncated to it
   double min = 0.0;                           ///< in the parameter's unit
   double max = 1.0;
   double mean = 0.5;                          ///< normal prior
   double sd = 0.1;                            ///< normal prior, > 0
   void visit(core::SettingsVisitor& v);
-  /// "talus.restitution_mean": how outputs name it.
-  std::string label() const { return material + "." + parameter; }
+  /// "talus.restitution_mean" (or "terrain.roughness_sigma"): how outputs name it.
+  std::string label() const { return (is_roughness() ? std::string("terrain") : material) + "." + parameter; }
+  bool is_roughness() const { return parameter == "roughness_sigma"; }
 };
 
 /// One observed case: the scene as run for it and the stops observed.

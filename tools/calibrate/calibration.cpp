@@ -117,8 +117,15 @@ Problem::Problem(const Settings& settings, const std::string& source, unsigned t
     c.terrain = terrain.get();
     c.library = library.get();
     c.vectors = io::read_scene_vectors(c.scene, terrain->crs_wkt);
-    // Validates the case as dda-run would (names, points, the fitted materials).
-    const mc::Scene scene = mc::Scene::build(c.scene, *terrain, *library, c.source, c.vectors);
+    // Validates the case as dda-run would (names, points, the fitted materials), and its
+    // releases at the scene's own seed: a block released into the ground is refused now,
+    // not hours into the calibration.
+    mc::SceneSettings probe = c.scene;
+    probe.realizations = s.realizations;
+    const mc::Scene scene = mc::Scene::build(probe, *terrain, *library, c.source, c.vectors);
+    std::vector<std::uint32_t> first(static_cast<std::size_t>(s.realizations));
+    std::iota(first.begin(), first.end(), 0u);
+    mc::check_releases(scene, first, threads_);
     for (const FittedParameter& p : s.parameters) {
       if (p.is_roughness()) continue;
       bool found = false;

@@ -27,7 +27,7 @@ import subprocess
 import sys
 import tempfile
 
-TOOLS = ("terrain-gen", "block-gen", "dda-run", "stats")
+TOOLS = ("terrain-gen", "block-gen", "dda-run", "stats", "calibrate")
 
 # --- valid inputs, written once ----------------------------------------------------------
 
@@ -61,6 +61,18 @@ seed: 3
 outputs:
   chunk: 2
   hazard_cell_size: 2
+"""
+
+# A calibration of the plane's ground against three stop points (docs/calibration.md).
+CALIBRATE_YAML = """scene: scene.yaml
+groups:
+  - observed: stops.csv
+parameters:
+  - {material: rock, parameter: restitution_mean, min: 0.2, max: 0.9}
+realizations: 3
+particles: 4
+generations: 1
+plots: false
 """
 
 # A 4 x 3 DEM on a 1 m grid.
@@ -124,6 +136,8 @@ def make_fixtures(bin_dir, root):
     write(os.path.join(root, "plane.yaml"), PLANE_YAML)
     write(os.path.join(root, "blocks.yaml"), BLOCKS_YAML)
     write(os.path.join(root, "scene.yaml"), SCENE_YAML)
+    write(os.path.join(root, "calibrate.yaml"), CALIBRATE_YAML)
+    write(os.path.join(root, "stops.csv"), "x,y\n12,5\n14,5.5\n15,4\n")
     write(os.path.join(root, "dem.asc"), DEM_ASC)
     write(os.path.join(root, "cube.obj"), CUBE_OBJ)
     # The cube's top face missing: an open surface.
@@ -313,6 +327,23 @@ CASES = [
     (["stats", "--set", "plots=false", "run.h5", "-o", "no/such/dir"], RUNTIME, ["no/such"]),
     (["stats", "--set", "plots=false", "run.h5", "--set", "terrain=other.h5", "-o", "s"], BAD_INPUT,
      ["other.h5", "is not the terrain of the run run.h5", "fingerprint"]),
+    # calibrate (docs/calibration.md): settings, observed stops, posterior files.
+    (["calibrate", "-c", "calibrate.yaml"], USAGE, ["-o"]),
+    (["calibrate", "-c", "calibrate.yaml", "--set", "groups[0].observed=missing.csv", "-o", "c"], BAD_INPUT,
+     ["missing.csv", "cannot open"]),
+    (["calibrate", "-c", "calibrate.yaml", "--set", "groups[0].observed=notes.txt", "-o", "c"], BAD_INPUT,
+     ["notes.txt", "header names no x and y"]),
+    (["calibrate", "-c", "calibrate.yaml", "--set", "parameters[0].material=scree", "-o", "c"], BAD_INPUT,
+     ["material 'scree' is not in the terrain file"]),
+    (["calibrate", "-c", "calibrate.yaml", "--set", "parameters[0].max=2", "-o", "c"], BAD_INPUT,
+     ["rock.restitution_mean", "leaves the property's range"]),
+    (["calibrate", "-c", "calibrate.yaml", "--set", "parameters[0].parameter=density", "-o", "c"], BAD_INPUT,
+     ["'density' is not one of"]),
+    (["calibrate", "-c", "calibrate.yaml", "--set", "groups=[]", "-o", "c"], BAD_INPUT, ["at least one observed case"]),
+    (["calibrate", "-c", "calibrate.yaml", "--set", "scene=missing.yaml", "-o", "c"], BAD_INPUT, ["missing.yaml"]),
+    (["calibrate", "-c", "calibrate.yaml", "--predict", "missing.h5", "-o", "c"], BAD_INPUT, ["missing.h5"]),
+    (["calibrate", "-c", "calibrate.yaml", "--predict", "t.h5", "-o", "c"], BAD_INPUT, ["t.h5"]),
+    (["calibrate", "-c", "calibrate.yaml", "--predict", "run.h5", "--resume", "-o", "c"], USAGE, ["--resume"]),
 ]
 
 

@@ -251,8 +251,9 @@ std::vector<std::size_t> resample(const AbcGeneration& g, std::size_t k, std::ui
   return picks;
 }
 
-void predict(const Problem& problem, const std::string& posterior_path, const std::string& dir,
-             const io::Provenance& provenance) {
+// The last generation of a calibration's posterior file, checked against the parameters
+// the settings name (the same ones, in the same order).
+AbcGeneration read_posterior(const Problem& problem, const std::string& posterior_path) {
   const io::h5::File f = io::h5::File::open(posterior_path);
   const io::h5::Group root = f.root();
   io::check_header(root, "calibration", kCalibrationSchema);
@@ -270,10 +271,16 @@ void predict(const Problem& problem, const std::string& posterior_path, const st
   g.weight = last.read_doubles("weight");
   const auto theta = last.read_doubles("theta");
   const std::size_t dim = labels.size();
+  if (theta.size() != g.weight.size() * dim)
+    throw core::InputError(posterior_path, "generation " + *std::max_element(names.begin(), names.end()) +
+                                           " has particles of the wrong size");
   for (std::size_t i = 0; i < g.weight.size(); ++i)
     g.theta.emplace_back(theta.begin() + static_cast<std::ptrdiff_t>(i * dim),
                          theta.begin() + static_cast<std::ptrdiff_t>((i + 1) * dim));
+  return g;
+}
 
+void predict(const Problem& problem, const AbcGeneration& g, const std::string& dir, const io::Provenance& provenance) {
   const Settings& s = problem.settings();
   const auto picks = resample(g, static_cast<std::size_t>(s.predictive_draws), s.seed);
   std::ostringstream csv;
@@ -363,11 +370,13 @@ int main(int argc, char** argv) {
     if (settings.plots) cli::check_plotting();
     core::Stopwatch clock;
     const Problem problem(settings, source, parse_threads(threads_text));
+    // A bad posterior is refused before anything is written.
+    const AbcGeneration posterior = predict_path.empty() ? AbcGeneration{} : read_posterior(problem, predict_path);
     fs::create_directories(inv.output);
     const io::OutputLock lock((fs::path(inv.output) / kPosterior).string());
     io::Provenance provenance = inv.provenance("calibrate", settings.seed);
     if (!predict_path.empty()) {
-      predict(problem, predict_path, inv.output, provenance);
+      predict(problem, posterior, inv.output, provenance);
       if (settings.plots) cli::run_plot_helper("--calibration-prediction " + cli::shell_quote((fs::path(inv.output) / "predictive.h5").string()) + " " + cli::shell_quote(inv.output));
       core::log_info("predicted " + std::to_string(problem.cases().size()) + " case(s) in " + num(clock.seconds()) + " s");
       return;

@@ -106,6 +106,8 @@ release:
   main_direction_deg: 0
 realizations: 24
 seed: 11
+engine:
+  trajectory_interval: 0.05
 outputs:
   hazard_cell_size: 5.0
   barriers:
@@ -118,6 +120,9 @@ outputs:
   ASSERT_EQ(ok(run("block-gen", {"-c", "blocks.yaml", "-o", "blocks.h5"})), "");
   ASSERT_EQ(ok(run("dda-run", {"-c", "scene.yaml", "-o", "run.h5"})), "");
   ASSERT_EQ(ok(run("stats", {"run.h5", "-o", "out", "--set", "plots=false"})), "");
+  ASSERT_EQ(ok(run("stats", {"run.h5", "-o", "out-geojson", "--set", "plots=false", "--set", "hazard_maps=false",
+                             "--set", "vector_format=geojson"})),
+            "");
 
   const io::RunFile runfile = io::read_run_file((dir_ / "run.h5").string());
   const auto& shift = runfile.info.origin_shift;
@@ -140,10 +145,11 @@ outputs:
   GDALGetGeoTransform(dem_ds, dem_gt.data());
   const int dem_nx = GDALGetRasterXSize(dem_ds), dem_ny = GDALGetRasterYSize(dem_ds);
   GDALClose(dem_ds);
-  int rasters = 0;
+  // GeoTIFFs carry the CRS; ESRI ASCII grids a .prj beside them, which GDAL reads.
+  int rasters = 0, ascii = 0;
   for (const auto& entry : fs::directory_iterator(dir_ / "out" / "hazard")) {
-    if (entry.path().extension() != ".tif") continue;
-    ++rasters;
+    if (entry.path().extension() != ".tif" && entry.path().extension() != ".asc") continue;
+    ++(entry.path().extension() == ".tif" ? rasters : ascii);
     GDALDatasetH ds = GDALOpen(entry.path().c_str(), GA_ReadOnly);
     ASSERT_NE(ds, nullptr) << entry.path();
     std::array<double, 6> gt{};
@@ -157,16 +163,31 @@ outputs:
     GDALClose(ds);
   }
   EXPECT_GE(rasters, 8);
+  EXPECT_EQ(ascii, rasters);
 
   // Every vector layer: the DEM's CRS; the stop points are the run's final positions in
   // input coordinates to the last bit; the crossings lie on the fence.
   GDALDatasetH vec = GDALOpenEx((dir_ / "out" / "vector" / "run.gpkg").c_str(), GDAL_OF_VECTOR, nullptr, nullptr, nullptr);
   ASSERT_NE(vec, nullptr);
   ASSERT_GE(GDALDatasetGetLayerCount(vec), 2);
+  bool trajectories = false;
   for (int l = 0; l < GDALDatasetGetLayerCount(vec); ++l) {
     OGRLayerH layer = GDALDatasetGetLayer(vec, l);
     EXPECT_TRUE(is_lv95(OGR_L_GetSpatialRef(layer))) << OGR_L_GetName(layer);
+    trajectories = trajectories || std::string(OGR_L_GetName(layer)) == "trajectories";
   }
+  EXPECT_TRUE(trajectories);
+  // The same layers as GeoJSON files, one per layer, each in the DEM's CRS.
+  int geojson = 0;
+  for (const auto& entry : fs::directory_iterator(dir_ / "out-geojson" / "vector")) {
+    if (entry.path().extension() != ".geojson") continue;
+    ++geojson;
+    GDALDatasetH ds = GDALOpenEx(entry.path().c_str(), GDAL_OF_VECTOR, nullptr, nullptr, nullptr);
+    ASSERT_NE(ds, nullptr) << entry.path();
+    EXPECT_TRUE(is_lv95(OGR_L_GetSpatialRef(GDALDatasetGetLayer(ds, 0)))) << entry.path();
+    GDALClose(ds);
+  }
+  EXPECT_EQ(geojson, GDALDatasetGetLayerCount(vec));
   OGRLayerH stops = GDALDatasetGetLayerByName(vec, "stop_points");
   ASSERT_NE(stops, nullptr);
   ASSERT_EQ(OGR_L_GetFeatureCount(stops, 1), 24);

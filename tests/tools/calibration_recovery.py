@@ -11,9 +11,11 @@ parameters to drop point A, then predicts drop point B with the posterior. Check
 - drop point B's observed runout quantiles lie inside the predictive band (all but one),
   and the pooled predictive runout is not refused by a KS test at 1 %;
 - a calibration killed after its first generation and resumed (on one thread) gives the
-  posterior an uninterrupted run (on two threads) gives, byte for byte.
+  posterior an uninterrupted run (on two threads) gives, byte for byte;
+- with --mpiexec (a build with MPI), the same calibration on 2 MPI ranks of one thread
+  gives that posterior too.
 
-Usage: calibration_recovery.py --bin BUILD/bin [--quick] [--keep DIR]
+Usage: calibration_recovery.py --bin BUILD/bin [--quick] [--mpiexec MPIEXEC] [--keep DIR]
 Without --quick: the benchmark version (docs/benchmarks.md); --quick: the CI version.
 Exit 0 on success, 1 on a failed check.
 Only the standard library is used (the tools write CSV).
@@ -35,14 +37,15 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--bin", required=True)
     ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--mpiexec", default="", help="MPI launcher: also run the fit on 2 ranks")
     ap.add_argument("--keep", default="")
     args = ap.parse_args()
     work = args.keep or tempfile.mkdtemp(prefix="talus-calibration-")
     os.makedirs(work, exist_ok=True)
     failures = []
 
-    def tool(name, *argv, env=None, expect=0):
-        cmd = [os.path.join(args.bin, name)] + list(argv)
+    def tool(name, *argv, env=None, expect=0, launcher=()):
+        cmd = list(launcher) + [os.path.join(args.bin, name)] + list(argv)
         r = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
         if r.returncode != expect:
             sys.exit("calibration_recovery: %s exited %d (expected %d): %s" % (" ".join(cmd), r.returncode, expect,
@@ -76,10 +79,17 @@ def main():
     env = dict(os.environ, TALUS_CALIBRATE_ABORT_AFTER_GENERATION="1")
     tool("calibrate", *common, "-o", resumed, "--threads", "2", "-q", env=env, expect=137)
     tool("calibrate", *common, "-o", resumed, "--threads", "1", "--resume", "-q")
-    for name in ("posterior.csv", "generations.csv", "summary.csv"):
-        with open(os.path.join(fit, name)) as a, open(os.path.join(resumed, name)) as b:
-            if a.read() != b.read():
-                failures.append("%s differs between the uninterrupted and the resumed calibration" % name)
+    others = [("resumed", resumed)]
+    if args.mpiexec:
+        ranked = os.path.join(work, "mpi")
+        tool("calibrate", *common, "-o", ranked, "--threads", "1", "-q",
+             launcher=(args.mpiexec, "--allow-run-as-root", "--oversubscribe", "-n", "2"))
+        others.append(("run on 2 MPI ranks", ranked))
+    for label, other in others:
+        for name in ("posterior.csv", "generations.csv", "summary.csv"):
+            with open(os.path.join(fit, name)) as a, open(os.path.join(other, name)) as b:
+                if a.read() != b.read():
+                    failures.append("%s differs between the uninterrupted calibration and the %s one" % (name, label))
 
     with open(os.path.join(fit, "summary.csv")) as f:
         rows = {r["parameter"]: r for r in csv.DictReader(f)}

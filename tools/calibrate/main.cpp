@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <optional>
 #include <sstream>
 
 #include "calibration.hpp"
@@ -23,6 +24,10 @@
 #include "talus/io/hdf5.hpp"
 #include "talus/io/settings_yaml.hpp"
 #include "talus/stats/sample.hpp"
+
+#ifdef TALUS_WITH_MPI
+#include <mpi.h>
+#endif
 
 namespace {
 
@@ -340,9 +345,68 @@ void predict(const Problem& problem, const AbcGeneration& g, const std::string& 
   std::fputs(csv.str().c_str(), stdout);
 }
 
+// The MPI ranks of this run (one process without a launcher).
+struct Ranks {
+  int rank = 0;
+  int count = 1;
+  bool writer() const { return rank == 0; }
+};
+
+// Sums an int64 over the ranks.
+std::int64_t sum_over(const Ranks& ranks, std::int64_t value) {
+#ifdef TALUS_WITH_MPI
+  if (ranks.count > 1) {
+    long long total = 0;
+    const long long mine = value;
+    MPI_Allreduce(&mine, &total, 1, MPI_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
+    return static_cast<std::int64_t>(total);
+  }
+#endif
+  (void)ranks;
+  return value;
+}
+
+// The distances of a batch: rank r simulates candidates r, r + n, … and every rank gets
+// all of them. A distance is a pure function of its parameters, so the split changes no
+// value. A rank that fails makes every rank fail (none waits for it).
+std::vector<double> distances(const Problem& problem, const Ranks& ranks, const std::vector<std::vector<double>>& batch) {
+  std::vector<double> d(batch.size(), -1.0);
+  int ok = 1;
+  std::exception_ptr failure;
+  try {
+    for (std::size_t k = 0; k < batch.size(); ++k)
+      if (static_cast<int>(k % static_cast<std::size_t>(ranks.count)) == ranks.rank) d[k] = problem.distance(batch[k]);
+  } catch (...) {
+    ok = 0;
+    failure = std::current_exception();
+  }
+#ifdef TALUS_WITH_MPI
+  if (ranks.count > 1) {
+    int all_ok = 0;
+    MPI_Allreduce(&ok, &all_ok, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    if (failure) std::rethrow_exception(failure);
+    if (!all_ok) throw core::RuntimeError("another MPI rank failed (its error is on its standard error)");
+    MPI_Allreduce(MPI_IN_PLACE, d.data(), static_cast<int>(d.size()), MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+  }
+#endif
+  (void)ok;
+  if (failure) std::rethrow_exception(failure);
+  return d;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
+  Ranks ranks;
+#ifdef TALUS_WITH_MPI
+  // MPI only under a launcher (mpirun sets these), as dda-run.
+  const bool mpi = std::getenv("OMPI_COMM_WORLD_SIZE") || std::getenv("PMI_SIZE") || std::getenv("PMIX_RANK");
+  if (mpi) {
+    MPI_Init(&argc, &argv);
+    MPI_Comm_rank(MPI_COMM_WORLD, &ranks.rank);
+    MPI_Comm_size(MPI_COMM_WORLD, &ranks.count);
+  }
+#endif
   Settings settings;
   std::string threads_text, predict_path;
   bool resume = false;
@@ -353,6 +417,11 @@ int main(int argc, char** argv) {
   spec.inputs_doc = "none: the settings name the scene and the observed stops";
   spec.max_inputs = 0;
   spec.set_example = "particles=200";
+#ifdef TALUS_WITH_MPI
+  spec.build_notes = "MPI: yes (under mpirun the ranks share each generation's simulations; rank 0 writes)";
+#else
+  spec.build_notes = "MPI: no (build with -DTALUS_WITH_MPI=ON to share the simulations over MPI ranks)";
+#endif
   spec.settings = [&settings](core::SettingsVisitor& v) { settings.visit(v); };
   spec.flags = {{"--resume", "continue the calibration in OUTDIR from its last complete generation", &resume}};
   spec.options = {{"--threads", "worker threads of the simulations (default 0 = every available core)", &threads_text, "N"},
@@ -367,15 +436,20 @@ int main(int argc, char** argv) {
   };
   spec.run = [&](const cli::Invocation& inv) {
     const std::string source = inv.config_path.empty() ? "settings" : inv.config_path;
-    if (settings.plots) cli::check_plotting();
+    if (settings.plots && ranks.writer()) cli::check_plotting();
     core::Stopwatch clock;
     const Problem problem(settings, source, parse_threads(threads_text));
     // A bad posterior is refused before anything is written.
     const AbcGeneration posterior = predict_path.empty() ? AbcGeneration{} : read_posterior(problem, predict_path);
-    fs::create_directories(inv.output);
-    const io::OutputLock lock((fs::path(inv.output) / kPosterior).string());
+    // Rank 0 writes; the others simulate their share of each batch.
+    std::optional<io::OutputLock> lock;
+    if (ranks.writer()) {
+      fs::create_directories(inv.output);
+      lock.emplace((fs::path(inv.output) / kPosterior).string());
+    }
     io::Provenance provenance = inv.provenance("calibrate", settings.seed);
     if (!predict_path.empty()) {
+      if (!ranks.writer()) return;  // a prediction runs on rank 0
       predict(problem, posterior, inv.output, provenance);
       if (settings.plots) cli::run_plot_helper("--calibration-prediction " + cli::shell_quote((fs::path(inv.output) / "predictive.h5").string()) + " " + cli::shell_quote(inv.output));
       core::log_info("predicted " + std::to_string(problem.cases().size()) + " case(s) in " + num(clock.seconds()) + " s");
@@ -392,15 +466,13 @@ int main(int argc, char** argv) {
     abc_settings.seed = settings.seed;
     const stats::AbcSmc abc(problem.priors(), abc_settings);
     const stats::AbcSimulator simulate = [&](const std::vector<std::vector<double>>& batch) {
-      std::vector<double> d;
-      for (const auto& theta : batch) d.push_back(problem.distance(theta));
-      return d;
+      return distances(problem, ranks, batch);
     };
 
     Checkpoint cp;
     if (resume && fs::exists(posterior_path)) {
       cp = read_checkpoint(posterior_path, problem, inv.settings_yaml);
-      core::log_info("resuming after generation " + std::to_string(cp.generations.back().index));
+      if (ranks.writer()) core::log_info("resuming after generation " + std::to_string(cp.generations.back().index));
     } else if (fs::exists(posterior_path) && !resume) {
       throw core::InputError(posterior_path, "exists: add --resume to continue that calibration, or choose another -o");
     }
@@ -409,19 +481,22 @@ int main(int argc, char** argv) {
       for (const auto& g : cp.generations) n += g.proposed;
       return n;
     };
-    const std::int64_t realizations_before = cp.realizations - problem.realizations_run();
-    const std::int64_t failures_before = cp.failures - problem.failures();
+    // Realizations and failures of every rank (a collective call: every rank checkpoints).
+    const std::int64_t realizations_before = cp.realizations, failures_before = cp.failures;
+    auto count_all = [&] {
+      cp.realizations = realizations_before + sum_over(ranks, problem.realizations_run());
+      cp.failures = failures_before + sum_over(ranks, problem.failures());
+    };
     auto checkpoint = [&](bool finished) {
-      cp.realizations = realizations_before + problem.realizations_run();
-      cp.failures = failures_before + problem.failures();
+      count_all();
       cp.finished = finished;
-      write_posterior(posterior_path, problem, cp, provenance, {});
+      if (ranks.writer()) write_posterior(posterior_path, problem, cp, provenance, {});
     };
     if (cp.generations.empty()) {
       core::Stopwatch g_clock;
       cp.generations.push_back(abc.first(simulate));
       checkpoint(false);
-      core::log_info("generation 0 (prior): " + std::to_string(cp.generations.back().proposed) + " simulations in " +
+      if (ranks.writer()) core::log_info("generation 0 (prior): " + std::to_string(cp.generations.back().proposed) + " simulations in " +
                      num(g_clock.seconds()) + " s");
     }
     while (!cp.finished && !abc.finished(cp.generations.back())) {
@@ -433,7 +508,8 @@ int main(int argc, char** argv) {
       }
       AbcGeneration g = abc.next(cp.generations.back(), simulate, budget);
       if (static_cast<std::int64_t>(g.theta.size()) < settings.particles) {
-        core::log_warn("the simulation budget (max_simulations) ran out during generation " + std::to_string(g.index) +
+        if (ranks.writer())
+          core::log_warn("the simulation budget (max_simulations) ran out during generation " + std::to_string(g.index) +
                        ": the posterior is generation " + std::to_string(cp.generations.back().index));
         break;
       }
@@ -441,18 +517,25 @@ int main(int argc, char** argv) {
       checkpoint(false);
       if (cp.generations.back().index == abort_after_generation()) std::_Exit(137);
       const auto& last = cp.generations.back();
-      core::log_info("generation " + std::to_string(last.index) + ": tolerance " + num(last.tolerance) + ", " +
+      if (ranks.writer())
+        core::log_info("generation " + std::to_string(last.index) + ": tolerance " + num(last.tolerance) + ", " +
                      std::to_string(last.proposed) + " simulations (acceptance " + num(last.acceptance()) + ") in " +
                      num(g_clock.seconds()) + " s");
     }
 
+    count_all();
+    const std::int64_t not_at_rest = sum_over(ranks, problem.not_at_rest());
+    if (!ranks.writer()) return;
     const AbcGeneration& post = cp.generations.back();
     // The fit: every case simulated at the posterior medians.
     const std::vector<double> best = medians(post);
     std::vector<std::vector<std::vector<double>>> fit;
-    for (std::size_t c = 0; c < problem.cases().size(); ++c) fit.push_back(problem.simulate(best, c).values);
-    cp.realizations = realizations_before + problem.realizations_run();
-    cp.failures = failures_before + problem.failures();
+    for (std::size_t c = 0; c < problem.cases().size(); ++c) {
+      const calibrate::Simulated sim = problem.simulate(best, c);
+      fit.push_back(sim.values);
+      cp.realizations += static_cast<std::int64_t>(settings.realizations);
+      cp.failures += sim.failures;
+    }
     cp.finished = true;
     write_posterior(posterior_path, problem, cp, provenance, fit);
     write_text((fs::path(inv.output) / "posterior.csv").string(), csv_posterior(problem, post));
@@ -470,10 +553,9 @@ int main(int argc, char** argv) {
                    io::write_settings([&calibrated](core::SettingsVisitor& v) { calibrated.visit(v); }, true));
     if (settings.plots) cli::run_plot_helper("--calibration " + cli::shell_quote(posterior_path) + " " + cli::shell_quote(inv.output));
     std::fputs(table(problem, post).c_str(), stdout);
-    if (problem.not_at_rest() > 0)
-      core::log_info(std::to_string(problem.not_at_rest()) + " of " + std::to_string(problem.realizations_run()) +
-                     " realizations of this invocation did not come to rest (left the terrain or reached the step "
-                     "limit) and were not compared");
+    if (not_at_rest > 0)
+      core::log_info(std::to_string(not_at_rest) + " realizations of this invocation did not come to rest (left the "
+                     "terrain or reached the step limit) and were not compared");
     if (cp.failures > 0)
       core::log_warn(std::to_string(cp.failures) + " of " + std::to_string(cp.realizations) +
                      " realizations ended in a numerical failure and were left out of the comparison");
@@ -481,5 +563,9 @@ int main(int argc, char** argv) {
                    std::to_string(settings.realizations) + " realizations per case, " +
                    std::to_string(cp.generations.size() - 1) + " generation(s) after the prior");
   };
-  return cli::run_tool(argc, argv, spec);
+  const int code = cli::run_tool(argc, argv, spec);
+#ifdef TALUS_WITH_MPI
+  if (mpi) MPI_Finalize();
+#endif
+  return code;
 }

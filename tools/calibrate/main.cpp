@@ -318,6 +318,9 @@ void predict(const Problem& problem, const AbcGeneration& g, const std::string& 
         for (const auto& draw : per_draw)
           for (const auto& x : draw) pooled.push_back(x[v]);
         for (const auto& o : cs.observed) observed.push_back(o[v]);
+        if (pooled.size() < 2)
+          throw core::RuntimeError("case '" + cs.name + "': fewer than 2 of the predicted realizations came to rest "
+                                   "(the scene's blocks leave the terrain or reach the step limit)");
         const stats::Sample ps(pooled), os(observed);
         for (double p : kQuantiles) {
           std::vector<double> per;

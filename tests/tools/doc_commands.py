@@ -81,13 +81,14 @@ OVERRIDES = [
     # Plots left out of the statistics of the reference study (36 figure files, about 40 s
     # on 2 cores); README's stats command draws the same kinds of figure.
     ("docs/stats.md", r"^build/bin/stats ", "--set plots=false"),
-    # The calibration example (minutes) as a one-generation fit of 12 particles, and a
-    # prediction of 4 draws; the observed drop tests shortened like every run.
+    # The calibration example (minutes) as a one-generation fit of 6 particles, and a
+    # prediction of 3 draws, every simulation of N realizations; the observed drop tests
+    # shortened like every run.
     ("docs/calibration.md", r"^dda-run -c samples/calibration/drop\.yaml", "--set realizations={n}"),
     ("docs/calibration.md", r"^calibrate -c samples/calibration/calibrate\.yaml",
-     "--set particles=12 --set generations=1 --set realizations=12"),
+     "--set particles=6 --set generations=1 --set realizations={n}"),
     ("docs/calibration.md", r"^calibrate -c samples/calibration/predict\.yaml",
-     "--set predictive_draws=4 --set realizations=12"),
+     "--set predictive_draws=3 --set realizations={n}"),
     ("docs/benchmarks.md", r"^\s*stats .* -o (stats|b2)\b", "--set plots=false"),
 ]
 

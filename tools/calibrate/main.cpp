@@ -5,7 +5,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <limits>
 #include <optional>
 #include <sstream>
@@ -50,29 +49,10 @@ std::int64_t abort_after_generation() {
   return text ? std::strtoll(text, nullptr, 10) : 0;
 }
 
-unsigned parse_threads(const std::string& text) {
-  if (text.empty()) return 0;
-  char* end = nullptr;
-  const long v = std::strtol(text.c_str(), &end, 10);
-  if (*end != '\0' || v < 0 || v > 4096) throw core::UsageError("--threads expects 0 … 4096, got '" + text + "'");
-  return static_cast<unsigned>(v);
-}
-
 std::string generation_name(std::int64_t index) {
   char name[32];
   std::snprintf(name, sizeof name, "%03lld", static_cast<long long>(index));
   return name;
-}
-
-// Writes text to `path` through a temporary renamed when complete.
-void write_text(const std::string& path, const std::string& text) {
-  io::AtomicOutput out(path);
-  {
-    std::ofstream f(out.temp_path());
-    f << text;
-    if (!f) throw core::RuntimeError("cannot write " + path);
-  }
-  out.commit();
 }
 
 // ------------------------------------------------------------------ the posterior file
@@ -343,8 +323,8 @@ void predict(const Problem& problem, const AbcGeneration& g, const std::string& 
     }
   }
   h5out.commit();
-  write_text((fs::path(dir) / "predictive.csv").string(), csv.str());
-  write_text((fs::path(dir) / "predictive-ks.csv").string(), ks.str());
+  io::write_text_file((fs::path(dir) / "predictive.csv").string(), csv.str());
+  io::write_text_file((fs::path(dir) / "predictive-ks.csv").string(), ks.str());
   std::fputs(csv.str().c_str(), stdout);
 }
 
@@ -403,7 +383,7 @@ int main(int argc, char** argv) {
   Ranks ranks;
 #ifdef TALUS_WITH_MPI
   // MPI only under a launcher (mpirun sets these), as dda-run.
-  const bool mpi = std::getenv("OMPI_COMM_WORLD_SIZE") || std::getenv("PMI_SIZE") || std::getenv("PMIX_RANK");
+  const bool mpi = cli::started_by_mpi_launcher();
   if (mpi) {
     MPI_Init(&argc, &argv);
     MPI_Comm_rank(MPI_COMM_WORLD, &ranks.rank);
@@ -432,7 +412,7 @@ int main(int argc, char** argv) {
                    "POSTERIOR.h5"}};
   spec.check = [&](const cli::Invocation& inv) {
     if (inv.output.empty()) throw core::UsageError("no output directory given (-o DIR)");
-    parse_threads(threads_text);
+    cli::parse_threads(threads_text);
     if (resume && !predict_path.empty()) throw core::UsageError("--resume and --predict exclude each other");
     if (!predict_path.empty() && !fs::exists(predict_path))
       throw core::InputError(predict_path, "no such file (--predict takes the posterior.h5 of a calibration)");
@@ -441,7 +421,7 @@ int main(int argc, char** argv) {
     const std::string source = inv.config_path.empty() ? "settings" : inv.config_path;
     if (settings.plots && ranks.writer()) cli::check_plotting();
     core::Stopwatch clock;
-    const Problem problem(settings, source, parse_threads(threads_text));
+    const Problem problem(settings, source, cli::parse_threads(threads_text));
     // A bad posterior is refused before anything is written.
     const AbcGeneration posterior = predict_path.empty() ? AbcGeneration{} : read_posterior(problem, predict_path);
     // Rank 0 writes; the others simulate their share of each batch.
@@ -541,16 +521,16 @@ int main(int argc, char** argv) {
     }
     cp.finished = true;
     write_posterior(posterior_path, problem, cp, provenance, fit);
-    write_text((fs::path(inv.output) / "posterior.csv").string(), csv_posterior(problem, post));
-    write_text((fs::path(inv.output) / "generations.csv").string(), csv_generations(cp.generations));
-    write_text((fs::path(inv.output) / "summary.csv").string(), csv_summary(problem, post));
+    io::write_text_file((fs::path(inv.output) / "posterior.csv").string(), csv_posterior(problem, post));
+    io::write_text_file((fs::path(inv.output) / "generations.csv").string(), csv_generations(cp.generations));
+    io::write_text_file((fs::path(inv.output) / "summary.csv").string(), csv_summary(problem, post));
     mc::SceneSettings calibrated = problem.with_parameters(problem.base_scene(), best);
     std::string roughness_note;
     for (std::size_t k = 0; k < settings.parameters.size(); ++k)
       if (settings.parameters[k].is_roughness())
         roughness_note = "# The calibrated roughness is the terrain's: rebuild it with terrain-gen --set roughness.sigma=" +
                          num(best[k]) + " (m).\n";
-    write_text((fs::path(inv.output) / "calibrated-scene.yaml").string(),
+    io::write_text_file((fs::path(inv.output) / "calibrated-scene.yaml").string(),
                "# " + settings.scene + " with the calibrated materials (posterior medians; " + kPosterior +
                    " holds the whole posterior). Written by calibrate.\n" + roughness_note +
                    io::write_settings([&calibrated](core::SettingsVisitor& v) { calibrated.visit(v); }, true));

@@ -6,7 +6,6 @@
 
 #include <algorithm>
 #include <array>
-#include <charconv>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
@@ -145,15 +144,6 @@ class Interrupted : public core::Error {
 };
 struct StopRequested {};
 
-unsigned parse_threads(const std::string& text) {
-  if (text.empty()) return 0;
-  unsigned value = 0;
-  const auto [end, err] = std::from_chars(text.data(), text.data() + text.size(), value);
-  if (err != std::errc() || end != text.data() + text.size() || value > 4096)
-    throw core::UsageError("--threads expects a count (0 = all cores), got '" + text + "'");
-  return value;
-}
-
 // Test hook: exit abruptly (as if killed) after this many chunks reached the journal.
 std::size_t abort_after_chunks() {
   const char* text = std::getenv("TALUS_DDA_RUN_ABORT_AFTER_CHUNKS");
@@ -253,7 +243,7 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
   const std::vector<std::uint32_t> all = shard.indices(scene.realizations());
   // A block released into the ground is refused before any work (and before a journal
   // exists, which the corrected scene could not resume).
-  if (!resume) mc::check_releases(scene, all, parse_threads(opt.threads));
+  if (!resume) mc::check_releases(scene, all, cli::parse_threads(opt.threads));
   io::RunJournal journal = resume ? io::RunJournal::resume(journal_path, info)
                                   : io::RunJournal::create(journal_path, info);
 
@@ -274,7 +264,7 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
   {
     const StopSignals signals;
     try {
-      mc::run_realizations(scene, pending, parse_threads(opt.threads), [&](mc::RealizationResult&& r) {
+      mc::run_realizations(scene, pending, cli::parse_threads(opt.threads), [&](mc::RealizationResult&& r) {
         buffer.push_back(std::move(r));
         ++ran;
         if (buffer.size() >= chunk) {
@@ -304,9 +294,9 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
   const mc::RunData data = journal.read();
   io::write_run_file(output, info, data);
   journal.remove();
-  const unsigned thread_count = parse_threads(opt.threads) == 0 ? core::default_thread_count() : parse_threads(opt.threads);
+  const unsigned thread_count = cli::parse_threads(opt.threads) == 0 ? core::default_thread_count() : cli::parse_threads(opt.threads);
   const std::string threads = std::to_string(thread_count) + (thread_count == 1 ? " thread" : " threads") +
-                              (parse_threads(opt.threads) == 0 ? " (" + core::default_thread_source() + ")" : "");
+                              (cli::parse_threads(opt.threads) == 0 ? " (" + core::default_thread_source() + ")" : "");
   char timing[96];
   std::snprintf(timing, sizeof timing, " realizations in %.1f s (%.2f/s, ", seconds,
                 seconds > 0 ? static_cast<double>(ran) / seconds : 0.0);
@@ -359,7 +349,7 @@ int main(int argc, char** argv) {
 #ifdef TALUS_WITH_MPI
   // MPI only under a launcher (mpirun sets these): a plain start stays a one-process run
   // without the cost of a singleton MPI start.
-  const bool mpi = std::getenv("OMPI_COMM_WORLD_SIZE") || std::getenv("PMI_SIZE") || std::getenv("PMIX_RANK");
+  const bool mpi = cli::started_by_mpi_launcher();
   if (mpi) {
     MPI_Init(&argc, &argv);
     MPI_Comm_rank(MPI_COMM_WORLD, &rank);
@@ -391,7 +381,7 @@ int main(int argc, char** argv) {
                    &opt.shard}};
   spec.check = [&](const cli::Invocation& inv) {
     if (inv.output.empty()) throw core::UsageError("no output file given (-o FILE)");
-    parse_threads(opt.threads);
+    cli::parse_threads(opt.threads);
 #ifndef TALUS_WITH_MPI
     // Every rank of a launcher would run the whole job into one output.
     if (const int launched = mpi_launcher_ranks(); launched > 1)

@@ -2,6 +2,8 @@
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <charconv>
+#include <cstdlib>
 #include <cstdio>
 #include <filesystem>
 #include <new>
@@ -150,6 +152,19 @@ int run_tool(int argc, char** argv, const ToolSpec& spec) {
   } catch (const std::exception& e) {
     return fail(spec, core::ExitCode::runtime_failure, std::string("internal error: ") + e.what());
   }
+}
+
+unsigned parse_threads(const std::string& text) {
+  if (text.empty()) return 0;
+  unsigned value = 0;
+  const auto [end, err] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (err != std::errc() || end != text.data() + text.size() || value > 4096)
+    throw core::UsageError("--threads expects a count (0 = all cores), got '" + text + "'");
+  return value;
+}
+
+bool started_by_mpi_launcher() {
+  return std::getenv("OMPI_COMM_WORLD_SIZE") || std::getenv("PMI_SIZE") || std::getenv("PMIX_RANK");
 }
 
 }  // namespace talus::cli

@@ -60,6 +60,14 @@ struct ToolSpec {
   std::function<void(const Invocation&)> run;
 };
 
+/// The value of a tool's --threads option: a count of worker threads, 0 (or empty) = every
+/// available core. Throws core::UsageError for anything else or a count above 4096.
+unsigned parse_threads(const std::string& text);
+
+/// Whether an MPI launcher (mpirun, srun with PMI) started this process: the tools built
+/// with MPI start it only then, so a plain start stays a one-process run.
+bool started_by_mpi_launcher();
+
 /// Parses the command line, reads settings, runs the tool and maps every failure to a
 /// one-line message "TOOL: error: …" on stderr and a documented exit code. Never throws.
 int run_tool(int argc, char** argv, const ToolSpec& spec);

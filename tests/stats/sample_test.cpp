@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "talus/core/error.hpp"
+#include "talus/core/random.hpp"
 
 namespace talus::stats {
 namespace {
@@ -129,6 +130,59 @@ TEST(Bootstrap, SeveralQuantilesAtOnceEqualOneByOne) {
     EXPECT_GE(together[k].hi, s.quantile(ps[k]));
   }
   EXPECT_THROW(bootstrap_quantile_intervals(Sample({}), ps, 0.1, 10, 1), core::InputError);
+}
+
+// The slow reference: every resample drawn, sorted and its quantiles taken (what the
+// bootstrap did before it counted the draws).
+std::vector<Interval> sorted_resample_intervals(const Sample& s, const std::vector<double>& ps, double alpha,
+                                                std::size_t resamples, std::uint64_t seed) {
+  const auto& x = s.sorted();
+  const std::size_t n = x.size();
+  std::vector<std::vector<double>> estimates(ps.size(), std::vector<double>(resamples));
+  std::vector<double> draw(n);
+  for (std::size_t b = 0; b < resamples; ++b) {
+    const core::RandomStream stream(seed, core::Stream::bootstrap, static_cast<std::uint32_t>(b));
+    for (std::size_t k = 0; k < n; ++k)
+      draw[k] = x[std::min(static_cast<std::size_t>(stream.uniform(k) * static_cast<double>(n)), n - 1)];
+    const Sample resample(draw);
+    for (std::size_t k = 0; k < ps.size(); ++k) estimates[k][b] = resample.quantile(ps[k]);
+  }
+  std::vector<Interval> out;
+  for (auto& e : estimates) {
+    const Sample dist(e);
+    out.push_back({dist.quantile(alpha / 2.0), dist.quantile(1.0 - alpha / 2.0)});
+  }
+  return out;
+}
+
+// Counting the drawn indices gives the intervals of sorting every resample, bit for bit:
+// sizes 1 to 700, ties, unsorted and extreme probabilities, one plan for several samples.
+TEST(Bootstrap, PlanEqualsSortingEveryResample) {
+  const std::vector<double> ps = {0.99, 0.0, 0.05, 0.5, 0.25, 1.0, 0.95, 0.1, 0.75, 0.9};
+  for (std::size_t n : {1u, 2u, 3u, 7u, 10u, 64u, 250u, 701u}) {
+    const BootstrapPlan plan(n, ps, 120, 3 + n);
+    for (int variant = 0; variant < 3; ++variant) {
+      const core::RandomStream values(11 + static_cast<std::uint64_t>(variant), core::Stream::bootstrap, 99);
+      std::vector<double> v(n);
+      for (std::size_t k = 0; k < n; ++k) {
+        const double u = values.uniform(k);
+        // variant 1: heavy ties; variant 2: a wide range of magnitudes.
+        v[k] = variant == 0 ? u * 40.0 - 3.0 : variant == 1 ? std::floor(u * 4.0) : std::exp(u * 30.0) * 1e-6;
+      }
+      const Sample s(v);
+      const auto fast = plan.intervals(s, 0.05);
+      const auto slow = sorted_resample_intervals(s, ps, 0.05, 120, 3 + n);
+      ASSERT_EQ(fast.size(), slow.size());
+      for (std::size_t k = 0; k < ps.size(); ++k) {
+        EXPECT_EQ(fast[k].lo, slow[k].lo) << "n " << n << " variant " << variant << " p " << ps[k];
+        EXPECT_EQ(fast[k].hi, slow[k].hi) << "n " << n << " variant " << variant << " p " << ps[k];
+      }
+      const auto direct = bootstrap_quantile_intervals(s, ps, 0.05, 120, 3 + n);
+      for (std::size_t k = 0; k < ps.size(); ++k) EXPECT_EQ(direct[k].lo, fast[k].lo);
+    }
+  }
+  EXPECT_THROW(BootstrapPlan(0, ps, 10, 1), core::InputError);
+  EXPECT_THROW(BootstrapPlan(5, ps, 10, 1).intervals(Sample({1.0, 2.0}), 0.05), core::InputError);
 }
 
 }  // namespace

@@ -198,7 +198,29 @@ void pool_runs(std::vector<Run>& runs, const Settings& settings) {
   }
 }
 
-VariableSummary summarize(std::string name, std::string unit, std::vector<double> values, const Settings& settings) {
+namespace {
+
+// Bootstrap plans by sample size: the resampled indices depend only on the number of
+// values, so the variables of a series, and series of one size, share them.
+class BootstrapPlans {
+ public:
+  explicit BootstrapPlans(const Settings& settings) : settings_(settings) {}
+  const stats::BootstrapPlan& of(std::size_t n) {
+    auto it = plans_.find(n);
+    if (it == plans_.end())
+      it = plans_.emplace(n, stats::BootstrapPlan(n, settings_.quantiles,
+                                                  static_cast<std::size_t>(settings_.bootstrap_resamples),
+                                                  settings_.seed)).first;
+    return it->second;
+  }
+
+ private:
+  const Settings& settings_;
+  std::map<std::size_t, stats::BootstrapPlan> plans_;
+};
+
+VariableSummary summarize(std::string name, std::string unit, std::vector<double> values, const Settings& settings,
+                          BootstrapPlans& plans) {
   VariableSummary v;
   v.name = std::move(name);
   v.unit = std::move(unit);
@@ -215,9 +237,7 @@ VariableSummary summarize(std::string name, std::string unit, std::vector<double
   const double alpha = 1.0 - settings.confidence;
   for (double p : settings.quantiles) v.quantiles.push_back(s.quantile(p));
   if (settings.bootstrap_resamples > 0)
-    v.intervals = stats::bootstrap_quantile_intervals(s, settings.quantiles, alpha,
-                                                      static_cast<std::size_t>(settings.bootstrap_resamples),
-                                                      settings.seed);
+    v.intervals = plans.of(s.size()).intervals(s, alpha);
   v.dkw_epsilon = stats::dkw_epsilon(s.size(), alpha);
   if (present.size() >= 2) {
     std::vector<stats::Statistic> followed = {{stats::Statistic::Kind::mean}};
@@ -231,12 +251,19 @@ VariableSummary summarize(std::string name, std::string unit, std::vector<double
   return v;
 }
 
+}  // namespace
+
+VariableSummary summarize(std::string name, std::string unit, std::vector<double> values, const Settings& settings) {
+  BootstrapPlans plans(settings);
+  return summarize(std::move(name), std::move(unit), std::move(values), settings, plans);
+}
+
 namespace {
 
 // The statistics of the records `rows` (indices into run.data.records) of one run.
 Series make_series(const Run& run, std::size_t run_index, const std::string& block,
                    const std::vector<std::size_t>& rows, const std::array<double, 3>& shift,
-                   const Settings& settings) {
+                   const Settings& settings, BootstrapPlans& plans) {
   const auto& records = run.file.data.records;
   const auto& info = run.file.info;
   Series s;
@@ -260,14 +287,14 @@ Series make_series(const Run& run, std::size_t run_index, const std::string& blo
     return out;
   };
   for (const auto& [name, member] : {std::pair{"runout", &mc::Record::runout}, std::pair{"lateral", &mc::Record::lateral}}) {
-    s.variables.push_back(summarize(name, "m", column(member, stopped), settings));
+    s.variables.push_back(summarize(name, "m", column(member, stopped), settings, plans));
     s.variables.back().censored = good.size() - stopped.size();
   }
-  s.variables.push_back(summarize("max_speed", "m/s", column(&mc::Record::max_speed, good), settings));
-  s.variables.push_back(summarize("max_jump_height", "m", column(&mc::Record::max_jump_height, good), settings));
+  s.variables.push_back(summarize("max_speed", "m/s", column(&mc::Record::max_speed, good), settings, plans));
+  s.variables.push_back(summarize("max_jump_height", "m", column(&mc::Record::max_jump_height, good), settings, plans));
   s.variables.push_back(
-      summarize("max_normal_jump_height", "m", column(&mc::Record::max_normal_jump_height, good), settings));
-  s.variables.push_back(summarize("max_kinetic_energy", "J", column(&mc::Record::max_kinetic_energy, good), settings));
+      summarize("max_normal_jump_height", "m", column(&mc::Record::max_normal_jump_height, good), settings, plans));
+  s.variables.push_back(summarize("max_kinetic_energy", "J", column(&mc::Record::max_kinetic_energy, good), settings, plans));
 
   // Barriers: the first crossing of each realization (where a barrier would catch it).
   std::map<std::uint32_t, std::size_t> position_of;  // realization → index in `good`
@@ -286,8 +313,8 @@ Series make_series(const Run& run, std::size_t run_index, const std::string& blo
     energy[b][it->second] = c.kinetic_energy;
   }
   for (std::size_t b = 0; b < barriers; ++b) {
-    s.variables.push_back(summarize(info.barriers[b] + ".passing_height", "m", height[b], settings));
-    s.variables.push_back(summarize(info.barriers[b] + ".kinetic_energy", "J", energy[b], settings));
+    s.variables.push_back(summarize(info.barriers[b] + ".passing_height", "m", height[b], settings, plans));
+    s.variables.push_back(summarize(info.barriers[b] + ".kinetic_energy", "J", energy[b], settings, plans));
   }
 
   const double n = static_cast<double>(rows.size());
@@ -475,6 +502,7 @@ HazardMaps hazard_maps(const io::RunFile& run, const std::array<double, 3>& orig
 
 Analysis analyze(const std::vector<Run>& runs, const Settings& settings) {
   Analysis a;
+  BootstrapPlans plans(settings);
   for (std::size_t r = 0; r < runs.size(); ++r) {
     const Run& run = runs[r];
     a.runs.push_back(run_result(run, settings));
@@ -482,7 +510,7 @@ Analysis analyze(const std::vector<Run>& runs, const Settings& settings) {
     const auto& records = run.file.data.records;
     std::vector<std::size_t> all(records.size());
     for (std::size_t k = 0; k < all.size(); ++k) all[k] = k;
-    a.series.push_back(make_series(run, r, "all", all, shift, settings));
+    a.series.push_back(make_series(run, r, "all", all, shift, settings, plans));
     std::set<std::int32_t> blocks;
     for (const auto& rec : records) blocks.insert(rec.block);
     if (!settings.by_block || blocks.size() < 2) continue;
@@ -492,7 +520,7 @@ Analysis analyze(const std::vector<Run>& runs, const Settings& settings) {
       std::vector<std::size_t> rows;
       for (std::size_t k = 0; k < records.size(); ++k)
         if (records[k].block == b) rows.push_back(k);
-      a.series.push_back(make_series(run, r, run.file.info.blocks[static_cast<std::size_t>(b)], rows, shift, settings));
+      a.series.push_back(make_series(run, r, run.file.info.blocks[static_cast<std::size_t>(b)], rows, shift, settings, plans));
     }
   }
   for (std::size_t i = 0; i < a.series.size(); ++i)

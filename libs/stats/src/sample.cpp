@@ -85,46 +85,82 @@ double ks_p_value(double d, std::size_t n_a, std::size_t n_b) {
   return std::clamp(2.0 * sum, 0.0, 1.0);
 }
 
-namespace {
-
-// Quantile estimates of every resample: estimates[k][b] is the ps[k]-quantile of resample b,
-// drawn with replacement from stream (seed, bootstrap, b).
-std::vector<std::vector<double>> bootstrap_estimates(const Sample& sample, const std::vector<double>& ps,
-                                                     std::size_t resamples, std::uint64_t seed) {
-  const auto& x = sample.sorted();
-  if (x.empty()) throw core::InputError("sample", "bootstrap of an empty sample");
-  const std::size_t n = x.size();
-  std::vector<std::vector<double>> estimates(ps.size(), std::vector<double>(resamples));
-  std::vector<double> draw(n);
+BootstrapPlan::BootstrapPlan(std::size_t n, const std::vector<double>& ps, std::size_t resamples,
+                             std::uint64_t seed)
+    : n_(n), ps_(ps), resamples_(resamples), slots_(resamples * ps.size()) {
+  if (n == 0) throw core::InputError("sample", "bootstrap of an empty sample");
+  // The ranks each quantile needs (Sample::quantile: h = (n − 1)p, ranks ⌊h⌋ and ⌊h⌋ + 1),
+  // in increasing order, so that one pass over the counts finds them all.
+  struct Need {
+    std::size_t rank;
+    std::size_t slot;
+    bool hi;
+  };
+  std::vector<Need> needs;
+  std::vector<bool> last(ps.size(), false);
+  for (std::size_t k = 0; k < ps.size(); ++k) {
+    const double h = static_cast<double>(n - 1) * std::clamp(ps[k], 0.0, 1.0);
+    const auto lo = static_cast<std::size_t>(std::floor(h));
+    if (lo + 1 >= n) {
+      last[k] = true;
+      needs.push_back({n - 1, k, false});
+    } else {
+      needs.push_back({lo, k, false});
+      needs.push_back({lo + 1, k, true});
+    }
+  }
+  std::sort(needs.begin(), needs.end(), [](const Need& a, const Need& b) { return a.rank < b.rank; });
+  std::vector<std::uint32_t> counts(n);
   for (std::size_t b = 0; b < resamples; ++b) {
     const core::RandomStream stream(seed, core::Stream::bootstrap, static_cast<std::uint32_t>(b));
+    std::fill(counts.begin(), counts.end(), 0u);
     for (std::size_t k = 0; k < n; ++k) {
       const auto idx = static_cast<std::size_t>(stream.uniform(k) * static_cast<double>(n));
-      draw[k] = x[std::min(idx, n - 1)];
+      ++counts[std::min(idx, n - 1)];
     }
-    const Sample resample(draw);
-    for (std::size_t k = 0; k < ps.size(); ++k) estimates[k][b] = resample.quantile(ps[k]);
+    Slot* row = &slots_[b * ps.size()];
+    std::size_t index = 0, below = counts[0];  // draws of indices <= index
+    for (const Need& need : needs) {
+      while (below <= need.rank) below += counts[++index];
+      Slot& slot = row[need.slot];
+      (need.hi ? slot.hi : slot.lo) = static_cast<std::uint32_t>(index);
+      slot.last = last[need.slot];
+    }
   }
-  return estimates;
 }
 
-}  // namespace
+std::vector<Interval> BootstrapPlan::intervals(const Sample& sample, double alpha, double* se_first) const {
+  const auto& x = sample.sorted();
+  if (x.size() != n_)
+    throw core::InputError("sample", "bootstrap plan of " + std::to_string(n_) + " values used for " +
+                                         std::to_string(x.size()));
+  std::vector<Interval> out;
+  std::vector<double> estimates(resamples_);
+  for (std::size_t k = 0; k < ps_.size(); ++k) {
+    // As Sample::quantile of the sorted resample r: r[lo] + (h − lo)(r[lo + 1] − r[lo]).
+    const double h = static_cast<double>(n_ - 1) * std::clamp(ps_[k], 0.0, 1.0);
+    const double frac = h - std::floor(h);
+    for (std::size_t b = 0; b < resamples_; ++b) {
+      const Slot& s = slots_[b * ps_.size() + k];
+      estimates[b] = s.last ? x[s.lo] : x[s.lo] + frac * (x[s.hi] - x[s.lo]);
+    }
+    const Sample dist(estimates);
+    if (k == 0 && se_first) *se_first = dist.sd();
+    out.push_back({dist.quantile(alpha / 2.0), dist.quantile(1.0 - alpha / 2.0)});
+  }
+  return out;
+}
 
 Interval bootstrap_quantile_interval(const Sample& sample, double p, double alpha, std::size_t resamples,
                                      std::uint64_t seed, double* se) {
-  const Sample dist(std::move(bootstrap_estimates(sample, {p}, resamples, seed).front()));
-  if (se) *se = dist.sd();
-  return {dist.quantile(alpha / 2.0), dist.quantile(1.0 - alpha / 2.0)};
+  if (sample.empty()) throw core::InputError("sample", "bootstrap of an empty sample");
+  return BootstrapPlan(sample.size(), {p}, resamples, seed).intervals(sample, alpha, se).front();
 }
 
 std::vector<Interval> bootstrap_quantile_intervals(const Sample& sample, const std::vector<double>& ps,
                                                    double alpha, std::size_t resamples, std::uint64_t seed) {
-  std::vector<Interval> out;
-  for (auto& estimates : bootstrap_estimates(sample, ps, resamples, seed)) {
-    const Sample dist(std::move(estimates));
-    out.push_back({dist.quantile(alpha / 2.0), dist.quantile(1.0 - alpha / 2.0)});
-  }
-  return out;
+  if (sample.empty()) throw core::InputError("sample", "bootstrap of an empty sample");
+  return BootstrapPlan(sample.size(), ps, resamples, seed).intervals(sample, alpha);
 }
 
 }  // namespace talus::stats

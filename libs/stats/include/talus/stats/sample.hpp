@@ -49,6 +49,33 @@ struct Interval {
   double hi = 0.0;
 };
 
+/// The resamples of a bootstrap of n values, reduced to what the quantile estimates need.
+/// Resample b draws index ⌊u·n⌋ (u = draw k of stream (seed, bootstrap, b)) for k < n; since
+/// the sample is sorted, the sorted resample is the sample at the sorted drawn indices, so
+/// the p-quantile of the resample is fixed by the drawn indices at two ranks. The plan keeps
+/// those indices: it depends on n, ps, resamples and seed, not on the values, so one plan
+/// serves every sample of n values (counting the draws, not sorting them: O(n) a resample).
+class BootstrapPlan {
+ public:
+  /// Throws core::InputError if n is 0.
+  BootstrapPlan(std::size_t n, const std::vector<double>& ps, std::size_t resamples, std::uint64_t seed);
+
+  std::size_t n() const { return n_; }
+  /// Percentile-bootstrap intervals (level 1 − α) of the quantiles at ps of `sample`, which
+  /// must hold n values: bit for bit those of sorting every resample.
+  std::vector<Interval> intervals(const Sample& sample, double alpha, double* se_first = nullptr) const;
+
+ private:
+  struct Slot {
+    std::uint32_t lo = 0, hi = 0;  ///< indices into the sorted sample of ranks ⌊h⌋ and ⌊h⌋ + 1
+    bool last = false;             ///< ⌊h⌋ + 1 ≥ n: the quantile is the largest value (index lo)
+  };
+  std::size_t n_;
+  std::vector<double> ps_;
+  std::size_t resamples_;
+  std::vector<Slot> slots_;  ///< slots_[b · ps.size() + k]
+};
+
 /// Percentile-bootstrap confidence interval (level 1 − α) of the p-quantile: `resamples`
 /// resamples with replacement, resample b drawn from stream (seed, bootstrap, b), so the
 /// interval is reproducible. Also returns the bootstrap standard error in `se` if given.

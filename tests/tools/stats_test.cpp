@@ -528,12 +528,13 @@ TEST_F(Stats, ValidatesASeriesAgainstObservedStopPoints) {
 
   // The validation figure: simulated CDF and band, observed ECDF, for both variables.
   if (matplotlib_available()) {
-    const Outcome plotted = run(args({"whole.h5", "-o", "out-valid-plot", "--set", "plot_formats=[png]", "--set",
-                                      "bootstrap_resamples=50"}));
+    const Outcome plotted = run(args({"whole.h5", "-o", "out-valid-plot", "--set", "bootstrap_resamples=50"}));
     ASSERT_EQ(plotted.code, 0) << plotted.err;
     const fs::path figure = dir_ / "out-valid-plot" / "plots" / "validation.png";
     ASSERT_TRUE(fs::exists(figure));
     EXPECT_GT(fs::file_size(figure), 1000u);
+    // PNG only by default; SVG on request (plot_formats).
+    EXPECT_FALSE(fs::exists(dir_ / "out-valid-plot" / "plots" / "validation.svg"));
   }
 
   // Without observed points the file of an earlier run goes.
@@ -553,7 +554,8 @@ TEST_F(Stats, ValidatesASeriesAgainstObservedStopPoints) {
 TEST_F(Stats, DrawsPlots) {
   if (!matplotlib_available()) GTEST_SKIP() << "matplotlib is not installed for /usr/bin/python3";
   // Three worker processes draw the figures, whatever the machine's core count.
-  const Outcome o = run({"whole.h5", "-o", "out-plots", "--set", "bootstrap_resamples=50", "--set", "plot_jobs=3"});
+  const Outcome o = run({"whole.h5", "-o", "out-plots", "--set", "bootstrap_resamples=50", "--set", "plot_jobs=3",
+                         "--set", "plot_formats=[png,svg]"});
   ASSERT_EQ(o.code, 0) << o.err;
   for (const char* stem : {"cdf-runout", "cdf-max_kinetic_energy", "convergence-runout", "barrier-toe", "plan-whole",
                            "hazard-whole"})

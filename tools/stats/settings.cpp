@@ -48,7 +48,7 @@ void Settings::visit(core::SettingsVisitor& v) {
            "vector layers of each run (stop points, first barrier crossings, trajectories; m, m/s, J, s): "
            "gpkg = one GeoPackage per run, geojson = one GeoJSON file per layer, none");
   v.field("plots", plots, "draw plots with the talus-plot helper (Python 3, matplotlib, h5py)");
-  v.field("plot_formats", plot_formats, "plot formats: png, svg (svg on request: it adds more than half to the drawing time)");
+  v.field("plot_formats", plot_formats, "plot formats: png, svg (svg on request: it adds about 45 % to the drawing time)");
   v.field("plot_trajectories", plot_trajectories, "", "trajectories drawn in a plan view at most");
   v.field("plot_jobs", plot_jobs, "", "figures drawn at once, one process each (0 = one per available core)");
 }

@@ -69,7 +69,7 @@ struct Settings {
   std::string vector_format = "gpkg";
   /// Plots through the talus-plot helper (Python 3 with matplotlib and h5py).
   bool plots = true;
-  /// Plot formats among "png" and "svg" (PNG only by default: SVG adds more than half to the drawing time).
+  /// Plot formats among "png" and "svg" (PNG only by default: SVG adds about 45 % to the drawing time).
   std::vector<std::string> plot_formats = {"png"};
   /// Trajectories drawn in each plan view at most (the first by realization index).
   std::int64_t plot_trajectories = 200;

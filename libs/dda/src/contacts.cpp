@@ -611,4 +611,52 @@ void detect_contacts_brute_force(const Model& model, const terrain::Surface& sur
   detect_in<false>(at, patch, search_distance, depth_limit, false, out);
 }
 
+// Whether the block (the hull of its world vertices `block`) and the triangle `corners`
+// are farther apart than `reach` (m) along the direction from `centre` (the block's
+// centroid) to the triangle's point nearest to it: the separating direction of a block near
+// a triangle whose plane, continued, passes by the block (a steeper triangle beside the
+// one under it). The triangle's extent along it is that of its corners, and the
+// block's that of its vertices, so the test holds whatever the direction's round-off.
+bool separated(const std::vector<Vec3>& block, const Vec3& centre, const std::array<Vec3, 3>& corners,
+               double reach) {
+  // The triangle's point nearest to centre (Ericson, Real-Time Collision Detection 5.1.5).
+  const Vec3& a = corners[0];
+  const Vec3& b = corners[1];
+  const Vec3& c = corners[2];
+  const Vec3 ab = b - a, ac = c - a, ap = centre - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  Vec3 nearest;
+  if (d1 <= 0.0 && d2 <= 0.0) {
+    nearest = a;
+  } else {
+    const Vec3 bp = centre - b;
+    const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+    const Vec3 cp = centre - c;
+    const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+    const double vc = d1 * d4 - d3 * d2, vb = d5 * d2 - d1 * d6, va = d3 * d6 - d5 * d4;
+    if (d3 >= 0.0 && d4 <= d3) {
+      nearest = b;
+    } else if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) {
+      nearest = a + (d1 / (d1 - d3)) * ab;
+    } else if (d6 >= 0.0 && d5 <= d6) {
+      nearest = c;
+    } else if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) {
+      nearest = a + (d2 / (d2 - d6)) * ac;
+    } else if (va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0) {
+      nearest = b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b);
+    } else {
+      const double inverse = 1.0 / (va + vb + vc);
+      nearest = a + ab * (vb * inverse) + ac * (vc * inverse);
+    }
+  }
+  const Vec3 towards = nearest - centre;
+  const double length = towards.norm();
+  if (!(length > reach)) return false;
+  const Vec3 u = towards / length;
+  const double triangle_from = std::min({u.dot(a - centre), u.dot(b - centre), u.dot(c - centre)});
+  double block_to = -std::numeric_limits<double>::infinity();
+  for (const Vec3& v : block) block_to = std::max(block_to, u.dot(v - centre));
+  return triangle_from - block_to > reach;
+}
+
 }  // namespace talus::dda::detail

@@ -281,7 +281,9 @@ geometry::Aabb swept_sphere_box(const Model& model, const State& s, double h) {
 // of reach when every vertex of the block (`block`, world, m; null to skip this test)
 // lies farther above the triangle's plane than any point of the block can move in the
 // horizon: the block is the convex hull of its vertices or inside it, so nothing of it
-// can cross that plane in time. On the rigid path a point moves at most
+// can cross that plane in time; or when the block and the triangle are that far apart
+// along the direction from the block's centroid to the triangle (separated). On the
+// rigid path a point moves at most
 // (|v| + |ω|·radius)·h + ½g·h² on the free parabola and spin (predicted_reach), which
 // is the clearance asked (with a round-off allowance); on the 12-DOF path, whose strains
 // vibrate, the contact search distance (twice that, at least the displacement limit).
@@ -291,17 +293,21 @@ bool clear_of_terrain(const Model& model, const Ground& ground, State& s, double
   const double reach = model.dof == DofPath::rigid6
                            ? predicted_reach(model, s, h) + 1e-9 * (s.position.cwiseAbs().maxCoeff() + model.radius)
                            : search_reach(model, s, h);
-  const auto above = [&](const Vec3& normal, const Vec3& corner) {
+  const auto above = [&](const Vec3& normal, const std::array<Vec3, 3>& corners) {
     if (block == nullptr) return false;
+    bool clear = true;
     for (const Vec3& v : *block)
-      if (normal.dot(v - corner) <= reach) return false;
-    return true;
+      if (normal.dot(v - corners[0]) <= reach) {
+        clear = false;
+        break;
+      }
+    return clear || separated(*block, s.position, corners, reach);
   };
   const TerrainPatch& patch = s.patch;
   if (patch.surface == ground.surface && !patch.box.empty() && patch.box.contains(box.lo) && patch.box.contains(box.hi)) {
     // The patch under the block holds every triangle that can meet the box.
     for (const TerrainPatch::Triangle& t : patch.triangles)
-      if (t.box.overlaps(box) && !above(t.normal, t.p[0])) return false;
+      if (t.box.overlaps(box) && !above(t.normal, t.p)) return false;
     return true;
   }
   // Otherwise the triangles gathered for an earlier box, if that box holds this one; a
@@ -315,16 +321,15 @@ bool clear_of_terrain(const Model& model, const Ground& ground, State& s, double
     s.scratch_triangles.clear();
     ground.surface->triangles_in_box(flight.box, s.scratch_triangles);
     for (std::int32_t t : s.scratch_triangles) {
-      const auto corners = ground.surface->triangle_vertices(static_cast<std::size_t>(t));
       FlightPatch::Triangle d;
-      for (const Vec3& p : corners) d.box.add(p);
+      d.p = ground.surface->triangle_vertices(static_cast<std::size_t>(t));
+      for (const Vec3& p : d.p) d.box.add(p);
       d.normal = ground.surface->normal(static_cast<std::size_t>(t));
-      d.corner = corners[0];
       flight.triangles.push_back(d);
     }
   }
   for (const FlightPatch::Triangle& t : flight.triangles)
-    if (t.box.overlaps(box) && !above(t.normal, t.corner)) return false;
+    if (t.box.overlaps(box) && !above(t.normal, t.p)) return false;
   return true;
 }
 

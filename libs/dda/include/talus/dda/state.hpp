@@ -166,7 +166,7 @@ struct FlightPatch {
   struct Triangle {
     geometry::Aabb box;              ///< of its corners (m)
     Vec3 normal = Vec3::UnitZ();     ///< Surface::normal
-    Vec3 corner = Vec3::Zero();      ///< its first corner (m)
+    std::array<Vec3, 3> p;           ///< corners (m)
   };
   std::vector<Triangle> triangles;
 };

@@ -54,6 +54,7 @@ struct SlideResult {
   double drift = 0.0;            ///< displacement after the first `settle` seconds (m)
   double drift_rotation = 0.0;   ///< rotation after the first `settle` seconds (rad)
   double mean_sink = 0.0;        ///< mean centroid sink over the second half (m)
+  double time = 0.0;             ///< when the run stopped: `seconds`, or the step across it (s)
   EndReason end = EndReason::running;
 };
 inline SlideResult on_slope(Settings set, double theta_deg, double mu, double seconds, double settle = 0.1) {
@@ -84,6 +85,7 @@ inline SlideResult on_slope(Settings set, double theta_deg, double mu, double se
   out.drift = (s.position - settled).norm();
   out.drift_rotation = Eigen::AngleAxisd(s.orientation * q_settled.inverse()).angle();
   out.mean_sink = samples > 0 ? sink / samples : 0.0;
+  out.time = s.time;
   out.end = s.end;
   return out;
 }

@@ -31,10 +31,12 @@ void apply_preset(Settings& s, const std::string& preset) {
   s.penalty_omega = design.penalty_omega;
   s.max_open_close_iterations = design.max_open_close_iterations;
   s.max_displacement_ratio = design.max_displacement_ratio;
+  s.rest_step_ratio = design.rest_step_ratio;
   if (preset == "screening") {
     s.time_step = kScreeningTimeStep;
   } else if (preset == "research") {
     s.time_step = kResearchTimeStep;
+    s.rest_step_ratio = 1.0;  // the reference: every step nominal
   } else if (preset != "design") {
     throw core::InputError("dda settings", "preset '" + preset + "': expected screening, design or research");
   }
@@ -81,6 +83,9 @@ void Settings::visit(core::SettingsVisitor& v) {
   v.field("rest_kinetic_energy", rest_kinetic_energy, "J/kg",
           "kinetic energy per unit mass below which the block may be at rest");
   v.field("rest_dwell", rest_dwell, "s", "time below the rest threshold that ends the realization");
+  v.field("rest_step_ratio", rest_step_ratio, "-",
+          "longest contact step of a rigid6 block below the rest threshold for rest_dwell/5 or more, over "
+          "time_step (1 = none longer)");
   v.field("max_time", max_time, "s",
           "simulated-time limit per realization, 0 = 60 s + terrain plan diagonal / (1 m/s)");
   v.field("max_steps", max_steps, "-", "accepted-step limit per realization, 0 = none");
@@ -137,6 +142,8 @@ void validate(const Settings& s) {
                 "must be >= 0");
   require_range(s.rest_kinetic_energy >= 0.0, "rest_kinetic_energy", s.rest_kinetic_energy, "must be >= 0");
   require_range(s.rest_dwell >= 0.0, "rest_dwell", s.rest_dwell, "must be >= 0");
+  require_range(s.rest_step_ratio >= 1.0 && s.rest_step_ratio <= 100.0, "rest_step_ratio", s.rest_step_ratio,
+                "must be in [1, 100]");
   require_range(s.max_time >= 0.0, "max_time", s.max_time, "must be >= 0 (0 = from the terrain)");
   require_range(s.max_steps >= 0, "max_steps", static_cast<double>(s.max_steps), "must be >= 0 (0 = none)");
   require_range(s.trajectory_interval >= 0.0, "trajectory_interval", s.trajectory_interval, "must be >= 0");

@@ -54,8 +54,8 @@ VARIABLES = ["runout", "lateral", "max_speed", "max_jump_height", "toe_energy"]
 # (name, group, triangulation of the terrain, dda-run --set values). The first entry is
 # the reference; "floor" is the reference with another seed.
 STUDY = [
-    ("reference", "reference", "alternating", ["engine.time_step=1e-4"]),
-    ("floor", "sampling floor", "alternating", ["engine.time_step=1e-4", "seed=2"]),
+    ("reference", "reference", "alternating", ["engine.time_step=1e-4", "engine.rest_step_ratio=1"]),
+    ("floor", "sampling floor", "alternating", ["engine.time_step=1e-4", "engine.rest_step_ratio=1", "seed=2"]),
     ("default", "defaults", "alternating", []),
     ("dt=2e-4", "time step", "alternating", ["engine.time_step=2e-4"]),
     ("dt=5e-4", "time step", "alternating", ["engine.time_step=5e-4"]),
@@ -89,6 +89,9 @@ STUDY = [
     ("rest x0.1", "rest rule", "alternating", ["engine.rest_kinetic_energy=X0.1"]),
     ("dwell x0.25", "rest rule", "alternating", ["engine.rest_dwell=X0.25"]),
     ("dwell x4", "rest rule", "alternating", ["engine.rest_dwell=X4"]),
+    # Settling blocks' longer steps (docs/dda.md, Step control): none, and twice the default.
+    ("rest steps x1", "rest rule", "alternating", ["engine.rest_step_ratio=1"]),
+    ("rest steps x8", "rest rule", "alternating", ["engine.rest_step_ratio=8"]),
     ("impact x0.5", "impact threshold", "alternating", ["engine.impact_min_normal_speed=X0.5"]),
     ("impact x2", "impact threshold", "alternating", ["engine.impact_min_normal_speed=X2"]),
 ]

@@ -611,14 +611,13 @@ void detect_contacts_brute_force(const Model& model, const terrain::Surface& sur
   detect_in<false>(at, patch, search_distance, depth_limit, false, out);
 }
 
-// Whether the block (the hull of its world vertices `block`) and the triangle `corners`
-// are farther apart than `reach` (m) along the direction from `centre` (the block's
-// centroid) to the triangle's point nearest to it: the separating direction of a block near
+// How far apart the block (the hull of its world vertices `block`) and the triangle
+// `corners` lie (m) along the direction from `centre` (the block's centroid) to the
+// triangle's point nearest to it: the separating direction of a block near
 // a triangle whose plane, continued, passes by the block (a steeper triangle beside the
 // one under it). The triangle's extent along it is that of its corners, and the
 // block's that of its vertices, so the test holds whatever the direction's round-off.
-bool separated(const std::vector<Vec3>& block, const Vec3& centre, const std::array<Vec3, 3>& corners,
-               double reach) {
+double separation(const std::vector<Vec3>& block, const Vec3& centre, const std::array<Vec3, 3>& corners) {
   // The triangle's point nearest to centre (Ericson, Real-Time Collision Detection 5.1.5).
   const Vec3& a = corners[0];
   const Vec3& b = corners[1];
@@ -651,12 +650,12 @@ bool separated(const std::vector<Vec3>& block, const Vec3& centre, const std::ar
   }
   const Vec3 towards = nearest - centre;
   const double length = towards.norm();
-  if (!(length > reach)) return false;
+  if (!(length > 0.0)) return -std::numeric_limits<double>::infinity();
   const Vec3 u = towards / length;
   const double triangle_from = std::min({u.dot(a - centre), u.dot(b - centre), u.dot(c - centre)});
   double block_to = -std::numeric_limits<double>::infinity();
   for (const Vec3& v : block) block_to = std::max(block_to, u.dot(v - centre));
-  return triangle_from - block_to > reach;
+  return triangle_from - block_to;
 }
 
 }  // namespace talus::dda::detail

@@ -76,11 +76,11 @@ void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, dou
 void detect_contacts_brute_force(const Model& model, const terrain::Surface& surface, const Pose& pose,
                                  double search_distance, double depth_limit, std::vector<Contact>& out);
 
-/// Whether the hull of the world points `block` and the triangle `corners` are farther
-/// apart than `reach` (m) along the direction from `centre` to the triangle's point
-/// nearest to it: a lower bound of their distance, for the flight test's triangles whose
-/// plane, continued, passes by the block. Never true for a pair nearer than `reach`.
-bool separated(const std::vector<Vec3>& block, const Vec3& centre, const std::array<Vec3, 3>& corners,
-               double reach);
+/// How far apart the hull of the world points `block` and the triangle `corners` lie (m)
+/// along the direction from `centre` to the triangle's point nearest to it: a lower
+/// bound of their distance (negative when they overlap along it; −∞ when `centre` lies on
+/// the triangle), for the flight test's triangles whose plane, continued, passes by the
+/// block.
+double separation(const std::vector<Vec3>& block, const Vec3& centre, const std::array<Vec3, 3>& corners);
 
 }  // namespace talus::dda::detail

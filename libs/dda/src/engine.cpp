@@ -276,47 +276,73 @@ geometry::Aabb swept_sphere_box(const Model& model, const State& s, double h) {
   return box.inflated(model.radius);
 }
 
-// True when no terrain triangle can be touched before time + h. A triangle whose box
+// Whether no terrain triangle can be touched before time + h. A triangle whose box
 // the swept bounding sphere misses is out of reach; one whose box it meets is still out
 // of reach when every vertex of the block (`block`, world, m; null to skip this test)
 // lies farther above the triangle's plane than any point of the block can move in the
 // horizon: the block is the convex hull of its vertices or inside it, so nothing of it
 // can cross that plane in time; or when the block and the triangle are that far apart
-// along the direction from the block's centroid to the triangle (separated). On the
+// along the direction from the block's centroid to the triangle (separation). On the
 // rigid path a point moves at most
 // (|v| + |ω|·radius)·h + ½g·h² on the free parabola and spin (predicted_reach), which
 // is the clearance asked (with a round-off allowance); on the 12-DOF path, whose strains
 // vibrate, the contact search distance (twice that, at least the displacement limit).
-bool clear_of_terrain(const Model& model, const Ground& ground, State& s, double h,
-                      const std::vector<Vec3>* block) {
-  const geometry::Aabb box = swept_sphere_box(model, s, h).inflated(model.max_step_displacement());
-  const double reach = model.dof == DofPath::rigid6
-                           ? predicted_reach(model, s, h) + 1e-9 * (s.position.cwiseAbs().maxCoeff() + model.radius)
-                           : search_reach(model, s, h);
-  const auto above = [&](const Vec3& normal, const std::array<Vec3, 3>& corners) {
-    if (block == nullptr) return false;
-    bool clear = true;
-    for (const Vec3& v : *block)
-      if (normal.dot(v - corners[0]) <= reach) {
-        clear = false;
-        break;
-      }
-    return clear || separated(*block, s.position, corners, reach);
+//
+// Both horizons of the flight test are decided in one pass: `h_short` ≤ `h_long`, and the
+// box of the shorter lies inside the longer's (the box of a parabola's arc is spanned by
+// its ends and apex). Returns the longer horizon that passes, h_long or h_short, or 0.
+double clear_horizon(const Model& model, const Ground& ground, State& s, double h_long, double h_short,
+                     const std::vector<Vec3>* block) {
+  const geometry::Aabb box_long = swept_sphere_box(model, s, h_long).inflated(model.max_step_displacement());
+  const geometry::Aabb box_short =
+      h_short == h_long ? box_long : swept_sphere_box(model, s, h_short).inflated(model.max_step_displacement());
+  const auto reach_of = [&](double h) {
+    return model.dof == DofPath::rigid6
+               ? predicted_reach(model, s, h) + 1e-9 * (s.position.cwiseAbs().maxCoeff() + model.radius)
+               : search_reach(model, s, h);
   };
+  const double reach_long = reach_of(h_long);
+  const double reach_short = h_short == h_long ? reach_long : reach_of(h_short);
+  bool long_clear = true, short_clear = true;
+  // One triangle that meets the long box: whether it is out of reach over each horizon.
+  const auto judge = [&](const Vec3& normal, const std::array<Vec3, 3>& corners, const geometry::Aabb& tbox) {
+    const bool in_short = tbox.overlaps(box_short);
+    if (block == nullptr) {
+      long_clear = false;
+      short_clear = short_clear && !in_short;
+      return;
+    }
+    // The block's least height above the triangle's plane, and (when that is not enough)
+    // its separation along the direction to the triangle, both distances it cannot cover.
+    double lowest = std::numeric_limits<double>::infinity();
+    for (const Vec3& v : *block) lowest = std::min(lowest, normal.dot(v - corners[0]));
+    double apart = std::numeric_limits<double>::quiet_NaN();
+    const auto clears = [&](double reach) {
+      if (lowest > reach) return true;
+      if (std::isnan(apart)) apart = separation(*block, s.position, corners);
+      return apart > reach;
+    };
+    long_clear = long_clear && clears(reach_long);
+    short_clear = short_clear && (!in_short || clears(reach_short));
+  };
+  const auto result = [&] { return long_clear ? h_long : short_clear ? h_short : 0.0; };
   const TerrainPatch& patch = s.patch;
-  if (patch.surface == ground.surface && !patch.box.empty() && patch.box.contains(box.lo) && patch.box.contains(box.hi)) {
+  if (patch.surface == ground.surface && !patch.box.empty() && patch.box.contains(box_long.lo) &&
+      patch.box.contains(box_long.hi)) {
     // The patch under the block holds every triangle that can meet the box.
-    for (const TerrainPatch::Triangle& t : patch.triangles)
-      if (t.box.overlaps(box) && !above(t.normal, t.p)) return false;
-    return true;
+    for (const TerrainPatch::Triangle& t : patch.triangles) {
+      if (t.box.overlaps(box_long)) judge(t.normal, t.p, t.box);
+      if (!long_clear && !short_clear) return 0.0;
+    }
+    return result();
   }
   // Otherwise the triangles gathered for an earlier box, if that box holds this one; a
   // new gathering takes a margin so that the next steps' boxes fall inside it.
   FlightPatch& flight = s.flight_patch;
-  if (flight.surface != ground.surface || flight.box.empty() || !flight.box.contains(box.lo) ||
-      !flight.box.contains(box.hi)) {
+  if (flight.surface != ground.surface || flight.box.empty() || !flight.box.contains(box_long.lo) ||
+      !flight.box.contains(box_long.hi)) {
     flight.surface = ground.surface;
-    flight.box = box.inflated(std::max(model.radius, 0.5 * box.extent().maxCoeff()));
+    flight.box = box_long.inflated(std::max(model.radius, 0.5 * box_long.extent().maxCoeff()));
     flight.triangles.clear();
     s.scratch_triangles.clear();
     ground.surface->triangles_in_box(flight.box, s.scratch_triangles);
@@ -328,9 +354,11 @@ bool clear_of_terrain(const Model& model, const Ground& ground, State& s, double
       flight.triangles.push_back(d);
     }
   }
-  for (const FlightPatch::Triangle& t : flight.triangles)
-    if (t.box.overlaps(box) && !above(t.normal, t.p)) return false;
-  return true;
+  for (const FlightPatch::Triangle& t : flight.triangles) {
+    if (t.box.overlaps(box_long)) judge(t.normal, t.p, t.box);
+    if (!long_clear && !short_clear) return 0.0;
+  }
+  return result();
 }
 
 // Applies an accepted displacement d (N components) to the state.
@@ -407,20 +435,18 @@ bool flight_step(const Model& model, const Ground& ground, State& s) {
     // is found by testing 8 first. Right after contact the long horizons would fail
     // anyway: one step is tested.
     const bool after_contact = s.counters.steps > 0 && s.last_step_contact;
-    const auto longest = [&](const auto& test) {
-      if (after_contact) return test(dt) ? dt : 0.0;
-      if (test(8.0 * dt)) return test(64.0 * dt) ? 64.0 * dt : 8.0 * dt;
-      return test(dt) ? dt : 0.0;
-    };
+    const double first = after_contact ? dt : 8.0 * dt;
     // First the swept bounding sphere against the terrain's triangle boxes (no geometry
     // of the block); then the block's vertices against the planes of the triangles whose
     // boxes it meets (a block of few vertices; a detailed one is left to the search);
     // then, near the ground, the contact search itself (one step, below).
-    double horizon = longest([&](double h) { return clear_of_terrain(model, ground, s, h, nullptr); });
+    double horizon = clear_horizon(model, ground, s, first, dt, nullptr);
+    if (horizon == 8.0 * dt && clear_horizon(model, ground, s, 64.0 * dt, 64.0 * dt, nullptr) > 0.0)
+      horizon = 64.0 * dt;
     if (horizon == 0.0 && model.index == nullptr) {
       const Pose pose = pose_of(model, s);
       const PlacedBlock at(model, pose, s.scratch_vertices);
-      horizon = longest([&](double h) { return h < 64.0 * dt && clear_of_terrain(model, ground, s, h, &s.scratch_vertices); });
+      horizon = clear_horizon(model, ground, s, first, dt, &s.scratch_vertices);
     }
     // The search sees a block vertex only against the triangles it lies over (in plan or
     // along their normals): near a concave kink a vertex moving over the rising side is

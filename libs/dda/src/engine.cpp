@@ -806,9 +806,11 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   // distance after 1 s (stress suite, roll-sphere5120). (The 12-DOF path's
   // strain mode, at Ω ≈ 3 for a 1 m block at 1 ms, keeps the nominal step: at 4 ms a cube
   // at rest on flat ground drifted by 3 nm in 2 s against 1 nm.)
-  const bool settling = s.rest_time >= 0.2 * set.rest_dwell && s.rest_time > 0.0;
+  // The dwell still ends when it did: its last step is cut to end it.
+  const bool settling = s.rest_time >= 0.2 * set.rest_dwell && s.rest_time > 0.0 && model.dof == DofPath::rigid6;
   const double longest =
-      settling && model.dof == DofPath::rigid6 ? set.rest_step_ratio * set.time_step : set.time_step;
+      settling ? std::clamp(set.rest_dwell - s.rest_time, set.time_step, set.rest_step_ratio * set.time_step)
+               : set.time_step;
   s.dt = std::min(longest, std::max(dt * 1.3, dt_before_touch));
 }
 

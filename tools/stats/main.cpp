@@ -2,7 +2,6 @@
 // and plots from dda-run run files. See docs/stats.md.
 #include <cstdio>
 #include <filesystem>
-#include <future>
 #include <map>
 #include <vector>
 #include <string>
@@ -103,7 +102,6 @@ void make_output_directory(const std::string& dir) {
 int main(int argc, char** argv) {
   stats_tool::Settings settings;
   bool print_table = false;
-  std::future<void> plotting_checked;
   cli::ToolSpec spec;
   spec.name = "stats";
   spec.summary = "CDFs, quantiles, convergence, comparisons, barrier CDFs, hazard rasters, vector layers and plots of run files";
@@ -115,10 +113,8 @@ int main(int argc, char** argv) {
   spec.check = [&](const cli::Invocation& inv) {
     if (inv.output.empty()) throw core::UsageError("-o OUTDIR is required");
     settings.validate();
-    // Whether the plots can be drawn is checked beside the analysis (the check starts a
-    // Python that imports matplotlib, about half a second) and waited for before anything
-    // is written: a missing matplotlib leaves no output behind.
-    if (settings.plots) plotting_checked = std::async(std::launch::async, cli::check_plotting);
+    // Before any work: a missing matplotlib is reported at once, not after the analysis.
+    if (settings.plots) cli::check_plotting();
     check_outputs(inv, settings);
   };
   spec.run = [&](const cli::Invocation& inv) {
@@ -126,7 +122,6 @@ int main(int argc, char** argv) {
     stats_tool::pool_runs(runs, settings);
     auto analysis = stats_tool::analyze(runs, settings);
     analysis.validation = stats_tool::validate_against_observed(analysis, settings);
-    if (plotting_checked.valid()) plotting_checked.get();  // throws the check's one-line error
     make_output_directory(inv.output);
     const fs::path dir = directory_path(inv.output);
     const auto earlier = owned_files(dir);

@@ -124,6 +124,64 @@ TEST(DdaContacts, PrunedSearchMatchesBruteForce) {
   EXPECT_GT(total, 60u);  // the poses really touch the ground
 }
 
+// The candidate pairs a scanned block gathers at one pose serve the next steps while it
+// moves less than they were widened by: along paths of small steps (a tumble down the
+// rough slope, some poses stretched as on the 12-DOF path), the search through reused
+// candidates finds the same contacts, in the same order and with the same numbers, as
+// a search that gathers them afresh at every pose.
+TEST(DdaContacts, ReusedCandidatesFindWhatAFreshSearchFinds) {
+  const terrain::Terrain t = bench_slope(0.4);
+  const terrain::Surface surface = terrain::Surface::realize(t, 2);
+  const core::RandomStream rng(11, core::Stream::release, 0);
+  std::size_t total = 0, reused = 0, steps = 0;
+  for (const geometry::Polyhedron& poly : {testing::tetrahedron(2.04), testing::cube(1.0)}) {
+    const Model m = Model::build(Settings{}, poly);
+    for (std::uint64_t path = 0; path < 12; ++path) {
+      const auto u = [&](std::uint64_t k) { return rng.uniform(64 * path + k); };
+      const double x0 = 2.0 + 40.0 * u(0), y0 = 4.0 + 32.0 * u(1);
+      const Vec3 axis = Vec3(u(2) - 0.5, u(3) - 0.5, u(4) - 0.5).normalized();
+      Eigen::Quaterniond q = Eigen::Quaterniond(u(5) - 0.5, u(6) - 0.5, u(7) - 0.5, u(8) - 0.5).normalized();
+      const bool stretched = path % 3 == 2;
+      TerrainPatch reusing;
+      for (int k = 0; k < 120; ++k) {
+        // Steps of 4–12 mm and up to 0.6°, the height hugging the ground.
+        const double x = x0 + 0.008 * k * (0.5 + u(9)), y = y0 + 0.004 * k * (u(10) - 0.5);
+        const double ground = surface.height_at(x, y)->z;
+        q = Eigen::Quaterniond(Eigen::AngleAxisd(0.01 * u(11), axis)) * q;
+        detail::Pose pose;
+        pose.centre = Vec3(x, y, ground + m.radius * (0.55 + 0.1 * std::sin(0.2 * k)));
+        pose.rotation = q.toRotationMatrix();
+        Mat3 stretch = Mat3::Identity();
+        if (stretched) stretch.diagonal() += Vec3(0.01, -0.005, 0.002) * std::sin(0.3 * k);
+        pose.map = pose.rotation * stretch;
+        pose.inverse_map = pose.map.inverse();
+        std::vector<Vec3> world_a, world_b;
+        const detail::PlacedBlock a(m, pose, world_a), b(m, pose, world_b);
+        const double ds = 0.02 + 0.02 * std::abs(std::sin(0.1 * k));
+        std::vector<Contact> kept, fresh;
+        if (reusing.candidates.model == &m) ++reused;
+        detail::detect_contacts(a, surface, ds, 0.1, reusing, kept);
+        TerrainPatch anew;
+        detail::detect_contacts(b, surface, ds, 0.1, anew, fresh);
+        ++steps;
+        ASSERT_EQ(kept.size(), fresh.size()) << "path " << path << " step " << k;
+        for (std::size_t i = 0; i < kept.size(); ++i) {
+          EXPECT_EQ(kept[i].kind, fresh[i].kind);
+          EXPECT_EQ(kept[i].block_feature, fresh[i].block_feature);
+          EXPECT_EQ(kept[i].terrain_feature, fresh[i].terrain_feature);
+          EXPECT_EQ(kept[i].gap, fresh[i].gap);
+          EXPECT_EQ(kept[i].point, fresh[i].point);
+          EXPECT_EQ(kept[i].normal, fresh[i].normal);
+        }
+        total += kept.size();
+      }
+    }
+  }
+  EXPECT_GT(total, steps);          // the paths really touch the ground
+  EXPECT_GT(reused, steps / 2);     // and mostly search through reused candidates
+  EXPECT_LT(reused, steps);         // which are gathered afresh now and then
+}
+
 // A block vertex below the ground in plan is always held by a vertex–face contact. The
 // case that needs the plan test: a 35° slope with a 2 m spike at one node; a vertex that
 // slid over the valley line where the slope meets the spike's uphill face lies under that

@@ -153,6 +153,9 @@ void fill_patch(const terrain::Surface& surface, const std::vector<std::int32_t>
 // that the exact tests below then decide, so the allowances are generous.
 constexpr double kRound = 1e-12;   // of world coordinates
 constexpr double kSlack = 1e-6;    // of the search margin
+// How much wider than a step's search (m, times the block's radius) a scanned block's
+// candidate pairs are gathered: they serve the steps until the block has moved by that.
+constexpr double kCandidateWidening = 0.05;
 
 double magnitude(const geometry::Aabb& b) { return std::max(b.lo.cwiseAbs().maxCoeff(), b.hi.cwiseAbs().maxCoeff()); }
 
@@ -261,117 +264,56 @@ struct BodyPlane {
   }
 }
 
-// The search of detect_contacts in `patch`, for a detailed block through its index
-// (Indexed) or by scanning its features; `prune` off tests every pair (the reference).
-template <bool Indexed>
-void detect_in(const PlacedBlock& at, const TerrainPatch& patch, double ds, double depth, bool prune,
-               std::vector<Contact>& out) {
+// The exact tests of the contact search, shared by the scan of a block of few vertices
+// and the index of a detailed one.
+
+// Block vertex p (world) against terrain triangle `tri`: whether its gap (set in `gap`)
+// lies in (−depth, ds) and it lies inside the triangle's normal prism or, for ground that
+// faces up, above or below the triangle in plan. In a concave valley (a slope meeting a
+// steeper face) a vertex that has crossed the valley line lies under the steep face in
+// plan but outside the normal prisms of both faces: without the plan test neither holds
+// it and it sinks into the steep face unresisted.
+inline bool vertex_meets_triangle(const TerrainPatch::Triangle& tri, const Vec3& p, double ds, double depth,
+                                  double& gap) {
+  gap = (p - tri.p[0]).dot(tri.normal);
+  if (gap >= ds || gap <= -depth) return false;
+  const Vec3 e0 = tri.p[1] - tri.p[0], e1 = tri.p[2] - tri.p[1], e2 = tri.p[0] - tri.p[2];
+  const bool in_prism = e0.cross(p - tri.p[0]).dot(tri.normal) >= 0.0 &&
+                        e1.cross(p - tri.p[1]).dot(tri.normal) >= 0.0 &&
+                        e2.cross(p - tri.p[2]).dot(tri.normal) >= 0.0;
+  return in_prism || (tri.normal.z() > 0.0 && inside_plan(tri, p));
+}
+
+Contact vertex_contact(const TerrainPatch::Triangle& tri, std::int32_t vertex, const Vec3& p, double gap) {
+  Contact c;
+  c.kind = ContactKind::vertex_face;
+  c.block_feature = vertex;
+  c.terrain_feature = tri.index;
+  c.triangle = tri.index;
+  c.point = p;
+  c.normal = tri.normal;
+  c.gap = gap;
+  return c;
+}
+
+// Terrain vertex tv (qb: in the body frame) – block face: a spike of rough ground piercing
+// a face between block vertices, tested in the body frame where the face polygons are
+// stored. Only a vertex that is an extreme point of the terrain towards the face can
+// touch it: every terrain edge from it must leave on the outer side of the face plane. A
+// vertex of flat or concave ground (a grid node under a sliding cube) is no spike:
+// without this test it would take a side face's horizontal normal and trip the block. A
+// vertex of ground that is flat around it is no spike either: the block's own vertices
+// on that plane carry the face, and a redundant spring inside the face only makes the
+// contact states ambiguous. `faces` (ascending) are the faces whose polygon is within the
+// margin of qb (a detailed block's index), or null for all of them; a face further away
+// fails the gap or the polygon test. The allowance `face_tol` for the fallback's least
+// depth covers the faces a scanned mesh splits one plane into (docs/dda.md, Detection).
+void terrain_vertex_contact(const PlacedBlock& at, const TerrainPatch& patch, const TerrainPatch::Vertex& tv,
+                            const Vec3& qb, const std::vector<std::int32_t>* faces, double ds, double depth,
+                            double face_tol, std::vector<Contact>& out) {
   const Model& model = at.model();
   const Pose& pose = at.pose();
-  const BlockIndex* index = at.index();
-  // World vertex i: computed when asked through the index, stored when scanned.
-  const auto vertex = [&](std::size_t i) -> Vec3 {
-    if constexpr (Indexed) {
-      return at.vertex(i);
-    } else {
-      return at.vertices()[i];
-    }
-  };
-  // Boxes are inflated by the larger of the search distance and the depth limit: a
-  // feature may be found up to `depth` below a surface.
-  const double margin = std::max(ds, depth);
-  const geometry::Aabb reach = at.box().inflated(margin);
-
-  // Only block features at most `margin` above the highest terrain point under the
-  // block can touch it (a bounding-box argument, valid for any surface).
-  double top = -std::numeric_limits<double>::infinity();
-  for (const TerrainPatch::Triangle& tri : patch.triangles)
-    if (!prune || overlaps(tri.box, reach)) top = std::max(top, tri.box.hi.z());
-  const double ceiling = prune ? top + margin : std::numeric_limits<double>::infinity();
-  thread_local std::vector<std::int32_t> low;
-  low.clear();
-  if constexpr (!Indexed) {
-    const std::vector<Vec3>& world = at.vertices();
-    for (std::size_t i = 0; i < world.size(); ++i)
-      if (world[i].z() <= ceiling) low.push_back(static_cast<std::int32_t>(i));
-  }
-  // Whether any vertex is that low (the lowest vertex is the box's floor).
-  const bool any_low = at.box().lo.z() <= ceiling;
-
-  // Block vertex – terrain triangle.
-  const std::size_t first = out.size();
-  // A detailed block's vertex contacts found so far of each vertex, as chains:
-  // latest[vertex] and then earlier[contact] (numbered from `first`), −1 ending them.
-  thread_local std::vector<std::int32_t> latest, earlier;
-  if constexpr (Indexed) {
-    latest.assign(model.vertices.size(), -1);
-    earlier.clear();
-  }
-  thread_local std::vector<std::int32_t> candidates;
-  for (const TerrainPatch::Triangle& tri : patch.triangles) {
-    if (!any_low) break;
-    if (prune && !overlaps(tri.box, reach)) continue;
-    const geometry::Aabb tbox = tri.box.inflated(margin);
-    const std::vector<std::int32_t>* vertices = &low;
-    if constexpr (Indexed) {
-      vertices_near(at, tri, tbox, ceiling, ds, depth, candidates);
-      std::sort(candidates.begin(), candidates.end());
-      vertices = &candidates;
-    }
-    const Vec3 e0 = tri.p[1] - tri.p[0], e1 = tri.p[2] - tri.p[1], e2 = tri.p[0] - tri.p[2];
-    for (const std::int32_t vi : *vertices) {
-      const std::size_t i = static_cast<std::size_t>(vi);
-      const Vec3 p = vertex(i);
-      if (Indexed && p.z() > ceiling) continue;
-      if (prune && !contains(tbox, p)) continue;
-      const double gap = (p - tri.p[0]).dot(tri.normal);
-      if (gap >= ds || gap <= -depth) continue;
-      // Inside the triangle's normal prism; or, for ground that faces up, above or below
-      // it in plan. In a concave valley (a slope meeting a steeper face) a vertex that has
-      // crossed the valley line lies under the steep face in plan but outside the normal
-      // prisms of both faces: without the plan test neither holds it and it sinks into
-      // the steep face unresisted.
-      const bool in_prism = e0.cross(p - tri.p[0]).dot(tri.normal) >= 0.0 &&
-                            e1.cross(p - tri.p[1]).dot(tri.normal) >= 0.0 &&
-                            e2.cross(p - tri.p[2]).dot(tri.normal) >= 0.0;
-      if (!in_prism && !(tri.normal.z() > 0.0 && inside_plan(tri, p))) continue;
-      // A vertex over a shared edge of two coplanar triangles is one contact, not two.
-      bool duplicate = false;
-      if constexpr (!Indexed) {
-        for (std::size_t k = first; k < out.size(); ++k)
-          if (out[k].block_feature == static_cast<std::int32_t>(i) && out[k].normal.dot(tri.normal) > 1.0 - 1e-9)
-            duplicate = true;
-      } else {
-        for (std::int32_t k = latest[i]; k >= 0 && !duplicate; k = earlier[static_cast<std::size_t>(k)])
-          duplicate = out[first + static_cast<std::size_t>(k)].normal.dot(tri.normal) > 1.0 - 1e-9;
-      }
-      if (duplicate) continue;
-      if constexpr (Indexed) {
-        earlier.push_back(latest[i]);
-        latest[i] = static_cast<std::int32_t>(out.size() - first);
-      }
-      Contact c;
-      c.kind = ContactKind::vertex_face;
-      c.block_feature = static_cast<std::int32_t>(i);
-      c.terrain_feature = tri.index;
-      c.triangle = tri.index;
-      c.point = p;
-      c.normal = tri.normal;
-      c.gap = gap;
-      out.push_back(c);
-    }
-  }
-
-  // Terrain vertex – block face (a spike of rough ground piercing a face between
-  // block vertices), tested in the body frame where the face polygons are stored. Only a
-  // vertex that is an extreme point of the terrain towards the face can touch it: every
-  // terrain edge from it must leave on the outer side of the face plane. A vertex of flat
-  // or concave ground (a grid node under a sliding cube) is no spike: without this test
-  // it would take a side face's horizontal normal and trip the block.
-  // A vertex of ground that is flat around it is no spike either: the block's own
-  // vertices on that plane carry the face, and a redundant spring inside the face only
-  // makes the contact states ambiguous.
-  auto spike_towards = [&](const TerrainPatch::Vertex& tv, const Vec3& face_normal_body) {
+  const auto spike_towards = [&](const Vec3& face_normal_body) {
     const Vec3 n = pose.rotation * face_normal_body;
     bool falls_away = false;
     for (std::int32_t k = tv.first; k < tv.first + tv.count; ++k) {
@@ -381,129 +323,195 @@ void detect_in(const PlacedBlock& at, const TerrainPatch& patch, double ds, doub
     }
     return falls_away;
   };
-  // The faces whose gap to a body point the loops below evaluate: all of them, or (through
-  // the index) those whose polygon is within the margin of it; a face further away fails
-  // the gap or the polygon test. The allowance for the fallback's least depth covers the
-  // faces a scanned mesh splits one plane into (docs/dda.md, Detection).
-  const double face_tol = kSlack * margin + 1e-6 * model.radius;
-  thread_local std::vector<std::int32_t> faces;
-  auto gap_to = [&](std::size_t f, const Vec3& qb) {
+  const auto gap_to = [&](std::size_t f) {
     const BlockFace& face = model.faces[f];
     return face.normal.dot(qb) - face.offset;
   };
-  for (const TerrainPatch::Vertex& tv : patch.vertices) {
-    if (prune && !contains(reach, tv.p)) continue;
-    const Vec3 qb = pose.inverse_map * (tv.p - pose.centre);
-    if constexpr (Indexed) {
-      faces.clear();
-      const geometry::Aabb near_qb{qb - Vec3::Constant(margin + face_tol), qb + Vec3::Constant(margin + face_tol)};
-      index->faces.query([&](const geometry::Aabb& b) { return overlaps(b, near_qb); }, faces);
-      std::sort(faces.begin(), faces.end());
+  const std::size_t face_count = faces != nullptr ? faces->size() : model.faces.size();
+  int best = -1;
+  double best_gap = -depth;
+  for (std::size_t k = 0; k < face_count; ++k) {
+    const std::size_t f = faces != nullptr ? static_cast<std::size_t>((*faces)[k]) : k;
+    const BlockFace& face = model.faces[f];
+    const double gap = gap_to(f);
+    if (gap >= ds || gap <= best_gap) continue;
+    if (!inside_polygon(face.polygon, Eigen::Vector2d(face.u.dot(qb), face.v.dot(qb)))) continue;
+    if (!spike_towards(face.normal)) continue;
+    best = static_cast<int>(f);
+    best_gap = gap;
+  }
+  if (best < 0) {
+    // A terrain vertex that is no spike towards any face but lies inside a convex block
+    // deeper than the search distance (how far features approach in one step) has
+    // slipped past the other contacts (e.g. a ridge node under a block edge that runs
+    // along a grid line, where the edge–edge tests see parallel edges): it is held by
+    // the face it is least deep under, the shortest way out. Found deep, the contact
+    // takes that depth as its offset (carry_contacts), so it stops the vertex going
+    // further in without pushing it out with energy no force stored.
+    if (!model.convex) return;
+    if (faces != nullptr) {
+      // The face it is least deep under has its polygon within that depth of it, so
+      // is among the faces found: none of them in range, none at all.
+      double near_least = -std::numeric_limits<double>::infinity();
+      for (const std::int32_t fi : *faces) near_least = std::max(near_least, gap_to(static_cast<std::size_t>(fi)));
+      if (!(near_least < -ds + face_tol && near_least > -depth - face_tol)) return;
     }
-    const std::size_t face_count = Indexed ? faces.size() : model.faces.size();
-    int best = -1;
-    double best_gap = -depth;
-    for (std::size_t k = 0; k < face_count; ++k) {
-      const std::size_t f = Indexed ? static_cast<std::size_t>(faces[k]) : k;
-      const BlockFace& face = model.faces[f];
-      const double gap = gap_to(f, qb);
-      if (gap >= ds || gap <= best_gap) continue;
-      if (!inside_polygon(face.polygon, Eigen::Vector2d(face.u.dot(qb), face.v.dot(qb)))) continue;
-      if (!spike_towards(tv, face.normal)) continue;
-      best = static_cast<int>(f);
-      best_gap = gap;
-    }
-    if (best < 0) {
-      // A terrain vertex that is no spike towards any face but lies inside a convex block
-      // deeper than the search distance (how far features approach in one step) has
-      // slipped past the other contacts (e.g. a ridge node under a block edge that runs
-      // along a grid line, where the edge–edge tests see parallel edges): it is held by
-      // the face it is least deep under, the shortest way out. Found deep, the contact
-      // takes that depth as its offset (carry_contacts), so it stops the vertex going
-      // further in without pushing it out with energy no force stored.
-      if (!model.convex) continue;
-      if constexpr (Indexed) {
-        // The face it is least deep under has its polygon within that depth of it, so
-        // is among the faces found: none of them in range, none at all.
-        double near_least = -std::numeric_limits<double>::infinity();
-        for (const std::int32_t fi : faces) near_least = std::max(near_least, gap_to(static_cast<std::size_t>(fi), qb));
-        if (!(near_least < -ds + face_tol && near_least > -depth - face_tol)) continue;
+    double least = -std::numeric_limits<double>::infinity();
+    for (std::size_t f = 0; f < model.faces.size(); ++f) {
+      const double gap = gap_to(f);
+      if (gap > least) {
+        least = gap;
+        best = static_cast<int>(f);
       }
-      double least = -std::numeric_limits<double>::infinity();
-      for (std::size_t f = 0; f < model.faces.size(); ++f) {
-        const double gap = gap_to(f, qb);
-        if (gap > least) {
-          least = gap;
-          best = static_cast<int>(f);
-        }
-      }
-      if (!(least < -ds && least > -depth)) continue;
     }
-    const BlockFace& face = model.faces[static_cast<std::size_t>(best)];
-    const Vec3 foot_body = qb - (face.normal.dot(qb) - face.offset) * face.normal;
-    Contact c;
-    c.kind = ContactKind::face_vertex;
-    c.block_feature = best;
-    c.terrain_feature = tv.id;
-    c.triangle = tv.triangle;
-    c.point = world_point(pose, foot_body);
-    c.normal = -(pose.rotation * face.normal).normalized();
-    c.gap = (c.point - tv.p).dot(c.normal);
-    out.push_back(c);
+    if (!(least < -ds && least > -depth)) return;
+  }
+  const BlockFace& face = model.faces[static_cast<std::size_t>(best)];
+  const Vec3 foot_body = qb - (face.normal.dot(qb) - face.offset) * face.normal;
+  Contact c;
+  c.kind = ContactKind::face_vertex;
+  c.block_feature = best;
+  c.terrain_feature = tv.id;
+  c.triangle = tv.triangle;
+  c.point = world_point(pose, foot_body);
+  c.normal = -(pose.rotation * face.normal).normalized();
+  c.gap = (c.point - tv.p).dot(c.normal);
+  out.push_back(c);
+}
+
+// Block edge `be` (world ends p0, p1) – terrain ridge te: a crossing strictly inside both.
+inline __attribute__((always_inline)) void edge_meets_ridge(const Pose& pose, std::int32_t be, const Vec3& p0,
+                                                            const Vec3& p1, const TerrainPatch::Ridge& te, double ds,
+                                                            double depth, std::vector<Contact>& out) {
+  double s = 0.0, t = 0.0;
+  if (!line_parameters(p0, p1, te.pa, te.pb, s, t)) return;
+  constexpr double kEnd = 1e-6;  // ends are vertex contacts
+  if (s <= kEnd || s >= 1.0 - kEnd || t <= kEnd || t >= 1.0 - kEnd) return;
+  Vec3 n = (p1 - p0).cross(te.pb - te.pa).normalized();
+  if (n.dot(te.normal_sum) < 0.0) n = -n;
+  const Vec3 pc = p0 + s * (p1 - p0);
+  // The normal points out of the terrain and, at a convex edge of the block, into the
+  // block: a pair for which the two disagree (a ridge seen edge-on, e₁ × e₂ nearly across
+  // the ground) has no way out along it and is left to the other contacts.
+  if (n.dot(pose.centre - pc) <= 0.0) return;
+  const Vec3 qc = te.pa + t * (te.pb - te.pa);
+  const double gap = (pc - qc).dot(n);
+  if (gap >= ds || gap <= -depth) return;
+  Contact c;
+  c.kind = ContactKind::edge_edge;
+  c.block_feature = be;
+  c.terrain_feature = (static_cast<std::int64_t>(te.a) << 32) | static_cast<std::int64_t>(te.b);
+  c.triangle = te.triangle;
+  c.point = pc;
+  c.normal = n;
+  c.gap = gap;
+  out.push_back(c);
+}
+
+// The squared distance between segments p0-p1 and q0-q1 (Ericson, Real-Time Collision
+// Detection 5.1.9; degenerate segments included).
+double segment_distance2(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1) {
+  const Vec3 d1 = p1 - p0, d2 = q1 - q0, r = p0 - q0;
+  const double a = d1.squaredNorm(), e = d2.squaredNorm(), f = d2.dot(r);
+  double s = 0.0, t = 0.0;
+  if (a <= 0.0 && e <= 0.0) return r.squaredNorm();
+  if (a <= 0.0) {
+    t = std::clamp(f / e, 0.0, 1.0);
+  } else {
+    const double c = d1.dot(r);
+    if (e <= 0.0) {
+      s = std::clamp(-c / a, 0.0, 1.0);
+    } else {
+      const double b = d1.dot(d2);
+      const double denom = a * e - b * b;
+      s = denom > 0.0 ? std::clamp((b * f - c * e) / denom, 0.0, 1.0) : 0.0;
+      t = (b * s + f) / e;
+      if (t < 0.0) {
+        t = 0.0;
+        s = std::clamp(-c / a, 0.0, 1.0);
+      } else if (t > 1.0) {
+        t = 1.0;
+        s = std::clamp((b - c) / a, 0.0, 1.0);
+      }
+    }
+  }
+  return (p0 + s * d1 - (q0 + t * d2)).squaredNorm();
+}
+
+inline geometry::Aabb edge_box(const Vec3& p0, const Vec3& p1, double margin) {
+  return geometry::Aabb{p0.cwiseMin(p1), p0.cwiseMax(p1)}.inflated(margin);
+}
+
+// The search of detect_contacts in `patch` for a detailed block, through its index.
+// Boxes are inflated by the larger of the search distance and the depth limit: a
+// feature may be found up to `depth` below a surface.
+void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds, double depth,
+                    std::vector<Contact>& out) {
+  const Model& model = at.model();
+  const Pose& pose = at.pose();
+  const BlockIndex* index = at.index();
+  const double margin = std::max(ds, depth);
+  const geometry::Aabb reach = at.box().inflated(margin);
+  // Only block features at most `margin` above the highest terrain point under the
+  // block can touch it (a bounding-box argument, valid for any surface).
+  double top = -std::numeric_limits<double>::infinity();
+  for (const TerrainPatch::Triangle& tri : patch.triangles)
+    if (overlaps(tri.box, reach)) top = std::max(top, tri.box.hi.z());
+  const double ceiling = top + margin;
+  // Whether any vertex is that low (the lowest vertex is the box's floor).
+  const bool any_low = at.box().lo.z() <= ceiling;
+
+  // Block vertex – terrain triangle. The vertex contacts found so far of each vertex, as
+  // chains: latest[vertex] and then earlier[contact] (numbered from `first`), −1 ending
+  // them; a vertex over a shared edge of two coplanar triangles is one contact, not two.
+  const std::size_t first = out.size();
+  thread_local std::vector<std::int32_t> latest, earlier;
+  latest.assign(model.vertices.size(), -1);
+  earlier.clear();
+  thread_local std::vector<std::int32_t> candidates;
+  for (const TerrainPatch::Triangle& tri : patch.triangles) {
+    if (!any_low) break;
+    if (!overlaps(tri.box, reach)) continue;
+    const geometry::Aabb tbox = tri.box.inflated(margin);
+    vertices_near(at, tri, tbox, ceiling, ds, depth, candidates);
+    std::sort(candidates.begin(), candidates.end());
+    for (const std::int32_t vi : candidates) {
+      const std::size_t i = static_cast<std::size_t>(vi);
+      const Vec3 p = at.vertex(i);
+      if (p.z() > ceiling || !contains(tbox, p)) continue;
+      double gap = 0.0;
+      if (!vertex_meets_triangle(tri, p, ds, depth, gap)) continue;
+      bool duplicate = false;
+      for (std::int32_t k = latest[i]; k >= 0 && !duplicate; k = earlier[static_cast<std::size_t>(k)])
+        duplicate = out[first + static_cast<std::size_t>(k)].normal.dot(tri.normal) > 1.0 - 1e-9;
+      if (duplicate) continue;
+      earlier.push_back(latest[i]);
+      latest[i] = static_cast<std::int32_t>(out.size() - first);
+      out.push_back(vertex_contact(tri, vi, p, gap));
+    }
   }
 
-  // Block edge – terrain ridge crossings.
+  // Terrain vertex – block face, against the faces whose polygon is near it.
+  const double face_tol = kSlack * margin + 1e-6 * model.radius;
+  thread_local std::vector<std::int32_t> faces;
+  for (const TerrainPatch::Vertex& tv : patch.vertices) {
+    if (!contains(reach, tv.p)) continue;
+    const Vec3 qb = pose.inverse_map * (tv.p - pose.centre);
+    faces.clear();
+    const geometry::Aabb near_qb{qb - Vec3::Constant(margin + face_tol), qb + Vec3::Constant(margin + face_tol)};
+    index->faces.query([&](const geometry::Aabb& b) { return overlaps(b, near_qb); }, faces);
+    std::sort(faces.begin(), faces.end());
+    terrain_vertex_contact(at, patch, tv, qb, &faces, ds, depth, face_tol, out);
+  }
+
+  // Block edge – terrain ridge crossings: the (edge, ridge) pairs whose edge can cross the
+  // ridge within the margin (near the ridge's box and its segment), tested in the order
+  // of the scan.
   thread_local std::vector<const TerrainPatch::Ridge*> near;
   near.clear();
   for (const TerrainPatch::Ridge& r : patch.ridges)
-    if (!prune || overlaps(r.box, reach)) near.push_back(&r);
+    if (overlaps(r.box, reach)) near.push_back(&r);
   if (near.empty()) return;
-  // One block edge (world ends p0, p1) against one ridge whose box meets the edge's.
-  auto edge_and_ridge = [&](std::int32_t be, const Vec3& p0, const Vec3& p1,
-                            const TerrainPatch::Ridge* te) __attribute__((always_inline)) {
-    double s = 0.0, t = 0.0;
-    if (!line_parameters(p0, p1, te->pa, te->pb, s, t)) return;
-    constexpr double kEnd = 1e-6;  // ends are vertex contacts
-    if (s <= kEnd || s >= 1.0 - kEnd || t <= kEnd || t >= 1.0 - kEnd) return;
-    Vec3 n = (p1 - p0).cross(te->pb - te->pa).normalized();
-    if (n.dot(te->normal_sum) < 0.0) n = -n;
-    const Vec3 pc = p0 + s * (p1 - p0);
-    // The normal points out of the terrain and, at a convex edge of the block, into
-    // the block: a pair for which the two disagree (a ridge seen edge-on, e₁ × e₂ nearly
-    // across the ground) has no way out along it and is left to the other contacts.
-    if (n.dot(pose.centre - pc) <= 0.0) return;
-    const Vec3 qc = te->pa + t * (te->pb - te->pa);
-    const double gap = (pc - qc).dot(n);
-    if (gap >= ds || gap <= -depth) return;
-    Contact c;
-    c.kind = ContactKind::edge_edge;
-    c.block_feature = be;
-    c.terrain_feature = (static_cast<std::int64_t>(te->a) << 32) | static_cast<std::int64_t>(te->b);
-    c.triangle = te->triangle;
-    c.point = pc;
-    c.normal = n;
-    c.gap = gap;
-    out.push_back(c);
-  };
-  auto edge_box = [&](const Vec3& p0, const Vec3& p1) {
-    return geometry::Aabb{p0.cwiseMin(p1), p0.cwiseMax(p1)}.inflated(margin);
-  };
-  if constexpr (!Indexed) {
-    const std::vector<Vec3>& world = at.vertices();
-    for (std::size_t be = 0; be < model.edges.size(); ++be) {
-      const BlockEdge& bedge = model.edges[be];
-      if (!bedge.convex) continue;
-      const Vec3& p0 = world[bedge.a];
-      const Vec3& p1 = world[bedge.b];
-      if (std::min(p0.z(), p1.z()) > ceiling) continue;
-      const geometry::Aabb ebox = edge_box(p0, p1);
-      for (const TerrainPatch::Ridge* te : near)
-        if (!prune || overlaps(te->box, ebox)) edge_and_ridge(static_cast<std::int32_t>(be), p0, p1, te);
-    }
-    return;
-  }
-  // Through the index: the (edge, ridge) pairs whose edge can cross the ridge within the
-  // margin (near the ridge's box and its segment), tested in the order of the scan.
   thread_local std::vector<std::pair<std::int32_t, std::int32_t>> pairs;
   edge_pairs_near(at, near, ceiling, ds, margin, pairs);
   std::sort(pairs.begin(), pairs.end());
@@ -515,13 +523,131 @@ void detect_in(const PlacedBlock& at, const TerrainPatch& patch, double ds, doub
     if (be != edge) {
       edge = be;
       const BlockEdge& bedge = model.edges[static_cast<std::size_t>(be)];
-      p0 = vertex(static_cast<std::size_t>(bedge.a));
-      p1 = vertex(static_cast<std::size_t>(bedge.b));
+      p0 = at.vertex(static_cast<std::size_t>(bedge.a));
+      p1 = at.vertex(static_cast<std::size_t>(bedge.b));
       low_edge = std::min(p0.z(), p1.z()) <= ceiling;
-      ebox = edge_box(p0, p1);
+      ebox = edge_box(p0, p1, margin);
     }
-    const TerrainPatch::Ridge* te = near[static_cast<std::size_t>(j)];
-    if (low_edge && overlaps(te->box, ebox)) edge_and_ridge(be, p0, p1, te);
+    const TerrainPatch::Ridge& te = *near[static_cast<std::size_t>(j)];
+    if (low_edge && overlaps(te.box, ebox)) edge_meets_ridge(pose, be, p0, p1, te, ds, depth, out);
+  }
+}
+
+// The feature pairs of a scanned block (few vertices) that can form a contact within
+// search distance ds and depth limit `depth`, in the order detect_scanned tests them:
+// for each, the tests of detect_scanned that only a distance decides (a box, a gap),
+// widened to these distances. `prune` off keeps every pair (the brute-force reference).
+void gather_candidates(const PlacedBlock& at, const TerrainPatch& patch, double ds, double depth, bool prune,
+                       TerrainPatch::Candidates& c) {
+  const Model& model = at.model();
+  const std::vector<Vec3>& world = at.vertices();
+  const double margin = std::max(ds, depth);
+  const geometry::Aabb reach = at.box().inflated(margin);
+  c.model = &model;
+  c.centre = at.pose().centre;
+  c.map = at.pose().map;
+  c.ds = ds;
+  c.depth = depth;
+  c.triangles.clear();
+  c.vertex_triangle.clear();
+  c.vertices.clear();
+  c.ridges.clear();
+  c.edge_ridge.clear();
+  for (std::size_t t = 0; t < patch.triangles.size(); ++t) {
+    const TerrainPatch::Triangle& tri = patch.triangles[t];
+    if (prune && !overlaps(tri.box, reach)) continue;
+    c.triangles.push_back(static_cast<std::int32_t>(t));
+    const geometry::Aabb tbox = tri.box.inflated(margin);
+    for (std::size_t i = 0; i < world.size(); ++i) {
+      if (prune) {
+        if (!contains(tbox, world[i])) continue;
+        const double gap = (world[i] - tri.p[0]).dot(tri.normal);
+        if (gap >= ds || gap <= -depth) continue;
+      }
+      c.vertex_triangle.emplace_back(static_cast<std::int32_t>(t), static_cast<std::int32_t>(i));
+    }
+  }
+  for (std::size_t k = 0; k < patch.vertices.size(); ++k)
+    if (!prune || contains(reach, patch.vertices[k].p)) c.vertices.push_back(static_cast<std::int32_t>(k));
+  for (std::size_t k = 0; k < patch.ridges.size(); ++k)
+    if (!prune || overlaps(patch.ridges[k].box, reach)) c.ridges.push_back(static_cast<std::int32_t>(k));
+  for (std::size_t be = 0; be < model.edges.size(); ++be) {
+    const BlockEdge& bedge = model.edges[be];
+    if (!bedge.convex) continue;
+    const Vec3& p0 = world[bedge.a];
+    const Vec3& p1 = world[bedge.b];
+    const geometry::Aabb ebox = edge_box(p0, p1, margin);
+    // A crossing's gap is the distance between the two segments' crossing points, so a
+    // pair whose segments lie farther apart than the margin has none. The allowance
+    // covers the distance's round-off.
+    const double within = margin + 1e-9 * (magnitude(ebox) + margin);
+    for (const std::int32_t r : c.ridges) {
+      const TerrainPatch::Ridge& te = patch.ridges[static_cast<std::size_t>(r)];
+      if (prune && (!overlaps(te.box, ebox) || segment_distance2(p0, p1, te.pa, te.pb) > within * within)) continue;
+      c.edge_ridge.emplace_back(static_cast<std::int32_t>(be), r);
+    }
+  }
+}
+
+// The search of detect_contacts in `patch` for a scanned block, over the pairs of `c`
+// (gathered at this pose or one close enough, with distances at least this search's
+// plus the block's motion since): every test in the order of a scan of all the pairs,
+// so the same contacts in the same order. `prune` off tests every pair (the reference).
+void detect_scanned(const PlacedBlock& at, const TerrainPatch& patch, double ds, double depth, bool prune,
+                    const TerrainPatch::Candidates& c, std::vector<Contact>& out) {
+  const Model& model = at.model();
+  const Pose& pose = at.pose();
+  const std::vector<Vec3>& world = at.vertices();
+  const double margin = std::max(ds, depth);
+  const geometry::Aabb reach = at.box().inflated(margin);
+  // Only block features at most `margin` above the highest terrain point under the
+  // block can touch it (a bounding-box argument, valid for any surface).
+  double top = -std::numeric_limits<double>::infinity();
+  for (const std::int32_t t : c.triangles) {
+    const TerrainPatch::Triangle& tri = patch.triangles[static_cast<std::size_t>(t)];
+    if (!prune || overlaps(tri.box, reach)) top = std::max(top, tri.box.hi.z());
+  }
+  const double ceiling = prune ? top + margin : std::numeric_limits<double>::infinity();
+
+  // Block vertex – terrain triangle; a vertex over a shared edge of two coplanar
+  // triangles is one contact, not two.
+  const std::size_t first = out.size();
+  if (at.box().lo.z() <= ceiling) {
+    for (const auto& [t, vi] : c.vertex_triangle) {
+      const TerrainPatch::Triangle& tri = patch.triangles[static_cast<std::size_t>(t)];
+      if (prune && !overlaps(tri.box, reach)) continue;
+      const Vec3& p = world[static_cast<std::size_t>(vi)];
+      if (p.z() > ceiling) continue;
+      if (prune && !contains(tri.box.inflated(margin), p)) continue;
+      double gap = 0.0;
+      if (!vertex_meets_triangle(tri, p, ds, depth, gap)) continue;
+      bool duplicate = false;
+      for (std::size_t k = first; k < out.size(); ++k)
+        if (out[k].block_feature == vi && out[k].normal.dot(tri.normal) > 1.0 - 1e-9) duplicate = true;
+      if (duplicate) continue;
+      out.push_back(vertex_contact(tri, vi, p, gap));
+    }
+  }
+
+  // Terrain vertex – block face, against every face.
+  const double face_tol = kSlack * margin + 1e-6 * model.radius;
+  for (const std::int32_t k : c.vertices) {
+    const TerrainPatch::Vertex& tv = patch.vertices[static_cast<std::size_t>(k)];
+    if (prune && !contains(reach, tv.p)) continue;
+    terrain_vertex_contact(at, patch, tv, pose.inverse_map * (tv.p - pose.centre), nullptr, ds, depth, face_tol,
+                           out);
+  }
+
+  // Block edge – terrain ridge crossings.
+  for (const auto& [be, r] : c.edge_ridge) {
+    const TerrainPatch::Ridge& te = patch.ridges[static_cast<std::size_t>(r)];
+    if (prune && !overlaps(te.box, reach)) continue;
+    const BlockEdge& bedge = model.edges[static_cast<std::size_t>(be)];
+    const Vec3& p0 = world[bedge.a];
+    const Vec3& p1 = world[bedge.b];
+    if (std::min(p0.z(), p1.z()) > ceiling) continue;
+    if (prune && !overlaps(te.box, edge_box(p0, p1, margin))) continue;
+    edge_meets_ridge(pose, be, p0, p1, te, ds, depth, out);
   }
 }
 
@@ -592,12 +718,27 @@ void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, dou
     patch.query.clear();
     surface.triangles_in_box(patch.box, patch.query);
     fill_patch(surface, patch.query, patch);
+    patch.candidates.model = nullptr;
   }
   if (at.index() != nullptr) {
-    detect_in<true>(at, patch, search_distance, depth_limit, true, out);
-  } else {
-    detect_in<false>(at, patch, search_distance, depth_limit, true, out);
+    detect_indexed(at, patch, search_distance, depth_limit, out);
+    return;
   }
+  // The candidate pairs are gathered afresh when the block has moved, since they were
+  // gathered, by more than their wider distances allow: a block point moves by at most
+  // |Δcentre| + ‖ΔF‖·radius (the Frobenius norm bounds the spectral one), and a gap, a
+  // box or a point's distance to a box by no more than that.
+  const Model& model = at.model();
+  const Pose& pose = at.pose();
+  TerrainPatch::Candidates& c = patch.candidates;
+  const double moved = c.model == &model ? (pose.centre - c.centre).norm() + (pose.map - c.map).norm() * model.radius +
+                                               1e-9 * (pose.centre.cwiseAbs().maxCoeff() + model.radius)
+                                         : std::numeric_limits<double>::infinity();
+  if (!(search_distance + moved <= c.ds && depth_limit + moved <= c.depth)) {
+    const double widening = kCandidateWidening * model.radius;
+    gather_candidates(at, patch, search_distance + widening, depth_limit + widening, true, c);
+  }
+  detect_scanned(at, patch, search_distance, depth_limit, true, c, out);
 }
 
 void detect_contacts_brute_force(const Model& model, const terrain::Surface& surface, const Pose& pose,
@@ -608,7 +749,9 @@ void detect_contacts_brute_force(const Model& model, const terrain::Surface& sur
   fill_patch(surface, all, patch);
   std::vector<Vec3> world;
   const PlacedBlock at(model, pose, world, true);
-  detect_in<false>(at, patch, search_distance, depth_limit, false, out);
+  TerrainPatch::Candidates every;
+  gather_candidates(at, patch, search_distance, depth_limit, false, every);
+  detect_scanned(at, patch, search_distance, depth_limit, false, every, out);
 }
 
 // How far apart the block (the hull of its world vertices `block`) and the triangle

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <limits>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "talus/core/random.hpp"
@@ -156,6 +157,23 @@ struct TerrainPatch {
   std::vector<Vec3> neighbours;      ///< see Vertex::first
   std::vector<Ridge> ridges;
   std::vector<std::int32_t> query;   ///< scratch for Surface::triangles_in_box
+  /// The feature pairs a block of few vertices may form contacts with, gathered at one
+  /// pose with wider distances than a step asks, and tested afresh at every step while the
+  /// block has moved less than the difference: every pair the step's search would find
+  /// is among them, in the order it would find them (docs/dda.md, Detection). Indices
+  /// into the lists above and into the block's features.
+  struct Candidates {
+    const void* model = nullptr;       ///< the Model they were gathered for; null: none
+    Vec3 centre = Vec3::Zero();        ///< the pose they were gathered at: x = centre + map·r
+    Mat3 map = Mat3::Identity();
+    double ds = 0.0, depth = 0.0;      ///< search distance and depth limit gathered with (m)
+    std::vector<std::int32_t> triangles;                          ///< may meet the block's box
+    std::vector<std::pair<std::int32_t, std::int32_t>> vertex_triangle;  ///< (triangle, block vertex)
+    std::vector<std::int32_t> vertices;                           ///< terrain vertices
+    std::vector<std::int32_t> ridges;                             ///< may meet the block's box
+    std::vector<std::pair<std::int32_t, std::int32_t>> edge_ridge;  ///< (block edge, ridge)
+  };
+  Candidates candidates;
 };
 
 /// The terrain triangles the flight test last gathered from the surface (when the block's

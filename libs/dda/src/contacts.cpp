@@ -759,8 +759,10 @@ void detect_contacts_brute_force(const Model& model, const terrain::Surface& sur
 // triangle's point nearest to it: the separating direction of a block near
 // a triangle whose plane, continued, passes by the block (a steeper triangle beside the
 // one under it). The triangle's extent along it is that of its corners, and the
-// block's that of its vertices, so the test holds whatever the direction's round-off.
-double separation(const std::vector<Vec3>& block, const Vec3& centre, const std::array<Vec3, 3>& corners) {
+// block's that of its vertices, so the value is a lower bound of their distance whatever
+// the direction's round-off.
+double separation(const std::vector<Vec3>& block, const Vec3& centre, const std::array<Vec3, 3>& corners,
+                  Vec3* direction) {
   // The triangle's point nearest to centre (Ericson, Real-Time Collision Detection 5.1.5).
   const Vec3& a = corners[0];
   const Vec3& b = corners[1];
@@ -795,10 +797,60 @@ double separation(const std::vector<Vec3>& block, const Vec3& centre, const std:
   const double length = towards.norm();
   if (!(length > 0.0)) return -std::numeric_limits<double>::infinity();
   const Vec3 u = towards / length;
+  if (direction != nullptr) *direction = u;
   const double triangle_from = std::min({u.dot(a - centre), u.dot(b - centre), u.dot(c - centre)});
   double block_to = -std::numeric_limits<double>::infinity();
   for (const Vec3& v : block) block_to = std::max(block_to, u.dot(v - centre));
   return triangle_from - block_to;
+}
+
+void FlightBound::reset(const std::vector<Vec3>& vertices, const Vec3& centre, const Vec3& velocity, const Vec3& spin,
+                        double gravity, bool damped, double round_off) {
+  vertices_ = &vertices;
+  centre_ = centre;
+  velocity_ = velocity;
+  gravity_ = gravity;
+  damped_ = damped;
+  round_off_ = round_off;
+  rates_.resize(vertices.size());
+  curvature_.resize(vertices.size());
+  const double spin2 = spin.squaredNorm();
+  for (std::size_t i = 0; i < vertices.size(); ++i) {
+    const Vec3 r = vertices[i] - centre;
+    rates_[i] = damped ? spin.cross(r) : Vec3(velocity + spin.cross(r));
+    curvature_[i] = spin2 * r.norm();
+  }
+}
+
+double FlightBound::plane_time(const Vec3& n, double offset, double limit) const {
+  const std::vector<Vec3>& vertices = *vertices_;
+  const double translation = damped_ ? std::max(0.0, -n.dot(velocity_)) : 0.0;
+  const double fall = gravity_ * (damped_ ? std::max(0.0, n.z()) : n.z());
+  double earliest = limit;
+  for (std::size_t i = 0; i < vertices.size(); ++i) {
+    const double height = n.dot(vertices[i]) - offset - round_off_;
+    if (!(height > 0.0)) return 0.0;
+    const double rate = damped_ ? translation + std::max(0.0, -n.dot(rates_[i])) : -n.dot(rates_[i]);
+    const double a = fall + curvature_[i];
+    // It cannot come that close before `earliest`: no root to find.
+    if (height > (std::max(0.0, rate) + 0.5 * std::max(0.0, a) * earliest) * earliest) continue;
+    // The smaller positive root of ½a·t² + rate·t = height, in its stable form; none
+    // when the approach turns back before reaching it.
+    const double disc = rate * rate + 2.0 * a * height;
+    if (disc < 0.0) continue;
+    const double den = rate + std::sqrt(disc);
+    if (den > 0.0) earliest = std::min(earliest, 2.0 * height / den);
+  }
+  return earliest;
+}
+
+double FlightBound::triangle_time(const Vec3& normal, const std::array<Vec3, 3>& corners, double limit) const {
+  const double below = plane_time(normal, normal.dot(corners[0]), limit);
+  if (below >= limit) return limit;
+  Vec3 u = Vec3::Zero();
+  if (!(separation(*vertices_, centre_, corners, &u) > 0.0)) return below;
+  const double from = std::min({u.dot(corners[0]), u.dot(corners[1]), u.dot(corners[2])});
+  return std::max(below, plane_time(-u, -from, limit));
 }
 
 }  // namespace talus::dda::detail

@@ -80,7 +80,45 @@ void detect_contacts_brute_force(const Model& model, const terrain::Surface& sur
 /// along the direction from `centre` to the triangle's point nearest to it: a lower
 /// bound of their distance (negative when they overlap along it; −∞ when `centre` lies on
 /// the triangle), for the flight test's triangles whose plane, continued, passes by the
-/// block.
-double separation(const std::vector<Vec3>& block, const Vec3& centre, const std::array<Vec3, 3>& corners);
+/// block. `direction`, when given, receives that unit direction (unchanged when there is
+/// none).
+double separation(const std::vector<Vec3>& block, const Vec3& centre, const std::array<Vec3, 3>& corners,
+                  Vec3* direction = nullptr);
+
+/// The free flight of a rigid block as the flight test bounds it (docs/dda.md, The step).
+/// The block is the convex hull of its world vertices, and a rigid motion is affine, so
+/// the hull stays on one side of a plane while its vertices do. Vertex i at r = pᵢ − c
+/// from the centroid c, with velocity wᵢ = v + ω × r, approaches a plane of unit normal n
+/// by at most
+///   dᵢ(t) = −(n·wᵢ)·t + ½·(g·n_z + |ω|²·|r|)·t²
+/// in a time t of free flight. This is the parabola of the centroid exactly, plus the
+/// spin's rotation by θ = |ω|·t to first order; the rotation's remainder is at most
+/// ½θ²·|r|. When dynamic_coefficient < 1 damps the velocity step by step (`damped`),
+/// the translation's and the spin's approaches count only where positive, and gravity
+/// only towards the plane: max(0, −n·v) + max(0, −n·(ω × r)) and g·max(0, n_z).
+class FlightBound {
+ public:
+  /// `vertices` (world, m) must outlive the bound's use; `round_off` (m) is taken off
+  /// every height.
+  void reset(const std::vector<Vec3>& vertices, const Vec3& centre, const Vec3& velocity, const Vec3& spin,
+             double gravity, bool damped, double round_off);
+  /// The earliest time (s) at which a vertex may reach the plane {x : n·x = offset}
+  /// from the side n points to, or `limit` if none can before it; 0 when a vertex is not
+  /// on that side.
+  double plane_time(const Vec3& n, double offset, double limit) const;
+  /// How long (s, at most `limit`) the block stays clear of the triangle `corners` (unit
+  /// normal `normal`): while its vertices stay above the triangle's plane, or, failing
+  /// that, short of the triangle's extent along the direction from the centroid to the
+  /// triangle's nearest point (separation).
+  double triangle_time(const Vec3& normal, const std::array<Vec3, 3>& corners, double limit) const;
+
+ private:
+  const std::vector<Vec3>* vertices_ = nullptr;
+  Vec3 centre_ = Vec3::Zero(), velocity_ = Vec3::Zero();
+  double gravity_ = 0.0, round_off_ = 0.0;
+  bool damped_ = false;
+  std::vector<Vec3> rates_;        // per vertex: wᵢ, or ω × r when damped (m/s)
+  std::vector<double> curvature_;  // per vertex: |ω|²·|r| (m/s²)
+};
 
 }  // namespace talus::dda::detail

@@ -276,6 +276,40 @@ geometry::Aabb swept_sphere_box(const Model& model, const State& s, double h) {
   return box.inflated(model.radius);
 }
 
+// Calls visit(normal, corners, box) for every terrain triangle whose box meets `box`
+// (and maybe a few more), until it returns false: from the patch under the block when
+// that holds the box, else from the triangles gathered for an earlier flight box that
+// holds it; a new gathering takes a margin so that the next steps' boxes fall inside.
+template <class Visit>
+void for_each_triangle_near(const Model& model, const Ground& ground, State& s, const geometry::Aabb& box,
+                            Visit&& visit) {
+  const TerrainPatch& patch = s.patch;
+  if (patch.surface == ground.surface && !patch.box.empty() && patch.box.contains(box.lo) &&
+      patch.box.contains(box.hi)) {
+    for (const TerrainPatch::Triangle& t : patch.triangles)
+      if (t.box.overlaps(box) && !visit(t.normal, t.p, t.box)) return;
+    return;
+  }
+  FlightPatch& flight = s.flight_patch;
+  if (flight.surface != ground.surface || flight.box.empty() || !flight.box.contains(box.lo) ||
+      !flight.box.contains(box.hi)) {
+    flight.surface = ground.surface;
+    flight.box = box.inflated(std::max(model.radius, 0.5 * box.extent().maxCoeff()));
+    flight.triangles.clear();
+    s.scratch_triangles.clear();
+    ground.surface->triangles_in_box(flight.box, s.scratch_triangles);
+    for (std::int32_t t : s.scratch_triangles) {
+      FlightPatch::Triangle d;
+      d.p = ground.surface->triangle_vertices(static_cast<std::size_t>(t));
+      for (const Vec3& p : d.p) d.box.add(p);
+      d.normal = ground.surface->normal(static_cast<std::size_t>(t));
+      flight.triangles.push_back(d);
+    }
+  }
+  for (const FlightPatch::Triangle& t : flight.triangles)
+    if (t.box.overlaps(box) && !visit(t.normal, t.p, t.box)) return;
+}
+
 // Whether no terrain triangle can be touched before time + h. A triangle whose box
 // the swept bounding sphere misses is out of reach; one whose box it meets is still out
 // of reach when every vertex of the block (`block`, world, m; null to skip this test)
@@ -325,40 +359,29 @@ double clear_horizon(const Model& model, const Ground& ground, State& s, double 
     long_clear = long_clear && clears(reach_long);
     short_clear = short_clear && (!in_short || clears(reach_short));
   };
-  const auto result = [&] { return long_clear ? h_long : short_clear ? h_short : 0.0; };
-  const TerrainPatch& patch = s.patch;
-  if (patch.surface == ground.surface && !patch.box.empty() && patch.box.contains(box_long.lo) &&
-      patch.box.contains(box_long.hi)) {
-    // The patch under the block holds every triangle that can meet the box.
-    for (const TerrainPatch::Triangle& t : patch.triangles) {
-      if (t.box.overlaps(box_long)) judge(t.normal, t.p, t.box);
-      if (!long_clear && !short_clear) return 0.0;
-    }
-    return result();
-  }
-  // Otherwise the triangles gathered for an earlier box, if that box holds this one; a
-  // new gathering takes a margin so that the next steps' boxes fall inside it.
-  FlightPatch& flight = s.flight_patch;
-  if (flight.surface != ground.surface || flight.box.empty() || !flight.box.contains(box_long.lo) ||
-      !flight.box.contains(box_long.hi)) {
-    flight.surface = ground.surface;
-    flight.box = box_long.inflated(std::max(model.radius, 0.5 * box_long.extent().maxCoeff()));
-    flight.triangles.clear();
-    s.scratch_triangles.clear();
-    ground.surface->triangles_in_box(flight.box, s.scratch_triangles);
-    for (std::int32_t t : s.scratch_triangles) {
-      FlightPatch::Triangle d;
-      d.p = ground.surface->triangle_vertices(static_cast<std::size_t>(t));
-      for (const Vec3& p : d.p) d.box.add(p);
-      d.normal = ground.surface->normal(static_cast<std::size_t>(t));
-      flight.triangles.push_back(d);
-    }
-  }
-  for (const FlightPatch::Triangle& t : flight.triangles) {
-    if (t.box.overlaps(box_long)) judge(t.normal, t.p, t.box);
-    if (!long_clear && !short_clear) return 0.0;
-  }
-  return result();
+  for_each_triangle_near(model, ground, s, box_long, [&](const Vec3& normal, const std::array<Vec3, 3>& corners,
+                                                        const geometry::Aabb& tbox) {
+    judge(normal, corners, tbox);
+    return long_clear || short_clear;
+  });
+  return long_clear ? h_long : short_clear ? h_short : 0.0;
+}
+
+// How long (s, at most h) the rigid block in free flight provably stays clear of the
+// terrain: a conservative advancement (FlightBound) over the triangles that the swept
+// bounding sphere of the horizon h can meet. `block`: its world vertices.
+double clear_time(const Model& model, const Ground& ground, State& s, double h, const std::vector<Vec3>& block) {
+  const geometry::Aabb box = swept_sphere_box(model, s, h).inflated(model.max_step_displacement());
+  thread_local FlightBound bound;
+  bound.reset(block, s.position, s.velocity.head<3>(), s.velocity.segment<3>(3), model.settings.gravity,
+              model.settings.dynamic_coefficient < 1.0, 1e-9 * (s.position.cwiseAbs().maxCoeff() + model.radius));
+  double clear = h;
+  for_each_triangle_near(model, ground, s, box, [&](const Vec3& normal, const std::array<Vec3, 3>& corners,
+                                                    const geometry::Aabb&) {
+    clear = std::min(clear, bound.triangle_time(normal, corners, clear));
+    return clear > 0.0;
+  });
+  return clear;
 }
 
 // Applies an accepted displacement d (N components) to the state.
@@ -410,12 +433,11 @@ bool stays_open(const Model& model, const State& s, const std::vector<Contact>& 
 }
 
 // Whether no contact can close in the next step of length dt, by the contact search a
-// contact step would make: it finds no candidate, or (rigid path, no contact carried
-// from the last step) the free motion keeps all it finds open. The candidates stay in
+// contact step would make from the block placed at its pose (`at`): it finds no
+// candidate, or (rigid path, no contact carried from the last step) the free motion
+// keeps all it finds open. The candidates stay in
 // scratch_contacts, and a contact step from this pose reuses them.
-bool beyond_contact_reach(const Model& model, const Ground& ground, State& s, double dt) {
-  const Pose pose = pose_of(model, s);
-  const PlacedBlock at(model, pose, s.scratch_vertices);
+bool beyond_contact_reach(const Model& model, const Ground& ground, State& s, const PlacedBlock& at, double dt) {
   s.scratch_contacts.clear();
   const double reach = search_reach(model, s, dt);
   detect_contacts(at, *ground.surface, reach, model.penetration_limit(), s.patch, s.scratch_contacts);
@@ -437,16 +459,26 @@ bool flight_step(const Model& model, const Ground& ground, State& s) {
     const bool after_contact = s.counters.steps > 0 && s.last_step_contact;
     const double first = after_contact ? dt : 8.0 * dt;
     // First the swept bounding sphere against the terrain's triangle boxes (no geometry
-    // of the block); then the block's vertices against the planes of the triangles whose
-    // boxes it meets (a block of few vertices; a detailed one is left to the search);
-    // then, near the ground, the contact search itself (one step, below).
+    // of the block); then, for a block of few vertices (a detailed one is left to the
+    // search), the block against the triangles whose boxes it meets: on the rigid path
+    // for as long as FlightBound proves it clear of each (up to 64 steps; the flight
+    // then runs to the last step that ends before that time), on the 12-DOF path whether
+    // its vertices lie farther above their planes than the contact search distance of 8
+    // or 1 steps; then, near the ground, the contact search itself (one step, below).
     double horizon = clear_horizon(model, ground, s, first, dt, nullptr);
     if (horizon == 8.0 * dt && clear_horizon(model, ground, s, 64.0 * dt, 64.0 * dt, nullptr) > 0.0)
       horizon = 64.0 * dt;
+    std::optional<Pose> pose;
+    std::optional<PlacedBlock> at;
     if (horizon == 0.0 && model.index == nullptr) {
-      const Pose pose = pose_of(model, s);
-      const PlacedBlock at(model, pose, s.scratch_vertices);
-      horizon = clear_horizon(model, ground, s, first, dt, &s.scratch_vertices);
+      pose = pose_of(model, s);
+      at.emplace(model, *pose, s.scratch_vertices);
+      if (model.dof == DofPath::rigid6) {
+        const double clear = clear_time(model, ground, s, 64.0 * dt, s.scratch_vertices);
+        if (clear >= dt) horizon = clear;
+      } else {
+        horizon = clear_horizon(model, ground, s, first, dt, &s.scratch_vertices);
+      }
     }
     // The search sees a block vertex only against the triangles it lies over (in plan or
     // along their normals): near a concave kink a vertex moving over the rising side is
@@ -456,9 +488,13 @@ bool flight_step(const Model& model, const Ground& ground, State& s) {
     // farther. (Over 8 steps, a 1 m³ cube rolling slowly on the roughest bench slope let
     // such vertices in by up to a few centimetres, which the next contact step then
     // accepted as penetration: its overlap grew step by step to 0.7 m.)
-    if (horizon == 0.0 && predicted_reach(model, s, dt) <= model.max_step_displacement() &&
-        beyond_contact_reach(model, ground, s, dt))
-      horizon = dt;
+    if (horizon == 0.0 && predicted_reach(model, s, dt) <= model.max_step_displacement()) {
+      if (!at) {
+        pose = pose_of(model, s);
+        at.emplace(model, *pose, s.scratch_vertices);
+      }
+      if (beyond_contact_reach(model, ground, s, *at, dt)) horizon = dt;
+    }
     if (horizon == 0.0) return false;
     s.clear_until = s.time + horizon;
   }

@@ -65,6 +65,17 @@ struct Cube {
   }
 };
 
+// A cube at the origin, of half-size 0.3–0.7 m, turned at random: from u(0) to u(4).
+template <class Uniform>
+Cube random_cube(const Uniform& u) {
+  Cube cube;
+  cube.h = 0.3 + 0.4 * u(0);
+  cube.centre = Vec3(0.0, 0.0, 0.0);
+  cube.rotation = Eigen::Quaterniond(Eigen::Vector4d(u(1) - 0.5, u(2) - 0.5, u(3) - 0.5, u(4) - 0.5).normalized())
+                      .toRotationMatrix();
+  return cube;
+}
+
 double cube_triangle_distance(const Cube& cube, const std::array<Vec3, 3>& t) {
   const std::vector<Vec3> v = cube.vertices();
   double best = std::numeric_limits<double>::infinity();
@@ -87,11 +98,7 @@ TEST(DdaFlight, SeparationBoundNeverExceedsTheDistance) {
   int separated_count = 0, plane_blocked = 0;
   for (std::uint64_t i = 0; i < 400; ++i) {
     const auto u = [&](std::uint64_t k) { return rng.uniform(20 * i + k); };
-    Cube cube;
-    cube.h = 0.3 + 0.4 * u(0);
-    cube.centre = Vec3(0.0, 0.0, 0.0);
-    cube.rotation = Eigen::Quaterniond(Eigen::Vector4d(u(1) - 0.5, u(2) - 0.5, u(3) - 0.5, u(4) - 0.5).normalized())
-                        .toRotationMatrix();
+    const Cube cube = random_cube(u);
     const Vec3 at(3.0 * (u(5) - 0.5), 3.0 * (u(6) - 0.5), -0.5 - 1.5 * u(7));
     std::array<Vec3, 3> tri;
     for (int k = 0; k < 3; ++k)
@@ -165,11 +172,7 @@ TEST(DdaFlight, ClearTimeNeverPassesTheFirstTouch) {
   int touching = 0, tight = 0;
   for (std::uint64_t i = 0; i < 400; ++i) {
     const auto u = [&](std::uint64_t k) { return rng.uniform(20 * i + k); };
-    Cube cube;
-    cube.h = 0.3 + 0.4 * u(0);
-    cube.centre = Vec3(0.0, 0.0, 0.0);
-    cube.rotation = Eigen::Quaterniond(Eigen::Vector4d(u(1) - 0.5, u(2) - 0.5, u(3) - 0.5, u(4) - 0.5).normalized())
-                        .toRotationMatrix();
+    const Cube cube = random_cube(u);
     const Vec3 v = 15.0 * u(5) * Vec3(u(6) - 0.5, u(7) - 0.5, u(8) - 0.5).normalized();
     const Vec3 w = 15.0 * u(9) * Vec3(u(10) - 0.5, u(11) - 0.5, u(12) - 0.5).normalized();
     const Vec3 n = Vec3(u(13) - 0.5, u(14) - 0.5, 1.5 * u(15) - 0.5).normalized();

@@ -316,11 +316,11 @@ void for_each_triangle_near(const Model& model, const Ground& ground, State& s, 
 // lies farther above the triangle's plane than any point of the block can move in the
 // horizon: the block is the convex hull of its vertices or inside it, so nothing of it
 // can cross that plane in time; or when the block and the triangle are that far apart
-// along the direction from the block's centroid to the triangle (separation). On the
-// rigid path a point moves at most
-// (|v| + |ω|·radius)·h + ½g·h² on the free parabola and spin (predicted_reach), which
-// is the clearance asked (with a round-off allowance); on the 12-DOF path, whose strains
-// vibrate, the contact search distance (twice that, at least the displacement limit).
+// along the direction from the block's centroid to the triangle (separation). The
+// block test serves the 12-DOF path (the rigid path has clear_time), whose strains
+// vibrate: the clearance asked is the contact search distance of the horizon (twice the
+// farthest a point can move on the free parabola and spin, at least the displacement
+// limit).
 //
 // Both horizons of the flight test are decided in one pass: `h_short` ≤ `h_long`, and the
 // box of the shorter lies inside the longer's (the box of a parabola's arc is spanned by
@@ -330,13 +330,8 @@ double clear_horizon(const Model& model, const Ground& ground, State& s, double 
   const geometry::Aabb box_long = swept_sphere_box(model, s, h_long).inflated(model.max_step_displacement());
   const geometry::Aabb box_short =
       h_short == h_long ? box_long : swept_sphere_box(model, s, h_short).inflated(model.max_step_displacement());
-  const auto reach_of = [&](double h) {
-    return model.dof == DofPath::rigid6
-               ? predicted_reach(model, s, h) + 1e-9 * (s.position.cwiseAbs().maxCoeff() + model.radius)
-               : search_reach(model, s, h);
-  };
-  const double reach_long = reach_of(h_long);
-  const double reach_short = h_short == h_long ? reach_long : reach_of(h_short);
+  const double reach_long = block != nullptr ? search_reach(model, s, h_long) : 0.0;
+  const double reach_short = block != nullptr && h_short != h_long ? search_reach(model, s, h_short) : reach_long;
   bool long_clear = true, short_clear = true;
   // One triangle that meets the long box: whether it is out of reach over each horizon.
   const auto judge = [&](const Vec3& normal, const std::array<Vec3, 3>& corners, const geometry::Aabb& tbox) {

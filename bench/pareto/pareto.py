@@ -92,6 +92,12 @@ STUDY = [
     # Settling blocks' longer steps (docs/dda.md, Step control): none, and twice the default.
     ("rest steps x1", "rest rule", "alternating", ["engine.rest_step_ratio=1"]),
     ("rest steps x8", "rest rule", "alternating", ["engine.rest_step_ratio=8"]),
+    # Slow blocks' longer steps: a rigid block outside an impact whose kinetic energy per
+    # unit mass is below the threshold (J/kg; 0.02 ~ 0.2 m/s, 0.125 ~ 0.5 m/s, 0.5 ~ 1 m/s)
+    # grows its contact steps like a settling one.
+    ("slow=0.02", "slow steps", "alternating", ["engine.slow_kinetic_energy=0.02"]),
+    ("slow=0.125", "slow steps", "alternating", ["engine.slow_kinetic_energy=0.125"]),
+    ("slow=0.5", "slow steps", "alternating", ["engine.slow_kinetic_energy=0.5"]),
     ("impact x0.5", "impact threshold", "alternating", ["engine.impact_min_normal_speed=X0.5"]),
     ("impact x2", "impact threshold", "alternating", ["engine.impact_min_normal_speed=X2"]),
 ]

@@ -84,8 +84,11 @@ void Settings::visit(core::SettingsVisitor& v) {
           "kinetic energy per unit mass below which the block may be at rest");
   v.field("rest_dwell", rest_dwell, "s", "time below the rest threshold that ends the realization");
   v.field("rest_step_ratio", rest_step_ratio, "-",
-          "longest contact step of a rigid6 block below the rest threshold for rest_dwell/5 or more, over "
-          "time_step (1 = none longer)");
+          "longest contact step of a rigid6 block below slow_kinetic_energy, or below the rest threshold for "
+          "rest_dwell/5 or more, over time_step (1 = none longer)");
+  v.field("slow_kinetic_energy", slow_kinetic_energy, "J/kg",
+          "kinetic energy per unit mass below which a rigid6 block outside an impact grows its contact steps up "
+          "to rest_step_ratio*time_step, 0 = only in the rest dwell");
   v.field("max_time", max_time, "s",
           "simulated-time limit per realization, 0 = 60 s + terrain plan diagonal / (1 m/s)");
   v.field("max_steps", max_steps, "-", "accepted-step limit per realization, 0 = none");
@@ -144,6 +147,7 @@ void validate(const Settings& s) {
   require_range(s.rest_dwell >= 0.0, "rest_dwell", s.rest_dwell, "must be >= 0");
   require_range(s.rest_step_ratio >= 1.0 && s.rest_step_ratio <= 100.0, "rest_step_ratio", s.rest_step_ratio,
                 "must be in [1, 100]");
+  require_range(s.slow_kinetic_energy >= 0.0, "slow_kinetic_energy", s.slow_kinetic_energy, "must be >= 0");
   require_range(s.max_time >= 0.0, "max_time", s.max_time, "must be >= 0 (0 = from the terrain)");
   require_range(s.max_steps >= 0, "max_steps", static_cast<double>(s.max_steps), "must be >= 0 (0 = none)");
   require_range(s.trajectory_interval >= 0.0, "trajectory_interval", s.trajectory_interval, "must be >= 0");

@@ -67,12 +67,17 @@ struct Settings {
 
   double rest_kinetic_energy = 1e-3;        ///< rest threshold on kinetic energy per unit mass (J/kg)
   double rest_dwell = 0.5;                  ///< time below the threshold that means rest (s)
-  /// Longest contact step of a rigid6 block that has been below the rest threshold for a
-  /// fifth of rest_dwell, over time_step (-): a block settling or creeping in the rest
-  /// dwell moves too little for the nominal step to matter, and its steps grow (×1.3 a
+  /// Longest contact step of a rigid6 block that is slow (slow_kinetic_energy) or has
+  /// been below the rest threshold for a fifth of rest_dwell, over time_step (-): such a
+  /// block moves too little for the nominal step to matter, and its steps grow (×1.3 a
   /// step) up to this; 1 = no growth. The springs keep their stiffness (set from
   /// time_step), docs/dda.md, Step control.
   double rest_step_ratio = 4.0;
+  /// Kinetic energy per unit mass (translation and spin) below which a rigid6 block
+  /// outside an impact grows its contact steps like a settling one, up to
+  /// rest_step_ratio·time_step (J/kg); 0 = only blocks in the rest dwell grow them.
+  /// Default ½·(0.5 m/s)²: no approach of such a block is an impact's (docs/dda.md).
+  double slow_kinetic_energy = 0.125;
   /// Simulated-time limit of a realization (s); 0 = from the terrain: 60 s plus the time
   /// to cross the terrain's plan diagonal at 1 m/s.
   double max_time = 0.0;

@@ -54,8 +54,10 @@ VARIABLES = ["runout", "lateral", "max_speed", "max_jump_height", "toe_energy"]
 # (name, group, triangulation of the terrain, dda-run --set values). The first entry is
 # the reference; "floor" is the reference with another seed.
 STUDY = [
-    ("reference", "reference", "alternating", ["engine.time_step=1e-4", "engine.rest_step_ratio=1"]),
-    ("floor", "sampling floor", "alternating", ["engine.time_step=1e-4", "engine.rest_step_ratio=1", "seed=2"]),
+    ("reference", "reference", "alternating",
+     ["engine.time_step=1e-4", "engine.rest_step_ratio=1", "engine.flight_step_ratio=1"]),
+    ("floor", "sampling floor", "alternating",
+     ["engine.time_step=1e-4", "engine.rest_step_ratio=1", "engine.flight_step_ratio=1", "seed=2"]),
     ("default", "defaults", "alternating", []),
     ("dt=2e-4", "time step", "alternating", ["engine.time_step=2e-4"]),
     ("dt=5e-4", "time step", "alternating", ["engine.time_step=5e-4"]),
@@ -95,6 +97,9 @@ STUDY = [
     # Slow blocks' longer steps: a rigid block outside an impact whose kinetic energy per
     # unit mass is below the threshold (J/kg; 0.02 ~ 0.2 m/s, 0.125 ~ 0.5 m/s, 0.5 ~ 1 m/s)
     # grows its contact steps like a settling one.
+    # Flight steps of up to this many nominal ones while the block is proven clear.
+    ("flight steps x1", "flight steps", "alternating", ["engine.flight_step_ratio=1"]),
+    ("flight steps x64", "flight steps", "alternating", ["engine.flight_step_ratio=64"]),
     ("slow=0.02", "slow steps", "alternating", ["engine.slow_kinetic_energy=0.02"]),
     ("slow=0.125", "slow steps", "alternating", ["engine.slow_kinetic_energy=0.125"]),
     ("slow=0.5", "slow steps", "alternating", ["engine.slow_kinetic_energy=0.5"]),

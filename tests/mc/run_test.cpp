@@ -197,6 +197,9 @@ TEST(Barrier, CrossingOfAFreeFlightMatchesTheParabola) {
 TEST(Hazard, CellsAreTheMaximaOfTheStepEnds) {
   SceneSettings s = bench_scene(1);
   s.engine.trajectory_interval = 1e-9;  // below Δt: a sample after every step
+  // Every step nominal, so that the trajectory's samples are the observer's step ends (a
+  // long flight step samples the trajectory at the nominal steps inside it as well).
+  s.engine.flight_step_ratio = 1.0;
   const Scene scene = Scene::build(s, bench_terrain(), library({block::SolidKind::cube}), "test");
   const RealizationResult r = run_realization(scene, 0);
   ASSERT_GT(r.trajectory.size(), 100u);

@@ -189,6 +189,24 @@ bool hangs_past_rim(const Model& model, const terrain::Surface& surf, const Stat
   return false;
 }
 
+// The centroid `height` (m) above the terrain triangle `triangle` below it, at the end of
+// a step or at a nominal step inside a long flight step: the jump maxima.
+void note_jump(const terrain::Surface& surf, State& s, double height, std::int32_t triangle) {
+  // Jumps count from the first real touch of the terrain (a closed contact) on: the
+  // release drop is no jump, nor is a step that only searched for contacts. Beside the
+  // vertical height, the distance to the plane of the triangle below, along its normal
+  // (on a slope the vertical height overstates a jump by 1/cos of the slope).
+  if (!s.touched) return;
+  s.max_jump_height = std::max(s.max_jump_height, height);
+  // On a height field the normal's z is in (0, 1] (to round-off): the normal height is at
+  // most the vertical one, and is not looked at while that cannot raise the maximum
+  // (which starts at 0).
+  if (!surf.is_height_field() || height * (1.0 + 1e-9) > s.max_normal_jump_height) {
+    const double normal_height = height * surf.normal(static_cast<std::size_t>(triangle)).z();
+    s.max_normal_jump_height = std::max(s.max_normal_jump_height, normal_height);
+  }
+}
+
 // Bookkeeping after an accepted step: time, kinetic energy, height, maxima, rest,
 // leaving, trajectory, limits. Each is computed once here and kept in the state for
 // whoever else needs it (the rest test, the trajectory, the driver's observers).
@@ -207,22 +225,7 @@ void finish_step(const Model& model, const Ground& ground, State& s, double dt) 
   const double speed = s.velocity.head<3>().norm();
   s.max_speed = std::max(s.max_speed, speed);
   const double height = s.height;
-  if (hit) {
-    // Jumps count from the first real touch of the terrain (a closed contact) on: the
-    // release drop is no jump, nor is a step that only searched for contacts. Beside the
-    // vertical height, the distance to the plane of the triangle below, along its normal
-    // (on a slope the vertical height overstates a jump by 1/cos of the slope).
-    if (s.touched) {
-      s.max_jump_height = std::max(s.max_jump_height, height);
-      // On a height field the normal's z is in (0, 1] (to round-off): the normal height
-      // is at most the vertical one, and is not looked at while that cannot raise the
-      // maximum (which starts at 0).
-      if (!surf.is_height_field() || height * (1.0 + 1e-9) > s.max_normal_jump_height) {
-        const double normal_height = height * surf.normal(static_cast<std::size_t>(hit->triangle)).z();
-        s.max_normal_jump_height = std::max(s.max_normal_jump_height, normal_height);
-      }
-    }
-  }
+  if (hit) note_jump(surf, s, height, hit->triangle);
   if (model.settings.trajectory_interval > 0.0 && s.time + 1e-12 >= s.next_sample_time) {
     s.trajectory.push_back(TrajectorySample{s.time, s.position, s.velocity.head<3>(), height,
                                             s.kinetic + model.mass * model.settings.gravity * s.position.z()});
@@ -443,7 +446,34 @@ bool beyond_contact_reach(const Model& model, const Ground& ground, State& s, co
   return model.dof == DofPath::rigid6 && s.contacts.empty() && stays_open(model, s, s.scratch_contacts, dt);
 }
 
-bool flight_step(const Model& model, const Ground& ground, State& s) {
+// What nominal flight steps sample, at the k − 1 nominal steps of length dt inside a long
+// one, on the exact parabola: the jump maxima and the trajectory. The records are those
+// of nominal steps whether or not a trajectory is asked for.
+void sample_flight(const Model& model, const Ground& ground, State& s, double dt, int k) {
+  const bool trajectory = model.settings.trajectory_interval > 0.0;
+  if (!s.touched && !trajectory) return;
+  const terrain::Surface& surf = *ground.surface;
+  const Vec3 g = gravity_vector(model);
+  const Vec3 p0 = s.position;
+  const Vec3 v0 = s.velocity.head<3>();
+  const double energy = trajectory ? mechanical_energy(model, s) : 0.0;  // constant in flight
+  for (int j = 1; j < k; ++j) {
+    const double tau = j * dt;
+    const double t = s.time + tau;
+    const Vec3 p = p0 + v0 * tau + 0.5 * g * tau * tau;
+    const auto hit = surf.height_at(p.x(), p.y());
+    const double height = hit ? p.z() - hit->z : std::numeric_limits<double>::quiet_NaN();
+    if (hit) note_jump(surf, s, height, hit->triangle);
+    if (trajectory && t + 1e-12 >= s.next_sample_time) {
+      s.trajectory.push_back(TrajectorySample{t, p, v0 + g * tau, height, energy});
+      s.next_sample_time += model.settings.trajectory_interval;
+    }
+  }
+}
+
+// A flight step, if the block is clear of the terrain for at least one step: returns its
+// length (s), 0 if the block needs a contact step.
+double flight_step(const Model& model, const Ground& ground, State& s) {
   const double dt = s.dt;
   s.scratch_reach = -1.0;
   if (s.time + dt > s.clear_until) {
@@ -490,12 +520,20 @@ bool flight_step(const Model& model, const Ground& ground, State& s) {
       }
       if (beyond_contact_reach(model, ground, s, *at, dt)) horizon = dt;
     }
-    if (horizon == 0.0) return false;
+    if (horizon == 0.0) return 0.0;
     s.clear_until = s.time + horizon;
   }
+  double h = dt;
   if (model.dof == DofPath::rigid6) {
-    // The exact parabola (Shi's scheme reproduces it to round-off) and the exact spin.
-    apply_displacement<6>(model, s, free_displacement(model, s, dt), dt);
+    // The exact parabola (Shi's scheme reproduces it to round-off) and the exact spin,
+    // whatever the step: within the time the block is proven clear it takes whole
+    // nominal steps of up to flight_step_ratio at once, ending no later than that time,
+    // the next trajectory sample or the time limit.
+    const double whole = std::floor((std::min(s.clear_until, s.time_limit) - s.time) / dt);
+    const int k = static_cast<int>(std::clamp(whole, 1.0, std::floor(model.settings.flight_step_ratio)));
+    h = k * dt;
+    if (k > 1) sample_flight(model, ground, s, dt, k);
+    apply_displacement<6>(model, s, free_displacement(model, s, h), h);
   } else {
     // Strains keep oscillating in flight: solve the contact-free 12-DOF step. The
     // stretch update is not linear in the step, so the vibration's energy drifts by a
@@ -514,7 +552,7 @@ bool flight_step(const Model& model, const Ground& ground, State& s) {
   s.stored_energy = 0.0;
   // Grow back towards the nominal step after a cut, as a contact step does.
   s.dt = std::min(model.settings.time_step, dt * 1.3);
-  return true;
+  return h;
 }
 
 // Earliest time in (0, dt] at which a contact that was open at the step start and
@@ -903,12 +941,12 @@ void step(const Model& model, const Ground& ground, State& s) {
   if (model.settings.flight_test && std::none_of(s.contacts.begin(), s.contacts.end(),
                    [](const Contact& c) { return c.mode != ContactMode::open; })) {
     PhaseTimer timer(model.settings.time_phases, s.times.flight);
-    const double dt = s.dt;
-    flew = flight_step(model, ground, s);
+    const double h = flight_step(model, ground, s);
+    flew = h > 0.0;
     if (flew) {
       s.contacts.clear();
       if (s.episode.active) end_episode(model, s);
-      finish_step(model, ground, s, dt);
+      finish_step(model, ground, s, h);
     }
   }
   if (flew) return;

@@ -32,11 +32,13 @@ void apply_preset(Settings& s, const std::string& preset) {
   s.max_open_close_iterations = design.max_open_close_iterations;
   s.max_displacement_ratio = design.max_displacement_ratio;
   s.rest_step_ratio = design.rest_step_ratio;
+  s.flight_step_ratio = design.flight_step_ratio;
   if (preset == "screening") {
     s.time_step = kScreeningTimeStep;
   } else if (preset == "research") {
     s.time_step = kResearchTimeStep;
     s.rest_step_ratio = 1.0;  // the reference: every step nominal
+    s.flight_step_ratio = 1.0;
   } else if (preset != "design") {
     throw core::InputError("dda settings", "preset '" + preset + "': expected screening, design or research");
   }
@@ -86,6 +88,8 @@ void Settings::visit(core::SettingsVisitor& v) {
   v.field("rest_step_ratio", rest_step_ratio, "-",
           "longest contact step of a rigid6 block below slow_kinetic_energy, or below the rest threshold for "
           "rest_dwell/5 or more, over time_step (1 = none longer)");
+  v.field("flight_step_ratio", flight_step_ratio, "-",
+          "longest flight step of a rigid6 block proven clear of the terrain, over time_step (1 = nominal steps)");
   v.field("slow_kinetic_energy", slow_kinetic_energy, "J/kg",
           "kinetic energy per unit mass below which a rigid6 block outside an impact grows its contact steps up "
           "to rest_step_ratio*time_step, 0 = only in the rest dwell");
@@ -147,6 +151,8 @@ void validate(const Settings& s) {
   require_range(s.rest_dwell >= 0.0, "rest_dwell", s.rest_dwell, "must be >= 0");
   require_range(s.rest_step_ratio >= 1.0 && s.rest_step_ratio <= 100.0, "rest_step_ratio", s.rest_step_ratio,
                 "must be in [1, 100]");
+  require_range(s.flight_step_ratio >= 1.0 && s.flight_step_ratio <= 64.0, "flight_step_ratio", s.flight_step_ratio,
+                "must be in [1, 64]");
   require_range(s.slow_kinetic_energy >= 0.0, "slow_kinetic_energy", s.slow_kinetic_energy, "must be >= 0");
   require_range(s.max_time >= 0.0, "max_time", s.max_time, "must be >= 0 (0 = from the terrain)");
   require_range(s.max_steps >= 0, "max_steps", static_cast<double>(s.max_steps), "must be >= 0 (0 = none)");

@@ -73,6 +73,12 @@ struct Settings {
   /// step) up to this; 1 = no growth. The springs keep their stiffness (set from
   /// time_step), docs/dda.md, Step control.
   double rest_step_ratio = 4.0;
+  /// Longest flight step of a rigid6 block, over time_step (-): within the time the
+  /// flight test proves the block clear of the terrain the motion is the exact parabola
+  /// and spin whatever the step, so it is taken in steps of up to this many nominal
+  /// ones; what they sample (heights, hazard cells) is measured in docs/benchmarks.md.
+  /// 1 = nominal flight steps.
+  double flight_step_ratio = 8.0;
   /// Kinetic energy per unit mass (translation and spin) below which a rigid6 block
   /// outside an impact grows its contact steps like a settling one, up to
   /// rest_step_ratio·time_step (J/kg); 0 = only blocks in the rest dwell grow them.

@@ -94,12 +94,12 @@ STUDY = [
     # Settling blocks' longer steps (docs/dda.md, Step control): none, and twice the default.
     ("rest steps x1", "rest rule", "alternating", ["engine.rest_step_ratio=1"]),
     ("rest steps x8", "rest rule", "alternating", ["engine.rest_step_ratio=8"]),
-    # Slow blocks' longer steps: a rigid block outside an impact whose kinetic energy per
-    # unit mass is below the threshold (J/kg; 0.02 ~ 0.2 m/s, 0.125 ~ 0.5 m/s, 0.5 ~ 1 m/s)
-    # grows its contact steps like a settling one.
     # Flight steps of up to this many nominal ones while the block is proven clear.
     ("flight steps x1", "flight steps", "alternating", ["engine.flight_step_ratio=1"]),
     ("flight steps x64", "flight steps", "alternating", ["engine.flight_step_ratio=64"]),
+    # Slow blocks' longer steps: a rigid block outside an impact whose kinetic energy per
+    # unit mass is below the threshold (J/kg; 0.02 ~ 0.2 m/s, 0.125 ~ 0.5 m/s, 0.5 ~ 1 m/s)
+    # grows its contact steps like a settling one.
     ("slow=0.02", "slow steps", "alternating", ["engine.slow_kinetic_energy=0.02"]),
     ("slow=0.125", "slow steps", "alternating", ["engine.slow_kinetic_energy=0.125"]),
     ("slow=0.5", "slow steps", "alternating", ["engine.slow_kinetic_energy=0.5"]),

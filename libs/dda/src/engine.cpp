@@ -189,6 +189,15 @@ bool hangs_past_rim(const Model& model, const terrain::Surface& surf, const Stat
   return false;
 }
 
+// A trajectory sample at time `t` (s) if one is due: centroid position (m), velocity
+// (m/s), height above the terrain (m, NaN off it) and mechanical energy (J).
+void sample_trajectory(const Model& model, State& s, double t, const Vec3& p, const Vec3& v, double height,
+                       double energy) {
+  if (model.settings.trajectory_interval <= 0.0 || t + 1e-12 < s.next_sample_time) return;
+  s.trajectory.push_back(TrajectorySample{t, p, v, height, energy});
+  s.next_sample_time += model.settings.trajectory_interval;
+}
+
 // The centroid `height` (m) above the terrain triangle `triangle` below it, at the end of
 // a step or at a nominal step inside a long flight step: the jump maxima.
 void note_jump(const terrain::Surface& surf, State& s, double height, std::int32_t triangle) {
@@ -226,11 +235,8 @@ void finish_step(const Model& model, const Ground& ground, State& s, double dt) 
   s.max_speed = std::max(s.max_speed, speed);
   const double height = s.height;
   if (hit) note_jump(surf, s, height, hit->triangle);
-  if (model.settings.trajectory_interval > 0.0 && s.time + 1e-12 >= s.next_sample_time) {
-    s.trajectory.push_back(TrajectorySample{s.time, s.position, s.velocity.head<3>(), height,
-                                            s.kinetic + model.mass * model.settings.gravity * s.position.z()});
-    s.next_sample_time += model.settings.trajectory_interval;
-  }
+  sample_trajectory(model, s, s.time, s.position, s.velocity.head<3>(), height,
+                    s.kinetic + model.mass * model.settings.gravity * s.position.z());
   const geometry::Aabb& b = surf.bounds();
   if (s.position.x() < b.lo.x() || s.position.x() > b.hi.x() || s.position.y() < b.lo.y() ||
       s.position.y() > b.hi.y() || s.position.z() < b.lo.z() - 2.0 * model.radius) {
@@ -464,10 +470,7 @@ void sample_flight(const Model& model, const Ground& ground, State& s, double dt
     const auto hit = surf.height_at(p.x(), p.y());
     const double height = hit ? p.z() - hit->z : std::numeric_limits<double>::quiet_NaN();
     if (hit) note_jump(surf, s, height, hit->triangle);
-    if (trajectory && t + 1e-12 >= s.next_sample_time) {
-      s.trajectory.push_back(TrajectorySample{t, p, v0 + g * tau, height, energy});
-      s.next_sample_time += model.settings.trajectory_interval;
-    }
+    sample_trajectory(model, s, t, p, v0 + g * tau, height, energy);
   }
 }
 
@@ -527,8 +530,9 @@ double flight_step(const Model& model, const Ground& ground, State& s) {
   if (model.dof == DofPath::rigid6) {
     // The exact parabola (Shi's scheme reproduces it to round-off) and the exact spin,
     // whatever the step: within the time the block is proven clear it takes whole
-    // nominal steps of up to flight_step_ratio at once, ending no later than that time,
-    // the next trajectory sample or the time limit.
+    // nominal steps of up to flight_step_ratio at once, ending no later than that time or
+    // the time limit (trajectory samples inside it come from sample_flight, so asking for
+    // a trajectory does not change the steps).
     const double whole = std::floor((std::min(s.clear_until, s.time_limit) - s.time) / dt);
     const int k = static_cast<int>(std::clamp(whole, 1.0, std::floor(model.settings.flight_step_ratio)));
     h = k * dt;

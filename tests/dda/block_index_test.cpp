@@ -117,6 +117,12 @@ Tally compare(const Model& m, const terrain::Surface& surface, double x0, double
     EXPECT_EQ(scanned.index(), nullptr);
     EXPECT_TRUE(indexed.box().lo == scanned.box().lo && indexed.box().hi == scanned.box().hi) << "pose " << k;
     for (std::size_t i = 0; i < m.vertices.size(); i += 97) EXPECT_TRUE(indexed.vertex(i) == scanned.vertex(i));
+    // The extent along a direction (the detailed flight bound's), exactly the scan's.
+    for (std::uint64_t j = 0; j < 3; ++j) {
+      const Vec3 u = Vec3(rng.normal(1000 * k + 3 * j), rng.normal(1000 * k + 3 * j + 1), rng.normal(1000 * k + 3 * j + 2))
+                         .normalized();
+      EXPECT_EQ(indexed.support(u), scanned.support(u)) << "pose " << k;
+    }
     // A search distance of a few centimetres and depth limits that reach the fallback of
     // terrain vertices deep inside the block.
     const double ds = 0.01 + 0.05 * rng.uniform(16 * k + 15);

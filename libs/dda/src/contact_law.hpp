@@ -772,8 +772,11 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
 // deeper than `fresh_depth` (the search distance: how far features can approach in one
 // step) is dropped: a real crossing is found while it approaches, and the normal e₁ × e₂
 // of a pair found deep inside says nothing about the way out.
+//
+// `matched`, when given, receives per contact of `now` whether it carries a previous one.
 inline void carry_contacts(const std::vector<Contact>& previous, std::vector<Contact>& now, const Pose& pose,
-                    double friction, double shear_stiffness, double fresh_depth, double radius) {
+                    double friction, double shear_stiffness, double fresh_depth, double radius,
+                    std::vector<std::uint8_t>* matched = nullptr) {
   // The previous contacts of the same kind and block feature as c, in their order: all
   // of them for a few contacts, or a range of them sorted by (kind, block feature, order)
   // for many (a detailed block carries hundreds; the pairwise scan was quadratic).
@@ -807,7 +810,9 @@ inline void carry_contacts(const std::vector<Contact>& previous, std::vector<Con
     });
     return !carried;
   });
-  for (Contact& c : now) {
+  if (matched != nullptr) matched->assign(now.size(), 0);
+  for (std::size_t i = 0; i < now.size(); ++i) {
+    Contact& c = now[i];
     c.gap_offset = std::min(c.gap, 0.0);
     const Contact* match = nullptr;
     for_same(c, [&](const Contact& old) {
@@ -819,6 +824,7 @@ inline void carry_contacts(const std::vector<Contact>& previous, std::vector<Con
       return true;
     });
     if (match == nullptr) continue;
+    if (matched != nullptr) (*matched)[i] = 1;
     const Contact& old = *match;
     c.mode = old.mode;
     c.resume = old.resume;

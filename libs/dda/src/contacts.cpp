@@ -700,6 +700,23 @@ PlacedBlock::PlacedBlock(const Model& model, const Pose& pose, std::vector<Vec3>
   }
 }
 
+double PlacedBlock::support(const Vec3& u) const {
+  const Vec3& centre = pose_->centre;
+  if (index_ == nullptr) {
+    double far = -std::numeric_limits<double>::infinity();
+    for (const Vec3& x : *world_) far = std::max(far, u.dot(x - centre));
+    return far;
+  }
+  // u·(c + F·r − c) = (Fᵀu)·r, bounded over a body box by its centre and half-sizes; the
+  // world vertex's round-off (per coordinate) on top.
+  const Vec3 m = pose_->map.transpose() * u;
+  const Vec3 abs_m = m.cwiseAbs();
+  const double slack = round_off_ * u.cwiseAbs().sum();
+  return index_->vertices.maximum(
+      [&](const geometry::Aabb& b) { return m.dot(b.center()) + abs_m.dot(0.5 * b.extent()) + slack; },
+      [&](std::int32_t i) { return u.dot(world_point(*pose_, model_->vertices[static_cast<std::size_t>(i)]) - centre); });
+}
+
 geometry::Aabb PlacedBlock::body_box(const geometry::Aabb& world) const {
   const Vec3 c = pose_->inverse_map * (world.center() - pose_->centre);
   const Vec3 h = abs_inverse_ * (0.5 * world.extent());
@@ -761,8 +778,11 @@ void detect_contacts_brute_force(const Model& model, const terrain::Surface& sur
 // one under it). The triangle's extent along it is that of its corners, and the
 // block's that of its vertices, so the value is a lower bound of their distance whatever
 // the direction's round-off.
-double separation(const std::vector<Vec3>& block, const Vec3& centre, const std::array<Vec3, 3>& corners,
-                  Vec3* direction) {
+namespace {
+
+// The unit direction from centre to the triangle's point nearest to it into u; false
+// when centre lies on the triangle.
+bool towards_triangle(const Vec3& centre, const std::array<Vec3, 3>& corners, Vec3& u) {
   // The triangle's point nearest to centre (Ericson, Real-Time Collision Detection 5.1.5).
   const Vec3& a = corners[0];
   const Vec3& b = corners[1];
@@ -795,18 +815,40 @@ double separation(const std::vector<Vec3>& block, const Vec3& centre, const std:
   }
   const Vec3 towards = nearest - centre;
   const double length = towards.norm();
-  if (!(length > 0.0)) return -std::numeric_limits<double>::infinity();
-  const Vec3 u = towards / length;
+  if (!(length > 0.0)) return false;
+  u = towards / length;
+  return true;
+}
+
+// The triangle's least extent along u from centre.
+double triangle_from(const Vec3& centre, const std::array<Vec3, 3>& corners, const Vec3& u) {
+  return std::min({u.dot(corners[0] - centre), u.dot(corners[1] - centre), u.dot(corners[2] - centre)});
+}
+
+}  // namespace
+
+double separation(const std::vector<Vec3>& block, const Vec3& centre, const std::array<Vec3, 3>& corners,
+                  Vec3* direction) {
+  Vec3 u;
+  if (!towards_triangle(centre, corners, u)) return -std::numeric_limits<double>::infinity();
   if (direction != nullptr) *direction = u;
-  const double triangle_from = std::min({u.dot(a - centre), u.dot(b - centre), u.dot(c - centre)});
   double block_to = -std::numeric_limits<double>::infinity();
   for (const Vec3& v : block) block_to = std::max(block_to, u.dot(v - centre));
-  return triangle_from - block_to;
+  return triangle_from(centre, corners, u) - block_to;
+}
+
+double separation(const PlacedBlock& at, const std::array<Vec3, 3>& corners, Vec3* direction) {
+  const Vec3& centre = at.pose().centre;
+  Vec3 u;
+  if (!towards_triangle(centre, corners, u)) return -std::numeric_limits<double>::infinity();
+  if (direction != nullptr) *direction = u;
+  return triangle_from(centre, corners, u) - at.support(u);
 }
 
 void FlightBound::reset(const std::vector<Vec3>& vertices, const Vec3& centre, const Vec3& velocity, const Vec3& spin,
                         double gravity, bool damped, double round_off) {
   vertices_ = &vertices;
+  placed_ = nullptr;
   centre_ = centre;
   velocity_ = velocity;
   gravity_ = gravity;
@@ -822,24 +864,54 @@ void FlightBound::reset(const std::vector<Vec3>& vertices, const Vec3& centre, c
   }
 }
 
+void FlightBound::reset(const PlacedBlock& at, const Vec3& velocity, const Vec3& spin, double gravity, bool damped,
+                        double round_off) {
+  vertices_ = nullptr;
+  placed_ = &at;
+  centre_ = at.pose().centre;
+  velocity_ = velocity;
+  gravity_ = gravity;
+  damped_ = damped;
+  // The support's own round-off comes on top of the caller's.
+  round_off_ = round_off + 4.0 * at.round_off();
+  spin_ = spin.norm();
+  radius_ = at.model().radius * (1.0 + 1e-12);
+}
+
+namespace {
+
+// The earliest time (s, at most `limit`) at which a point `height` (m) above a plane may
+// reach it when it approaches at `rate` (m/s) with the approach accelerating at `a`
+// (m/s²) at most: the smaller positive root of ½a·t² + rate·t = height, in its stable
+// form, or `limit` when there is none before it.
+double reach_time(double height, double rate, double a, double limit) {
+  // It cannot come that close before `limit`: no root to find.
+  if (height > (std::max(0.0, rate) + 0.5 * std::max(0.0, a) * limit) * limit) return limit;
+  // None when the approach turns back before reaching it.
+  const double disc = rate * rate + 2.0 * a * height;
+  if (disc < 0.0) return limit;
+  const double den = rate + std::sqrt(disc);
+  return den > 0.0 ? std::min(limit, 2.0 * height / den) : limit;
+}
+
+}  // namespace
+
 double FlightBound::plane_time(const Vec3& n, double offset, double limit) const {
-  const std::vector<Vec3>& vertices = *vertices_;
   const double translation = damped_ ? std::max(0.0, -n.dot(velocity_)) : 0.0;
   const double fall = gravity_ * (damped_ ? std::max(0.0, n.z()) : n.z());
+  if (placed_ != nullptr) {
+    const double height = n.dot(centre_) - placed_->support(-n) - offset - round_off_;
+    if (!(height > 0.0)) return 0.0;
+    const double rate = (damped_ ? translation : -n.dot(velocity_)) + spin_ * radius_;
+    return reach_time(height, rate, fall + spin_ * spin_ * radius_, limit);
+  }
+  const std::vector<Vec3>& vertices = *vertices_;
   double earliest = limit;
   for (std::size_t i = 0; i < vertices.size(); ++i) {
     const double height = n.dot(vertices[i]) - offset - round_off_;
     if (!(height > 0.0)) return 0.0;
     const double rate = damped_ ? translation + std::max(0.0, -n.dot(rates_[i])) : -n.dot(rates_[i]);
-    const double a = fall + curvature_[i];
-    // It cannot come that close before `earliest`: no root to find.
-    if (height > (std::max(0.0, rate) + 0.5 * std::max(0.0, a) * earliest) * earliest) continue;
-    // The smaller positive root of ½a·t² + rate·t = height, in its stable form; none
-    // when the approach turns back before reaching it.
-    const double disc = rate * rate + 2.0 * a * height;
-    if (disc < 0.0) continue;
-    const double den = rate + std::sqrt(disc);
-    if (den > 0.0) earliest = std::min(earliest, 2.0 * height / den);
+    earliest = reach_time(height, rate, fall + curvature_[i], earliest);
   }
   return earliest;
 }
@@ -848,7 +920,9 @@ double FlightBound::triangle_time(const Vec3& normal, const std::array<Vec3, 3>&
   const double below = plane_time(normal, normal.dot(corners[0]), limit);
   if (below >= limit) return limit;
   Vec3 u = Vec3::Zero();
-  if (!(separation(*vertices_, centre_, corners, &u) > 0.0)) return below;
+  const double apart =
+      placed_ != nullptr ? separation(*placed_, corners, &u) : separation(*vertices_, centre_, corners, &u);
+  if (!(apart > 0.0)) return below;
   const double from = std::min({u.dot(corners[0]), u.dot(corners[1]), u.dot(corners[2])});
   return std::max(below, plane_time(-u, -from, limit));
 }

@@ -49,6 +49,10 @@ class PlacedBlock {
   /// Bound of the factor by which F⁻¹ lengthens a world distance in the body frame (1 for
   /// a rigid pose).
   double inverse_stretch() const { return inverse_stretch_; }
+  /// The block's extent along the world direction u from its centre, max u·(xᵢ − centre)
+  /// over the world vertices xᵢ (m for a unit u): a scan, or branch and bound over the
+  /// vertex tree of a detailed block, with the same vertices' numbers either way.
+  double support(const Vec3& u) const;
 
  private:
   const Model* model_;
@@ -60,6 +64,13 @@ class PlacedBlock {
   double inverse_stretch_ = 1.0;
   geometry::Aabb box_;
 };
+
+/// How many times its displacement at the step-start motion a contact step allows a
+/// candidate's gap before it sets the candidate aside (engine.cpp, contact_step; the
+/// smallest gap set aside). A setting of the tests only, per thread: ∞ keeps every
+/// candidate in the solve (the reference path), a tiny value sets almost all aside and
+/// makes the step widen again and again.
+inline thread_local double set_aside_scale = 2.0;
 
 /// Finds every block–terrain contact candidate within `search_distance` (m) of the block
 /// `at`: block vertex – terrain triangle, terrain vertex – block face, block edge – terrain
@@ -84,6 +95,8 @@ void detect_contacts_brute_force(const Model& model, const terrain::Surface& sur
 /// none).
 double separation(const std::vector<Vec3>& block, const Vec3& centre, const std::array<Vec3, 3>& corners,
                   Vec3* direction = nullptr);
+/// The same for the block `at` (its extent by PlacedBlock::support).
+double separation(const PlacedBlock& at, const std::array<Vec3, 3>& corners, Vec3* direction = nullptr);
 
 /// The free flight of a rigid block as the flight test bounds it (docs/dda.md, The step).
 /// The block is the convex hull of its world vertices, and a rigid motion is affine, so
@@ -102,6 +115,13 @@ class FlightBound {
   /// every height.
   void reset(const std::vector<Vec3>& vertices, const Vec3& centre, const Vec3& velocity, const Vec3& spin,
              double gravity, bool damped, double round_off);
+  /// The bound of a detailed block (`at` has an index; it must outlive the bound's use):
+  /// the least height over a plane is the block's support (PlacedBlock::support) and every
+  /// vertex is taken at the block's radius R, i.e. an approach of at most −n·v + |ω|·R
+  /// and a curvature of at most g·n_z + |ω|²·R -- the bound above at its largest over the
+  /// vertices, found without visiting them.
+  void reset(const PlacedBlock& at, const Vec3& velocity, const Vec3& spin, double gravity, bool damped,
+             double round_off);
   /// The earliest time (s) at which a vertex may reach the plane {x : n·x = offset}
   /// from the side n points to, or `limit` if none can before it; 0 when a vertex is not
   /// on that side.
@@ -114,6 +134,8 @@ class FlightBound {
 
  private:
   const std::vector<Vec3>* vertices_ = nullptr;
+  const PlacedBlock* placed_ = nullptr;  // a detailed block's (then vertices_ is null)
+  double spin_ = 0.0, radius_ = 0.0;     // |ω| (rad/s) and R (m) of a detailed block
   Vec3 centre_ = Vec3::Zero(), velocity_ = Vec3::Zero();
   double gravity_ = 0.0, round_off_ = 0.0;
   bool damped_ = false;

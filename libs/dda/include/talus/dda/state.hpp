@@ -88,6 +88,10 @@ struct Counters {
   std::uint64_t energy_cuts = 0;      ///< steps redone with a smaller Δt because they gained energy
   std::uint64_t open_close_iterations = 0;
   std::uint64_t contacts = 0;         ///< contact candidates found, summed over steps
+  /// Of those, the candidates set aside as out of the step's reach (not in the solve).
+  std::uint64_t set_aside_contacts = 0;
+  /// Steps solved again because their solution would have closed a candidate set aside.
+  std::uint64_t widened_steps = 0;
   std::uint64_t offset_contacts = 0;  ///< contacts first found already penetrated
   std::uint64_t impacts_rescaled = 0; ///< rebounds the restitution law reduced
   std::uint64_t held_contacts = 0;    ///< contacts held in a state to end an open–close cycle

@@ -149,6 +149,7 @@ void BM_ContactStepDetailed(benchmark::State& bm) {
   bm.counters["contact_step_us"] = 1e6 *
       (a.detect - b.detect + a.assemble - b.assemble + a.open_close - b.open_close + a.solve - b.solve + a.update - b.update) /
       contact_steps;
+  bm.counters["flight_step_us"] = 1e6 * (a.flight - b.flight) / (500.0 - contact_steps);
   bm.counters["widened"] = static_cast<double>(s.counters.widened_steps - checkpoint.counters.widened_steps) / contact_steps;
 }
 BENCHMARK(BM_ContactStepDetailed)->Arg(1)->Arg(5)->Arg(8)->Arg(16)->Arg(32);

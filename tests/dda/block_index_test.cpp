@@ -122,6 +122,8 @@ Tally compare(const Model& m, const terrain::Surface& surface, double x0, double
       const Vec3 u = Vec3(rng.normal(1000 * k + 3 * j), rng.normal(1000 * k + 3 * j + 1), rng.normal(1000 * k + 3 * j + 2))
                          .normalized();
       EXPECT_EQ(indexed.support(u), scanned.support(u)) << "pose " << k;
+      EXPECT_GE(indexed.support_bound(u), indexed.support(u)) << "pose " << k;
+      EXPECT_LT(indexed.support_bound(u), indexed.support(u) + 2.0 * m.radius) << "pose " << k;
     }
     // A search distance of a few centimetres and depth limits that reach the fallback of
     // terrain vertices deep inside the block.

@@ -10,6 +10,7 @@ BlockIndex make_block_index(const Model& model, double plane_tolerance) {
   for (std::size_t i = 0; i < model.vertices.size(); ++i) {
     geometry::Aabb b;
     b.add(model.vertices[i]);
+    index.body_box.add(model.vertices[i]);
     boxes.push_back(b);
     ids.push_back(static_cast<std::int32_t>(i));
   }

@@ -55,6 +55,8 @@ class FeatureTree {
 
 /// The block's box trees (body frame): its vertices, its convex edges and its faces.
 struct BlockIndex {
+  /// The box of the block's body-frame vertices (m).
+  geometry::Aabb body_box;
   FeatureTree vertices;
   FeatureTree convex_edges;
   /// Each face's box holds its polygon and everything within the face's out-of-plane

@@ -717,6 +717,14 @@ double PlacedBlock::support(const Vec3& u) const {
       [&](std::int32_t i) { return u.dot(world_point(*pose_, model_->vertices[static_cast<std::size_t>(i)]) - centre); });
 }
 
+double PlacedBlock::support_bound(const Vec3& u) const {
+  if (index_ == nullptr) return support(u);
+  const Vec3 m = pose_->map.transpose() * u;
+  const geometry::Aabb& b = index_->body_box;
+  return m.dot(b.center()) + m.cwiseAbs().dot(0.5 * b.extent()) + 2.0 * round_off_ * u.cwiseAbs().sum() +
+         1e-12 * model_->radius;
+}
+
 geometry::Aabb PlacedBlock::body_box(const geometry::Aabb& world) const {
   const Vec3 c = pose_->inverse_map * (world.center() - pose_->centre);
   const Vec3 h = abs_inverse_ * (0.5 * world.extent());
@@ -900,10 +908,15 @@ double FlightBound::plane_time(const Vec3& n, double offset, double limit) const
   const double translation = damped_ ? std::max(0.0, -n.dot(velocity_)) : 0.0;
   const double fall = gravity_ * (damped_ ? std::max(0.0, n.z()) : n.z());
   if (placed_ != nullptr) {
+    const double rate = (damped_ ? translation : -n.dot(velocity_)) + spin_ * radius_;
+    const double a = fall + spin_ * spin_ * radius_;
+    // The block's box first (a lower height, in constant time): a plane it keeps clear
+    // of for the whole limit needs no search of the vertex tree.
+    const double box_height = n.dot(centre_) - placed_->support_bound(-n) - offset - round_off_;
+    if (box_height > 0.0 && reach_time(box_height, rate, a, limit) >= limit) return limit;
     const double height = n.dot(centre_) - placed_->support(-n) - offset - round_off_;
     if (!(height > 0.0)) return 0.0;
-    const double rate = (damped_ ? translation : -n.dot(velocity_)) + spin_ * radius_;
-    return reach_time(height, rate, fall + spin_ * spin_ * radius_, limit);
+    return reach_time(height, rate, a, limit);
   }
   const std::vector<Vec3>& vertices = *vertices_;
   double earliest = limit;

@@ -53,6 +53,9 @@ class PlacedBlock {
   /// over the world vertices xᵢ (m for a unit u): a scan, or branch and bound over the
   /// vertex tree of a detailed block, with the same vertices' numbers either way.
   double support(const Vec3& u) const;
+  /// An upper bound of support(u) in constant time for a detailed block (that of its
+  /// body-frame vertex box, round-off included); support(u) for a scanned one.
+  double support_bound(const Vec3& u) const;
 
  private:
   const Model* model_;

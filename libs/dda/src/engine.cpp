@@ -385,7 +385,8 @@ double clear_horizon(const Model& model, const Ground& ground, State& s, double 
 
 // How long (s, at most h) the rigid block in free flight provably stays clear of the
 // terrain: a conservative advancement (FlightBound) over the triangles that the swept
-// bounding sphere of the horizon h can meet. `at`: the block at its pose (a detailed
+// bounding sphere of the horizon h can meet; some time below a step once one triangle
+// allows less. `at`: the block at its pose (a detailed
 // block is bounded through its vertex tree, FlightBound's second form).
 double clear_time(const Model& model, const Ground& ground, State& s, double h, const PlacedBlock& at) {
   const geometry::Aabb box = swept_sphere_box(model, s, h).inflated(model.max_step_displacement());
@@ -398,10 +399,13 @@ double clear_time(const Model& model, const Ground& ground, State& s, double h, 
   else
     bound.reset(at, s.velocity.head<3>(), s.velocity.segment<3>(3), model.settings.gravity, damped, round_off);
   double clear = h;
+  // Less than one step is no flight: the search decides (flight_step), so the triangles
+  // left need no bound.
+  const double enough = s.dt;
   for_each_triangle_near(model, ground, s, box, [&](const Vec3& normal, const std::array<Vec3, 3>& corners,
                                                     const geometry::Aabb&) {
     clear = std::min(clear, bound.triangle_time(normal, corners, clear));
-    return clear > 0.0;
+    return clear >= enough;
   });
   return clear;
 }

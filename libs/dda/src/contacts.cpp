@@ -929,6 +929,17 @@ double FlightBound::plane_time(const Vec3& n, double offset, double limit) const
   return earliest;
 }
 
+double FlightBound::quick_triangle_time(const Vec3& normal, const std::array<Vec3, 3>& corners, double limit) const {
+  if (placed_ == nullptr) return triangle_time(normal, corners, limit);
+  const double translation = damped_ ? std::max(0.0, -normal.dot(velocity_)) : 0.0;
+  const double fall = gravity_ * (damped_ ? std::max(0.0, normal.z()) : normal.z());
+  const double rate = (damped_ ? translation : -normal.dot(velocity_)) + spin_ * radius_;
+  const double height =
+      normal.dot(centre_) - placed_->support_bound(-normal) - normal.dot(corners[0]) - round_off_;
+  if (!(height > 0.0)) return 0.0;
+  return reach_time(height, rate, fall + spin_ * spin_ * radius_, limit);
+}
+
 double FlightBound::triangle_time(const Vec3& normal, const std::array<Vec3, 3>& corners, double limit) const {
   const double below = plane_time(normal, normal.dot(corners[0]), limit);
   if (below >= limit) return limit;

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
 #pragma once
+#include <array>
 #include <vector>
 
 #include "block_index.hpp"
@@ -134,6 +135,10 @@ class FlightBound {
   /// that, short of the triangle's extent along the direction from the centroid to the
   /// triangle's nearest point (separation).
   double triangle_time(const Vec3& normal, const std::array<Vec3, 3>& corners, double limit) const;
+  /// A lower bound of triangle_time in constant time, for a detailed block (its box's
+  /// height above the triangle's plane instead of its support); triangle_time itself
+  /// for a scanned one.
+  double quick_triangle_time(const Vec3& normal, const std::array<Vec3, 3>& corners, double limit) const;
 
  private:
   const std::vector<Vec3>* vertices_ = nullptr;

@@ -402,11 +402,39 @@ double clear_time(const Model& model, const Ground& ground, State& s, double h, 
   // Less than one step is no flight: the search decides (flight_step), so the triangles
   // left need no bound.
   const double enough = s.dt;
+  if (at.index() == nullptr) {
+    for_each_triangle_near(model, ground, s, box, [&](const Vec3& normal, const std::array<Vec3, 3>& corners,
+                                                      const geometry::Aabb&) {
+      clear = std::min(clear, bound.triangle_time(normal, corners, clear));
+      return clear >= enough;
+    });
+    return clear;
+  }
+  // A detailed block's bound searches its vertex tree per triangle. The triangles are
+  // taken in the order of a bound of their time in constant time (from the block's box),
+  // the least first, and those whose quick bound already reaches the time found are not
+  // searched at all: the time is the same minimum, and near the ground the triangle that
+  // ends the flight is usually the first searched.
+  struct Near {
+    double quick;
+    std::size_t order;
+    Vec3 normal;
+    std::array<Vec3, 3> corners;
+  };
+  thread_local std::vector<Near> near;
+  near.clear();
   for_each_triangle_near(model, ground, s, box, [&](const Vec3& normal, const std::array<Vec3, 3>& corners,
                                                     const geometry::Aabb&) {
-    clear = std::min(clear, bound.triangle_time(normal, corners, clear));
-    return clear >= enough;
+    const double quick = bound.quick_triangle_time(normal, corners, h);
+    if (quick < h) near.push_back({quick, near.size(), normal, corners});
+    return true;
   });
+  std::sort(near.begin(), near.end(),
+            [](const Near& a, const Near& b) { return a.quick < b.quick || (a.quick == b.quick && a.order < b.order); });
+  for (const Near& t : near) {
+    if (t.quick >= clear || clear < enough) break;
+    clear = std::min(clear, bound.triangle_time(t.normal, t.corners, clear));
+  }
   return clear;
 }
 

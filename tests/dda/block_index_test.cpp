@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <vector>
 
 #include "block_index.hpp"
@@ -189,6 +190,52 @@ TEST(DdaBlockIndex, SearchesAsTheScanOnAGrid) {
   EXPECT_GT(all.face_vertex, 20u);
   EXPECT_GT(all.edge_edge, 10000u);
   EXPECT_GT(all.deep, 20u);
+}
+
+// A box reused from an earlier pose (State::scratch_box) holds the exact box of the pose
+// it is reused at, and the search with it finds the same contacts, in the same order, as
+// with the exact box: 40 paths of 30 small steps (up to 2 mm and 0.2° each, some with
+// strain) of every detailed block on the rough grid, each path with its own patches.
+TEST(DdaBlockIndex, ReusedBoxFindsWhatTheExactBoxFinds) {
+  const terrain::Terrain t = rough_grid();
+  const terrain::Surface surface = terrain::Surface::realize(t, 2);
+  std::size_t reused = 0, fresh = 0, contacts = 0;
+  std::uint64_t seed = 40;
+  for (const geometry::Polyhedron& poly : detailed_blocks()) {
+    const Model m = Model::build(Settings{}, poly);
+    for (std::uint64_t path = 0; path < 40; ++path, ++seed) {
+      const core::RandomStream rng(seed, core::Stream::release, 0);
+      detail::Pose pose = random_pose(surface, m.radius, path % 4 == 3, rng, 0, 5.0 + 1.3 * static_cast<double>(path), 12.0);
+      BlockBox kept;
+      TerrainPatch patch_reused, patch_exact;
+      std::vector<Vec3> storage_reused, storage_exact;
+      for (std::uint64_t k = 1; k <= 30; ++k) {
+        const Vec3 axis = Vec3(rng.normal(8 * k), rng.normal(8 * k + 1), rng.normal(8 * k + 2)).normalized();
+        const Mat3 turn = Eigen::AngleAxisd(0.0035 * rng.uniform(8 * k + 3), axis).toRotationMatrix();
+        pose.centre += 0.002 * Vec3(rng.uniform(8 * k + 4) - 0.5, rng.uniform(8 * k + 5) - 0.5, rng.uniform(8 * k + 6) - 0.5);
+        pose.rotation = turn * pose.rotation;
+        pose.map = turn * pose.map;
+        pose.inverse_map = pose.map.inverse();
+        const BlockBox before = kept;
+        const detail::PlacedBlock with_reuse(m, pose, storage_reused, false, &kept);
+        const detail::PlacedBlock exact(m, pose, storage_exact);
+        const bool was_reused = before.model == &m && kept.centre == before.centre;
+        (was_reused ? reused : fresh) += 1;
+        EXPECT_TRUE(with_reuse.box().contains(exact.box().lo) && with_reuse.box().contains(exact.box().hi))
+            << "path " << path << " step " << k;
+        const double ds = 0.01 + 0.03 * rng.uniform(8 * k + 7);
+        std::vector<Contact> a, b;
+        detail::detect_contacts(with_reuse, surface, ds, 0.1, patch_reused, a);
+        detail::detect_contacts(exact, surface, ds, 0.1, patch_exact, b);
+        expect_same(a, b, 1000 * path + k);
+        contacts += a.size();
+      }
+    }
+  }
+  // Measured: 3 399 boxes reused, 201 computed; 513 031 contacts.
+  std::printf("boxes reused %zu, computed %zu; %zu contacts\n", reused, fresh, contacts);
+  EXPECT_GT(reused, 2 * fresh);
+  EXPECT_GT(contacts, 10000u);
 }
 
 TEST(DdaBlockIndex, SearchesAsTheScanOnATin) {

@@ -156,6 +156,9 @@ constexpr double kSlack = 1e-6;    // of the search margin
 // How much wider than a step's search (m, times the block's radius) a scanned block's
 // candidate pairs are gathered: they serve the steps until the block has moved by that.
 constexpr double kCandidateWidening = 0.05;
+// How far (m, times the block's radius) a detailed block may move before its box is
+// computed afresh rather than widened from the last one (PlacedBlock).
+constexpr double kBoxReuse = 0.02;
 
 double magnitude(const geometry::Aabb& b) { return std::max(b.lo.cwiseAbs().maxCoeff(), b.hi.cwiseAbs().maxCoeff()); }
 
@@ -464,9 +467,11 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
   // Block vertex – terrain triangle. The vertex contacts found so far of each vertex, as
   // chains: latest[vertex] and then earlier[contact] (numbered from `first`), −1 ending
   // them; a vertex over a shared edge of two coplanar triangles is one contact, not two.
+  // Between searches every entry of `latest` is −1 (those set are reset below), so it
+  // costs what the contacts found cost, not what the block has.
   const std::size_t first = out.size();
   thread_local std::vector<std::int32_t> latest, earlier;
-  latest.assign(model.vertices.size(), -1);
+  if (latest.size() < model.vertices.size()) latest.resize(model.vertices.size(), -1);
   earlier.clear();
   thread_local std::vector<std::int32_t> candidates;
   for (const TerrainPatch::Triangle& tri : patch.triangles) {
@@ -490,6 +495,7 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
       out.push_back(vertex_contact(tri, vi, p, gap));
     }
   }
+  for (std::size_t k = first; k < out.size(); ++k) latest[static_cast<std::size_t>(out[k].block_feature)] = -1;
 
   // Terrain vertex – block face, against the faces whose polygon is near it.
   const double face_tol = kSlack * margin + 1e-6 * model.radius;
@@ -653,7 +659,8 @@ void detect_scanned(const PlacedBlock& at, const TerrainPatch& patch, double ds,
 
 }  // namespace
 
-PlacedBlock::PlacedBlock(const Model& model, const Pose& pose, std::vector<Vec3>& storage, bool scan)
+PlacedBlock::PlacedBlock(const Model& model, const Pose& pose, std::vector<Vec3>& storage, bool scan,
+                         BlockBox* reuse)
     : model_(&model), pose_(&pose), world_(&storage) {
   if (model.index == nullptr || scan) {
     storage.resize(model.vertices.size());
@@ -678,6 +685,16 @@ PlacedBlock::PlacedBlock(const Model& model, const Pose& pose, std::vector<Vec3>
   Eigen::SelfAdjointEigenSolver<Mat3> eigen;
   eigen.computeDirect(pose.inverse_map.transpose() * pose.inverse_map, Eigen::EigenvaluesOnly);
   inverse_stretch_ = std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff())) * (1.0 + 1e-6);
+  if (reuse != nullptr && reuse->model == &model) {
+    // A vertex has moved by at most |Δcentre| + ‖ΔF‖·|r| since (the Frobenius norm bounds
+    // the spectral one), plus the round-off of its two world positions.
+    const double moved = (pose.centre - reuse->centre).norm() + (pose.map - reuse->map).norm() * model.radius;
+    const double slack = 2.0 * round_off_ + 1e-9 * (pose.centre.cwiseAbs().maxCoeff() + model.radius);
+    if (moved <= kBoxReuse * model.radius) {
+      box_ = reuse->box.inflated(moved + slack);
+      return;
+    }
+  }
   // The box's faces are the extreme vertices along each axis, found by branch and bound
   // over the vertex tree; the values are the vertices' own world coordinates.
   for (int k = 0; k < 3; ++k) {
@@ -698,6 +715,7 @@ PlacedBlock::PlacedBlock(const Model& model, const Pose& pose, std::vector<Vec3>
         },
         [&](std::int32_t i) { return -coordinate(i); });
   }
+  if (reuse != nullptr) *reuse = BlockBox{&model, pose.centre, pose.map, box_};
 }
 
 double PlacedBlock::support(const Vec3& u) const {

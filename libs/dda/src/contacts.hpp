@@ -29,8 +29,12 @@ inline Vec3 world_point(const Pose& pose, const Vec3& r) { return pose.centre + 
 class PlacedBlock {
  public:
   /// `storage` receives the world vertices of a scanned block (reused from step to step);
-  /// `scan` scans a detailed block too (the reference path of the tests).
-  PlacedBlock(const Model& model, const Pose& pose, std::vector<Vec3>& storage, bool scan = false);
+  /// `scan` scans a detailed block too (the reference path of the tests). `reuse`, for a
+  /// detailed block: the box at an earlier pose (State::scratch_box), taken widened by
+  /// how far a vertex can have moved since while that is less than 2 % of the block's
+  /// radius, else computed afresh and kept there.
+  PlacedBlock(const Model& model, const Pose& pose, std::vector<Vec3>& storage, bool scan = false,
+              BlockBox* reuse = nullptr);
 
   const Model& model() const { return *model_; }
   const Pose& pose() const { return *pose_; }
@@ -40,7 +44,9 @@ class PlacedBlock {
   Vec3 vertex(std::size_t i) const { return index_ ? world_point(*pose_, model_->vertices[i]) : (*world_)[i]; }
   /// All world vertices; only for a scanned block (index() null).
   const std::vector<Vec3>& vertices() const { return *world_; }
-  /// The box of the world vertices (exactly theirs, m).
+  /// The box of the world vertices (m): exactly theirs, or, reused from an earlier pose,
+  /// a box that holds them. Every use of it only prunes what the exact tests then decide
+  /// (a wider box finds the same contacts, in the same order).
   const geometry::Aabb& box() const { return box_; }
   /// A body-frame box holding every body point whose world image (as world_point
   /// computes it) lies in the world box `world`.

@@ -551,7 +551,7 @@ double flight_step(const Model& model, const Ground& ground, State& s) {
     std::optional<PlacedBlock> at;
     if (horizon == 0.0 && (model.index == nullptr || model.dof == DofPath::rigid6)) {
       pose = pose_of(model, s);
-      at.emplace(model, *pose, s.scratch_vertices);
+      at.emplace(model, *pose, s.scratch_vertices, false, &s.scratch_box);
       if (model.dof == DofPath::rigid6) {
         const double clear = clear_time(model, ground, s, 64.0 * dt, *at);
         if (clear >= dt) horizon = clear;
@@ -570,7 +570,7 @@ double flight_step(const Model& model, const Ground& ground, State& s) {
     if (horizon == 0.0 && predicted_reach(model, s, dt) <= model.max_step_displacement()) {
       if (!at) {
         pose = pose_of(model, s);
-        at.emplace(model, *pose, s.scratch_vertices);
+        at.emplace(model, *pose, s.scratch_vertices, false, &s.scratch_box);
       }
       if (beyond_contact_reach(model, ground, s, *at, dt)) horizon = dt;
     }
@@ -696,7 +696,7 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   double dt = s.dt;
   std::vector<Contact>& contacts = s.scratch_contacts;
   const Pose pose = pose_of(model, s);
-  const PlacedBlock at(model, pose, s.scratch_vertices);
+  const PlacedBlock at(model, pose, s.scratch_vertices, false, &s.scratch_box);
   double friction = s.friction;
   VecN<N> d;
   bool impact_cut = false;

@@ -125,6 +125,15 @@ struct TrajectorySample {
   double energy = 0.0;             ///< kinetic + potential (J), potential from z = 0
 };
 
+/// A detailed block's box (the box of its world vertices) at the pose it was computed at,
+/// reused at later poses close to it (scratch: the contacts never depend on it).
+struct BlockBox {
+  const void* model = nullptr;  ///< the Model it was computed for; null: none
+  Vec3 centre = Vec3::Zero();   ///< the pose: x = centre + map·r
+  Mat3 map = Mat3::Identity();
+  geometry::Aabb box;           ///< m
+};
+
 /// The terrain features near the block, gathered once and reused by the contact search
 /// of the following steps while the block's search box stays inside `box` (scratch: the
 /// result never depends on it).
@@ -261,6 +270,7 @@ struct State {
   /// pose with the same distance reuses), or a negative value when it holds none.
   double scratch_reach = -1.0;
   std::vector<Vec3> scratch_vertices;  ///< world vertices of a scanned block (m)
+  BlockBox scratch_box;                ///< a detailed block's box at an earlier pose
 };
 
 }  // namespace talus::dda

@@ -146,10 +146,13 @@ void BM_ContactStepDetailed(benchmark::State& bm) {
                           contact_steps;
   const PhaseTimes& a = s.times;
   const PhaseTimes& b = checkpoint.times;
-  bm.counters["contact_step_us"] = 1e6 *
+  // Per step of the batch, the time of the contact steps' phases and that of the flight
+  // tests (the latter near the ground includes the contact searches that decide a flight
+  // of one step; a search a contact step then reuses is counted there).
+  bm.counters["contact_us"] = 1e6 *
       (a.detect - b.detect + a.assemble - b.assemble + a.open_close - b.open_close + a.solve - b.solve + a.update - b.update) /
-      contact_steps;
-  bm.counters["flight_step_us"] = 1e6 * (a.flight - b.flight) / (500.0 - contact_steps);
+      500.0;
+  bm.counters["flight_us"] = 1e6 * (a.flight - b.flight) / 500.0;
   bm.counters["widened"] = static_cast<double>(s.counters.widened_steps - checkpoint.counters.widened_steps) / contact_steps;
 }
 BENCHMARK(BM_ContactStepDetailed)->Arg(1)->Arg(5)->Arg(8)->Arg(16)->Arg(32);

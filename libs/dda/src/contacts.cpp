@@ -901,6 +901,7 @@ void FlightBound::reset(const PlacedBlock& at, const Vec3& velocity, const Vec3&
   // The support's own round-off comes on top of the caller's.
   round_off_ = round_off + 4.0 * at.round_off();
   spin_ = spin.norm();
+  spin_vector_ = spin;
   radius_ = at.model().radius * (1.0 + 1e-12);
 }
 
@@ -932,9 +933,43 @@ double FlightBound::plane_time(const Vec3& n, double offset, double limit) const
     // of for the whole limit needs no search of the vertex tree.
     const double box_height = n.dot(centre_) - placed_->support_bound(-n) - offset - round_off_;
     if (box_height > 0.0 && reach_time(box_height, rate, a, limit) >= limit) return limit;
-    const double height = n.dot(centre_) - placed_->support(-n) - offset - round_off_;
-    if (!(height > 0.0)) return 0.0;
-    return reach_time(height, rate, a, limit);
+    // Then each vertex's own time, as the scan below computes it, by branch and bound over
+    // the vertex tree (the largest −time): over a body box (centre c, half-sizes h) the
+    // height n·(centre + F·r) is at least its value at c less |Fᵀn|·h, the approach
+    // −n·(v + ω × F·r) = −n·v − (Fᵀ(n × ω))·r at most its value at c plus |Fᵀ(n × ω)|·h,
+    // and the curvature |ω|²·|F·r| at most |ω|²·(|c| + |h|) (F a rotation: the rigid path).
+    const Pose& pose = placed_->pose();
+    const Model& model = placed_->model();
+    const Vec3 m = pose.map.transpose() * n;
+    const Vec3 k = pose.map.transpose() * n.cross(spin_vector_);
+    const Vec3 m_abs = m.cwiseAbs(), k_abs = k.cwiseAbs();
+    const double spin2 = spin_vector_.squaredNorm();
+    const double base = n.dot(centre_) - offset - round_off_;
+    // The round-off of a vertex's computed height and approach against these bounds.
+    const double slack_height = 4.0 * placed_->round_off() + 1e-12 * (std::abs(base) + model.radius);
+    const double slack_rate = 1e-12 * (velocity_.norm() + spin_ * model.radius);
+    const double earliest = placed_->index()->vertices.maximum(
+        [&](const geometry::Aabb& b) {
+          const Vec3 c = b.center();
+          const Vec3 h = 0.5 * b.extent();
+          const double height = base + m.dot(c) - m_abs.dot(h) - slack_height;
+          if (!(height > 0.0)) return 0.0;
+          const double spin_part = -k.dot(c) + k_abs.dot(h) + slack_rate;
+          const double approach = damped_ ? translation + std::max(0.0, spin_part) : -n.dot(velocity_) + spin_part;
+          const double curvature = fall + spin2 * (c.norm() + h.norm()) * (1.0 + 1e-12);
+          return -reach_time(height, approach, curvature, limit);
+        },
+        [&](std::int32_t i) {
+          const Vec3 x = world_point(pose, model.vertices[static_cast<std::size_t>(i)]);
+          const double height = n.dot(x) - offset - round_off_;
+          if (!(height > 0.0)) return 0.0;
+          const Vec3 r = x - centre_;
+          const Vec3 w = damped_ ? Vec3(spin_vector_.cross(r)) : Vec3(velocity_ + spin_vector_.cross(r));
+          const double rate_i = damped_ ? translation + std::max(0.0, -n.dot(w)) : -n.dot(w);
+          return -reach_time(height, rate_i, fall + spin2 * r.norm(), limit);
+        },
+        -limit);
+    return -earliest;
   }
   const std::vector<Vec3>& vertices = *vertices_;
   double earliest = limit;

@@ -150,6 +150,7 @@ class FlightBound {
   const std::vector<Vec3>* vertices_ = nullptr;
   const PlacedBlock* placed_ = nullptr;  // a detailed block's (then vertices_ is null)
   double spin_ = 0.0, radius_ = 0.0;     // |ω| (rad/s) and R (m) of a detailed block
+  Vec3 spin_vector_ = Vec3::Zero();      // ω (rad/s) of a detailed block
   Vec3 centre_ = Vec3::Zero(), velocity_ = Vec3::Zero();
   double gravity_ = 0.0, round_off_ = 0.0;
   bool damped_ = false;

@@ -165,6 +165,23 @@ Flown fly(std::vector<Vec3> block, Vec3 centre, Vec3 v, Vec3 w, double damping, 
   return out;
 }
 
+// Flies `block` (damped: stepped at 1 ms with the velocity scaled by 0.9 each step;
+// undamped flight is the same motion at any step: sampled at 0.1 ms) and checks that no
+// vertex reaches the plane before the time `clear` a bound gave; counts the flights that
+// touch within a second and those the bound clears for a third of their time or more.
+struct Tightness {
+  int touching = 0, tight = 0;
+  void check(const std::vector<Vec3>& block, const Vec3& centre, const Vec3& v, const Vec3& w, bool damped,
+             const Vec3& n, double offset, double clear, std::uint64_t i) {
+    const Flown flown = fly(block, centre, v, w, damped ? 0.9 : 1.0, n, offset, clear, damped ? 1e-3 : 1e-4);
+    EXPECT_GE(flown.lowest, -1e-12) << "case " << i;
+    if (!std::isfinite(flown.touch)) return;
+    ++touching;
+    EXPECT_LE(clear, flown.touch) << "case " << i;
+    if (clear >= flown.touch / 3.0) ++tight;
+  }
+};
+
 // No vertex of a tumbling cube reaches a plane before the time the bound gives, whatever
 // the plane's tilt (overhangs included), the speed (to 15 m/s) and the spin (to 15 rad/s),
 // undamped and damped (stepped at 1 ms as the engine steps, velocity scaled by 0.9 each
@@ -172,7 +189,7 @@ Flown fly(std::vector<Vec3> block, Vec3 centre, Vec3 v, Vec3 w, double damping, 
 // within a second, it gives at least a third of the time they take.
 TEST(DdaFlight, ClearTimeNeverPassesTheFirstTouch) {
   const core::RandomStream rng(7, core::Stream::release, 4);
-  int touching = 0, tight = 0;
+  Tightness tally;
   for (std::uint64_t i = 0; i < 400; ++i) {
     const auto u = [&](std::uint64_t k) { return rng.uniform(20 * i + k); };
     const Cube cube = random_cube(u);
@@ -188,16 +205,10 @@ TEST(DdaFlight, ClearTimeNeverPassesTheFirstTouch) {
     bound.reset(block, cube.centre, v, w, 9.81, damped, 1e-9);
     const double clear = bound.plane_time(n, offset, 1.0);
     ASSERT_GT(clear, 0.0) << "case " << i;
-    // Undamped flight is the same motion at any step: sampled at 0.1 ms.
-    const Flown flown = fly(block, cube.centre, v, w, damped ? 0.9 : 1.0, n, offset, clear, damped ? 1e-3 : 1e-4);
-    EXPECT_GE(flown.lowest, -1e-12) << "case " << i;
-    if (!std::isfinite(flown.touch)) continue;
-    ++touching;
-    EXPECT_LE(clear, flown.touch) << "case " << i;
-    if (clear >= flown.touch / 3.0) ++tight;
+    tally.check(block, cube.centre, v, w, damped, n, offset, clear, i);
   }
-  EXPECT_GT(touching, 150);
-  EXPECT_GT(tight, touching * 3 / 5);
+  EXPECT_GT(tally.touching, 150);
+  EXPECT_GT(tally.tight, tally.touching * 3 / 5);
 }
 
 // The bound of a detailed block (FlightBound's second form: each vertex's time by branch
@@ -213,7 +224,8 @@ TEST(DdaFlight, DetailedBlockClearTimeNeverPassesTheFirstTouch) {
   const Model m = Model::build(Settings{}, block::make_solid(spec, "test"));
   ASSERT_NE(m.index, nullptr);
   const core::RandomStream rng(8, core::Stream::release, 4);
-  int touching = 0, tight = 0, compared = 0, close = 0;
+  Tightness tally;
+  int compared = 0, close = 0;
   for (std::uint64_t i = 0; i < 300; ++i) {
     const auto u = [&](std::uint64_t k) { return rng.uniform(20 * i + k); };
     detail::Pose pose;
@@ -241,20 +253,15 @@ TEST(DdaFlight, DetailedBlockClearTimeNeverPassesTheFirstTouch) {
     EXPECT_LE(clear, clear_scanned) << "case " << i;
     ++compared;
     if (clear >= clear_scanned * (1.0 - 1e-6)) ++close;
-    const Flown flown = fly(block, pose.centre, v, w, damped ? 0.9 : 1.0, n, offset, clear, damped ? 1e-3 : 1e-4);
-    EXPECT_GE(flown.lowest, -1e-12) << "case " << i;
-    if (!std::isfinite(flown.touch)) continue;
-    ++touching;
-    EXPECT_LE(clear, flown.touch) << "case " << i;
-    if (clear >= flown.touch / 3.0) ++tight;
+    tally.check(block, pose.centre, v, w, damped, n, offset, clear, i);
   }
   // Measured: 103 of 136 touching flights cleared for a third of their time or more, and
   // every time within 1e-6 of the scan's.
-  EXPECT_GT(touching, 100);
-  EXPECT_GT(tight, touching * 7 / 10);
+  EXPECT_GT(tally.touching, 100);
+  EXPECT_GT(tally.tight, tally.touching * 7 / 10);
   EXPECT_EQ(close, compared);
   std::printf("detailed flight bound: %d of %d touching flights cleared for a third of their time or more; "
-              "%d of %d within 1e-6 of the scanned bound\n", tight, touching, close, compared);
+              "%d of %d within 1e-6 of the scanned bound\n", tally.tight, tally.touching, close, compared);
 }
 
 // A triangle beside the block, whose plane passes through it, is cleared along the

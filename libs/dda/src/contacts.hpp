@@ -126,10 +126,12 @@ class FlightBound {
   void reset(const std::vector<Vec3>& vertices, const Vec3& centre, const Vec3& velocity, const Vec3& spin,
              double gravity, bool damped, double round_off);
   /// The bound of a detailed block (`at` has an index; it must outlive the bound's use):
-  /// the least height over a plane is the block's support (PlacedBlock::support) and every
-  /// vertex is taken at the block's radius R, i.e. an approach of at most −n·v + |ω|·R
-  /// and a curvature of at most g·n_z + |ω|²·R -- the bound above at its largest over the
-  /// vertices, found without visiting them.
+  /// the same times, each vertex's, found by branch and bound over the vertex tree (a
+  /// body box bounds its vertices' heights, approaches and curvatures), after a check in
+  /// constant time with the block's box and every vertex taken at the block's radius R
+  /// (an approach of at most −n·v + |ω|·R, a curvature of at most g·n_z + |ω|²·R). The
+  /// separation direction's extent is PlacedBlock::support. Its round-off allowance is
+  /// a little wider than the scan's.
   void reset(const PlacedBlock& at, const Vec3& velocity, const Vec3& spin, double gravity, bool damped,
              double round_off);
   /// The earliest time (s) at which a vertex may reach the plane {x : n·x = offset}

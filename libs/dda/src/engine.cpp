@@ -386,8 +386,8 @@ double clear_horizon(const Model& model, const Ground& ground, State& s, double 
 // How long (s, at most h) the rigid block in free flight provably stays clear of the
 // terrain: a conservative advancement (FlightBound) over the triangles that the swept
 // bounding sphere of the horizon h can meet; some time below a step once one triangle
-// allows less. `at`: the block at its pose (a detailed
-// block is bounded through its vertex tree, FlightBound's second form).
+// allows less. `at`: the block at its pose (a detailed block is bounded through its
+// vertex tree, FlightBound's second form).
 double clear_time(const Model& model, const Ground& ground, State& s, double h, const PlacedBlock& at) {
   const geometry::Aabb box = swept_sphere_box(model, s, h).inflated(model.max_step_displacement());
   thread_local FlightBound bound;

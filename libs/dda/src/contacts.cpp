@@ -156,6 +156,8 @@ constexpr double kSlack = 1e-6;    // of the search margin
 // How much wider than a step's search (m, times the block's radius) a scanned block's
 // candidate pairs are gathered: they serve the steps until the block has moved by that.
 constexpr double kCandidateWidening = 0.05;
+// The same for a detailed block, whose pairs are many more per unit of widening.
+constexpr double kIndexedWidening = 0.02;
 // How far (m, times the block's radius) a detailed block may move before its box is
 // computed afresh rather than widened from the last one (PlacedBlock).
 constexpr double kBoxReuse = 0.02;
@@ -178,10 +180,11 @@ struct BodyPlane {
 // The vertices of a detailed block that can pass the vertex–triangle tests of detect_in
 // with `tri`: in tbox, under the ceiling, in the slab of the triangle's plane from −depth
 // to ds, and inside the triangle's normal prism or (ground that faces up) its vertical
-// prism. Tested on the body-frame boxes of the vertex tree, where a world plane's signed
-// value is linear in r. Appends to `out` in tree order.
+// prism, the prisms widened by `motion` (m). Tested on the body-frame boxes of the vertex
+// tree, where a world plane's signed value is linear in r. Replaces `out`, in tree order.
 [[gnu::noinline]] void vertices_near(const PlacedBlock& at, const TerrainPatch::Triangle& tri, const geometry::Aabb& tbox,
-                                     double ceiling, double ds, double depth, std::vector<std::int32_t>& out) {
+                                     double ceiling, double ds, double depth, double motion,
+                                     std::vector<std::int32_t>& out) {
   const Pose& pose = at.pose();
   const double tol = at.round_off() + kRound * magnitude(tbox);
   const geometry::Aabb body = at.body_box(tbox);
@@ -191,8 +194,9 @@ struct BodyPlane {
   for (int k = 0; k < 3; ++k) {
     const Vec3& a = tri.p[k];
     const Vec3 e = tri.p[(k + 1) % 3] - a;
-    // The world tests compute (e × (p − a))·n and the 2-D cross product in plan.
-    const double edge_tol = 4.0 * e.norm() * tol;
+    // The world tests compute (e × (p − a))·n and the 2-D cross product in plan; a point
+    // that moves by `motion` changes either by at most |e|·motion.
+    const double edge_tol = 4.0 * e.norm() * tol + e.norm() * motion;
     prism[static_cast<std::size_t>(k)] = BodyPlane(pose, tri.normal.cross(e), a, edge_tol);
     plan[static_cast<std::size_t>(k)] = BodyPlane(pose, Vec3(-e.y(), e.x(), 0.0), a, edge_tol);
   }
@@ -216,10 +220,11 @@ struct BodyPlane {
 }
 
 // The (edge, ridge in `near`) pairs of a detailed block that can pass the edge–ridge tests
-// of detect_in: the edge near the ridge's box and segment, under the ceiling. Replaces
-// `pairs`, in no particular order.
+// of detect_in: the edge near the ridge's box and segment, under the ceiling, the planes
+// of the ridge's triangles widened by `motion` (m). Replaces `pairs`, in no particular
+// order.
 [[gnu::noinline]] void edge_pairs_near(const PlacedBlock& at, const std::vector<const TerrainPatch::Ridge*>& near,
-                                       double ceiling, double ds, double margin,
+                                       double ceiling, double ds, double margin, double motion,
                                        std::vector<std::pair<std::int32_t, std::int32_t>>& pairs) {
   const Pose& pose = at.pose();
   const Model& model = at.model();
@@ -243,8 +248,10 @@ struct BodyPlane {
     const double deep = at.inverse_stretch() * (margin + 2.0 * tol);
     const int planes = te.normal_count <= 2 ? static_cast<int>(te.normal_count) : 0;
     std::array<BodyPlane, 2> sides;
-    for (int k = 0; k < planes; ++k)
-      sides[static_cast<std::size_t>(k)] = BodyPlane(pose, te.normals[static_cast<std::size_t>(k)], te.pa, 4.0 * tol);
+    for (int k = 0; k < planes; ++k) {
+      const Vec3& normal = te.normals[static_cast<std::size_t>(k)];
+      sides[static_cast<std::size_t>(k)] = BodyPlane(pose, normal, te.pa, 4.0 * tol + normal.norm() * motion);
+    }
     const BodyPlane ceiling_plane(pose, Vec3::UnitZ(), Vec3(0.0, 0.0, ceiling), tol);
     at.index()->convex_edges.query(
         [&](const geometry::Aabb& b) {
@@ -445,21 +452,77 @@ inline geometry::Aabb edge_box(const Vec3& p0, const Vec3& p1, double margin) {
   return geometry::Aabb{p0.cwiseMin(p1), p0.cwiseMax(p1)}.inflated(margin);
 }
 
-// The search of detect_contacts in `patch` for a detailed block, through its index.
-// Boxes are inflated by the larger of the search distance and the depth limit: a
-// feature may be found up to `depth` below a surface.
-void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds, double depth,
-                    std::vector<Contact>& out) {
+// The pairs a detailed block may form contacts with in `patch`, through its index, within
+// search distance ds and depth limit `depth` at this pose or any pose whose points lie
+// within `motion` (m) of theirs (ds and depth must include that motion): the triangles
+// that may meet the block's box, and for each (in patch order) the vertices that can
+// pass the vertex–triangle tests (ascending); the (convex edge, ridge) pairs that can
+// pass the edge–ridge tests, ascending. Boxes are inflated by the larger of the two
+// distances: a feature may be found up to `depth` below a surface.
+void gather_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds, double depth, double motion,
+                    TerrainPatch::Candidates& c) {
   const Model& model = at.model();
-  const Pose& pose = at.pose();
-  const BlockIndex* index = at.index();
+  c.model = &model;
+  c.centre = at.pose().centre;
+  c.map = at.pose().map;
+  c.ds = ds;
+  c.depth = depth;
+  c.motion = motion;
+  c.triangles.clear();
+  c.vertex_triangle.clear();
+  c.vertices.clear();
+  c.ridges.clear();
+  c.edge_ridge.clear();
   const double margin = std::max(ds, depth);
   const geometry::Aabb reach = at.box().inflated(margin);
   // Only block features at most `margin` above the highest terrain point under the
   // block can touch it (a bounding-box argument, valid for any surface).
   double top = -std::numeric_limits<double>::infinity();
-  for (const TerrainPatch::Triangle& tri : patch.triangles)
+  for (std::size_t t = 0; t < patch.triangles.size(); ++t) {
+    if (!overlaps(patch.triangles[t].box, reach)) continue;
+    top = std::max(top, patch.triangles[t].box.hi.z());
+    c.triangles.push_back(static_cast<std::int32_t>(t));
+  }
+  const double ceiling = top + margin;
+  thread_local std::vector<std::int32_t> candidates;
+  if (at.box().lo.z() <= ceiling) {
+    for (const std::int32_t t : c.triangles) {
+      const TerrainPatch::Triangle& tri = patch.triangles[static_cast<std::size_t>(t)];
+      vertices_near(at, tri, tri.box.inflated(margin), ceiling, ds, depth, motion, candidates);
+      std::sort(candidates.begin(), candidates.end());
+      for (const std::int32_t vi : candidates) c.vertex_triangle.emplace_back(t, vi);
+    }
+  }
+  thread_local std::vector<const TerrainPatch::Ridge*> near;
+  near.clear();
+  for (std::size_t k = 0; k < patch.ridges.size(); ++k) {
+    if (!overlaps(patch.ridges[k].box, reach)) continue;
+    near.push_back(&patch.ridges[k]);
+    c.ridges.push_back(static_cast<std::int32_t>(k));
+  }
+  if (near.empty()) return;
+  thread_local std::vector<std::pair<std::int32_t, std::int32_t>> pairs;
+  edge_pairs_near(at, near, ceiling, ds, margin, motion, pairs);
+  for (const auto& [be, j] : pairs) c.edge_ridge.emplace_back(be, c.ridges[static_cast<std::size_t>(j)]);
+  std::sort(c.edge_ridge.begin(), c.edge_ridge.end());
+}
+
+// The search of detect_contacts in `patch` for a detailed block, over the pairs of `c`
+// (gathered by gather_indexed at this pose or one close enough): every test of a search
+// that gathered at this very pose, in its order, so the same contacts in the same order,
+// those of the scan. Terrain vertices are searched afresh (the faces near each).
+void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds, double depth,
+                    const TerrainPatch::Candidates& c, std::vector<Contact>& out) {
+  const Model& model = at.model();
+  const Pose& pose = at.pose();
+  const BlockIndex* index = at.index();
+  const double margin = std::max(ds, depth);
+  const geometry::Aabb reach = at.box().inflated(margin);
+  double top = -std::numeric_limits<double>::infinity();
+  for (const std::int32_t t : c.triangles) {
+    const TerrainPatch::Triangle& tri = patch.triangles[static_cast<std::size_t>(t)];
     if (overlaps(tri.box, reach)) top = std::max(top, tri.box.hi.z());
+  }
   const double ceiling = top + margin;
   // Whether any vertex is that low (the lowest vertex is the box's floor).
   const bool any_low = at.box().lo.z() <= ceiling;
@@ -473,27 +536,30 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
   thread_local std::vector<std::int32_t> latest, earlier;
   if (latest.size() < model.vertices.size()) latest.resize(model.vertices.size(), -1);
   earlier.clear();
-  thread_local std::vector<std::int32_t> candidates;
-  for (const TerrainPatch::Triangle& tri : patch.triangles) {
+  std::int32_t current = -1;
+  bool in_reach = false;
+  geometry::Aabb tbox;
+  for (const auto& [t, vi] : c.vertex_triangle) {
     if (!any_low) break;
-    if (!overlaps(tri.box, reach)) continue;
-    const geometry::Aabb tbox = tri.box.inflated(margin);
-    vertices_near(at, tri, tbox, ceiling, ds, depth, candidates);
-    std::sort(candidates.begin(), candidates.end());
-    for (const std::int32_t vi : candidates) {
-      const std::size_t i = static_cast<std::size_t>(vi);
-      const Vec3 p = at.vertex(i);
-      if (p.z() > ceiling || !contains(tbox, p)) continue;
-      double gap = 0.0;
-      if (!vertex_meets_triangle(tri, p, ds, depth, gap)) continue;
-      bool duplicate = false;
-      for (std::int32_t k = latest[i]; k >= 0 && !duplicate; k = earlier[static_cast<std::size_t>(k)])
-        duplicate = out[first + static_cast<std::size_t>(k)].normal.dot(tri.normal) > 1.0 - 1e-9;
-      if (duplicate) continue;
-      earlier.push_back(latest[i]);
-      latest[i] = static_cast<std::int32_t>(out.size() - first);
-      out.push_back(vertex_contact(tri, vi, p, gap));
+    const TerrainPatch::Triangle& tri = patch.triangles[static_cast<std::size_t>(t)];
+    if (t != current) {
+      current = t;
+      in_reach = overlaps(tri.box, reach);
+      tbox = tri.box.inflated(margin);
     }
+    if (!in_reach) continue;
+    const std::size_t i = static_cast<std::size_t>(vi);
+    const Vec3 p = at.vertex(i);
+    if (p.z() > ceiling || !contains(tbox, p)) continue;
+    double gap = 0.0;
+    if (!vertex_meets_triangle(tri, p, ds, depth, gap)) continue;
+    bool duplicate = false;
+    for (std::int32_t k = latest[i]; k >= 0 && !duplicate; k = earlier[static_cast<std::size_t>(k)])
+      duplicate = out[first + static_cast<std::size_t>(k)].normal.dot(tri.normal) > 1.0 - 1e-9;
+    if (duplicate) continue;
+    earlier.push_back(latest[i]);
+    latest[i] = static_cast<std::int32_t>(out.size() - first);
+    out.push_back(vertex_contact(tri, vi, p, gap));
   }
   for (std::size_t k = first; k < out.size(); ++k) latest[static_cast<std::size_t>(out[k].block_feature)] = -1;
 
@@ -510,22 +576,14 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
     terrain_vertex_contact(at, patch, tv, qb, &faces, ds, depth, face_tol, out);
   }
 
-  // Block edge – terrain ridge crossings: the (edge, ridge) pairs whose edge can cross the
-  // ridge within the margin (near the ridge's box and its segment), tested in the order
-  // of the scan.
-  thread_local std::vector<const TerrainPatch::Ridge*> near;
-  near.clear();
-  for (const TerrainPatch::Ridge& r : patch.ridges)
-    if (overlaps(r.box, reach)) near.push_back(&r);
-  if (near.empty()) return;
-  thread_local std::vector<std::pair<std::int32_t, std::int32_t>> pairs;
-  edge_pairs_near(at, near, ceiling, ds, margin, pairs);
-  std::sort(pairs.begin(), pairs.end());
+  // Block edge – terrain ridge crossings, in the order of the scan.
   std::int32_t edge = -1;
   Vec3 p0, p1;
   geometry::Aabb ebox;
   bool low_edge = false;
-  for (const auto& [be, j] : pairs) {
+  for (const auto& [be, r] : c.edge_ridge) {
+    const TerrainPatch::Ridge& te = patch.ridges[static_cast<std::size_t>(r)];
+    if (!overlaps(te.box, reach)) continue;
     if (be != edge) {
       edge = be;
       const BlockEdge& bedge = model.edges[static_cast<std::size_t>(be)];
@@ -534,7 +592,6 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
       low_edge = std::min(p0.z(), p1.z()) <= ceiling;
       ebox = edge_box(p0, p1, margin);
     }
-    const TerrainPatch::Ridge& te = *near[static_cast<std::size_t>(j)];
     if (low_edge && overlaps(te.box, ebox)) edge_meets_ridge(pose, be, p0, p1, te, ds, depth, out);
   }
 }
@@ -763,23 +820,30 @@ void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, dou
     fill_patch(surface, patch.query, patch);
     patch.candidates.model = nullptr;
   }
-  if (at.index() != nullptr) {
-    detect_indexed(at, patch, search_distance, depth_limit, out);
-    return;
-  }
   // The candidate pairs are gathered afresh when the block has moved, since they were
   // gathered, by more than their wider distances allow: a block point moves by at most
   // |Δcentre| + ‖ΔF‖·radius (the Frobenius norm bounds the spectral one), and a gap, a
-  // box or a point's distance to a box by no more than that.
+  // box or a point's distance to a box by no more than that. A detailed block's were
+  // gathered with its prism and plane tests widened by a motion, which bounds it too.
   const Model& model = at.model();
   const Pose& pose = at.pose();
   TerrainPatch::Candidates& c = patch.candidates;
   const double moved = c.model == &model ? (pose.centre - c.centre).norm() + (pose.map - c.map).norm() * model.radius +
                                                1e-9 * (pose.centre.cwiseAbs().maxCoeff() + model.radius)
                                          : std::numeric_limits<double>::infinity();
-  if (!(search_distance + moved <= c.ds && depth_limit + moved <= c.depth)) {
+  const bool reusable = search_distance + moved <= c.ds && depth_limit + moved <= c.depth && moved <= c.motion;
+  if (at.index() != nullptr) {
+    if (!reusable) {
+      const double widening = kIndexedWidening * model.radius;
+      gather_indexed(at, patch, search_distance + widening, depth_limit + widening, widening, c);
+    }
+    detect_indexed(at, patch, search_distance, depth_limit, c, out);
+    return;
+  }
+  if (!reusable) {
     const double widening = kCandidateWidening * model.radius;
     gather_candidates(at, patch, search_distance + widening, depth_limit + widening, true, c);
+    c.motion = std::numeric_limits<double>::infinity();
   }
   detect_scanned(at, patch, search_distance, depth_limit, true, c, out);
 }

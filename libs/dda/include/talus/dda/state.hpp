@@ -180,6 +180,9 @@ struct TerrainPatch {
     Vec3 centre = Vec3::Zero();        ///< the pose they were gathered at: x = centre + map·r
     Mat3 map = Mat3::Identity();
     double ds = 0.0, depth = 0.0;      ///< search distance and depth limit gathered with (m)
+    /// A detailed block's: how far its points may move from that pose (m) while the
+    /// pairs serve (their prism and plane tests were widened by it); ∞ for a scanned one.
+    double motion = std::numeric_limits<double>::infinity();
     std::vector<std::int32_t> triangles;                          ///< may meet the block's box
     std::vector<std::pair<std::int32_t, std::int32_t>> vertex_triangle;  ///< (triangle, block vertex)
     std::vector<std::int32_t> vertices;                           ///< terrain vertices

@@ -452,17 +452,9 @@ inline geometry::Aabb edge_box(const Vec3& p0, const Vec3& p1, double margin) {
   return geometry::Aabb{p0.cwiseMin(p1), p0.cwiseMax(p1)}.inflated(margin);
 }
 
-// The pairs a detailed block may form contacts with in `patch`, through its index, within
-// search distance ds and depth limit `depth` at this pose or any pose whose points lie
-// within `motion` (m) of theirs (ds and depth must include that motion): the triangles
-// that may meet the block's box, and for each (in patch order) the vertices that can
-// pass the vertex–triangle tests (ascending); the (convex edge, ridge) pairs that can
-// pass the edge–ridge tests, ascending. Boxes are inflated by the larger of the two
-// distances: a feature may be found up to `depth` below a surface.
-void gather_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds, double depth, double motion,
-                    TerrainPatch::Candidates& c) {
-  const Model& model = at.model();
-  c.model = &model;
+// Empties `c` for pairs gathered at the pose of `at` with these distances and motion (m).
+void start_gathering(const PlacedBlock& at, double ds, double depth, double motion, TerrainPatch::Candidates& c) {
+  c.model = &at.model();
   c.centre = at.pose().centre;
   c.map = at.pose().map;
   c.ds = ds;
@@ -473,6 +465,18 @@ void gather_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
   c.vertices.clear();
   c.ridges.clear();
   c.edge_ridge.clear();
+}
+
+// The pairs a detailed block may form contacts with in `patch`, through its index, within
+// search distance ds and depth limit `depth` at this pose or any pose whose points lie
+// within `motion` (m) of theirs (ds and depth must include that motion): the triangles
+// that may meet the block's box, and for each (in patch order) the vertices that can
+// pass the vertex–triangle tests (ascending); the (convex edge, ridge) pairs that can
+// pass the edge–ridge tests, ascending. Boxes are inflated by the larger of the two
+// distances: a feature may be found up to `depth` below a surface.
+void gather_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds, double depth, double motion,
+                    TerrainPatch::Candidates& c) {
+  start_gathering(at, ds, depth, motion, c);
   const double margin = std::max(ds, depth);
   const geometry::Aabb reach = at.box().inflated(margin);
   // Only block features at most `margin` above the highest terrain point under the
@@ -606,16 +610,7 @@ void gather_candidates(const PlacedBlock& at, const TerrainPatch& patch, double 
   const std::vector<Vec3>& world = at.vertices();
   const double margin = std::max(ds, depth);
   const geometry::Aabb reach = at.box().inflated(margin);
-  c.model = &model;
-  c.centre = at.pose().centre;
-  c.map = at.pose().map;
-  c.ds = ds;
-  c.depth = depth;
-  c.triangles.clear();
-  c.vertex_triangle.clear();
-  c.vertices.clear();
-  c.ridges.clear();
-  c.edge_ridge.clear();
+  start_gathering(at, ds, depth, std::numeric_limits<double>::infinity(), c);
   for (std::size_t t = 0; t < patch.triangles.size(); ++t) {
     const TerrainPatch::Triangle& tri = patch.triangles[t];
     if (prune && !overlaps(tri.box, reach)) continue;
@@ -843,7 +838,6 @@ void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, dou
   if (!reusable) {
     const double widening = kCandidateWidening * model.radius;
     gather_candidates(at, patch, search_distance + widening, depth_limit + widening, true, c);
-    c.motion = std::numeric_limits<double>::infinity();
   }
   detect_scanned(at, patch, search_distance, depth_limit, true, c, out);
 }

@@ -985,12 +985,9 @@ double FlightBound::plane_time(const Vec3& n, double offset, double limit) const
   const double translation = damped_ ? std::max(0.0, -n.dot(velocity_)) : 0.0;
   const double fall = gravity_ * (damped_ ? std::max(0.0, n.z()) : n.z());
   if (placed_ != nullptr) {
-    const double rate = (damped_ ? translation : -n.dot(velocity_)) + spin_ * radius_;
-    const double a = fall + spin_ * spin_ * radius_;
     // The block's box first (a lower height, in constant time): a plane it keeps clear
     // of for the whole limit needs no search of the vertex tree.
-    const double box_height = n.dot(centre_) - placed_->support_bound(-n) - offset - round_off_;
-    if (box_height > 0.0 && reach_time(box_height, rate, a, limit) >= limit) return limit;
+    if (box_plane_time(n, offset, limit) >= limit) return limit;
     // Then each vertex's own time, as the scan below computes it, by branch and bound over
     // the vertex tree (the largest −time): over a body box (centre c, half-sizes h) the
     // height n·(centre + F·r) is at least its value at c less |Fᵀn|·h, the approach
@@ -1040,15 +1037,18 @@ double FlightBound::plane_time(const Vec3& n, double offset, double limit) const
   return earliest;
 }
 
-double FlightBound::quick_triangle_time(const Vec3& normal, const std::array<Vec3, 3>& corners, double limit) const {
-  if (placed_ == nullptr) return triangle_time(normal, corners, limit);
-  const double translation = damped_ ? std::max(0.0, -normal.dot(velocity_)) : 0.0;
-  const double fall = gravity_ * (damped_ ? std::max(0.0, normal.z()) : normal.z());
-  const double rate = (damped_ ? translation : -normal.dot(velocity_)) + spin_ * radius_;
-  const double height =
-      normal.dot(centre_) - placed_->support_bound(-normal) - normal.dot(corners[0]) - round_off_;
+double FlightBound::box_plane_time(const Vec3& n, double offset, double limit) const {
+  const double translation = damped_ ? std::max(0.0, -n.dot(velocity_)) : 0.0;
+  const double fall = gravity_ * (damped_ ? std::max(0.0, n.z()) : n.z());
+  const double rate = (damped_ ? translation : -n.dot(velocity_)) + spin_ * radius_;
+  const double height = n.dot(centre_) - placed_->support_bound(-n) - offset - round_off_;
   if (!(height > 0.0)) return 0.0;
   return reach_time(height, rate, fall + spin_ * spin_ * radius_, limit);
+}
+
+double FlightBound::quick_triangle_time(const Vec3& normal, const std::array<Vec3, 3>& corners, double limit) const {
+  if (placed_ == nullptr) return triangle_time(normal, corners, limit);
+  return box_plane_time(normal, normal.dot(corners[0]), limit);
 }
 
 double FlightBound::triangle_time(const Vec3& normal, const std::array<Vec3, 3>& corners, double limit) const {

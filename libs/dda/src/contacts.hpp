@@ -149,6 +149,10 @@ class FlightBound {
   double quick_triangle_time(const Vec3& normal, const std::array<Vec3, 3>& corners, double limit) const;
 
  private:
+  /// A detailed block's plane_time from its box, every vertex at the radius R (a lower
+  /// bound, in constant time; 0 when the box reaches the plane).
+  double box_plane_time(const Vec3& n, double offset, double limit) const;
+
   const std::vector<Vec3>* vertices_ = nullptr;
   const PlacedBlock* placed_ = nullptr;  // a detailed block's (then vertices_ is null)
   double spin_ = 0.0, radius_ = 0.0;     // |ω| (rad/s) and R (m) of a detailed block

@@ -6,10 +6,10 @@ set -euo pipefail
 packages=(
   build-essential cmake pkg-config
   libcgal-dev libeigen3-dev libgmp-dev libmpfr-dev libboost-dev
-  libassimp-dev libhdf5-dev hdf5-tools libyaml-cpp-dev libgdal-dev libcli11-dev
+  libassimp-dev libcairo2-dev libpng-dev libhdf5-dev hdf5-tools libyaml-cpp-dev libgdal-dev libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libopenmpi-dev openmpi-bin
-  python3-matplotlib python3-h5py python3-numpy
+  python3-matplotlib python3-h5py python3-numpy fonts-dejavu-core
   time
 )
 

@@ -224,11 +224,11 @@ def main():
             check(r.returncode == 2 and "built without MPI" in r.stderr, "no-MPI build refuses an MPI launcher",
                   r.stderr)
 
-        # talus-plot.
+        # talus-plot (the figures of calibrate).
         plot = os.path.join(b, "talus-plot")
         r = run(["python3", plot, "--help"], env={"TALUS_PYTHON": ""})
-        check(r.returncode == 0 and "SUMMARY.h5" in r.stdout, "talus-plot --help", r.stderr)
-        r = run(["python3", plot, "a.h5", "out"], env={"TALUS_PYTHON": "/nonexistent/python"})
+        check(r.returncode == 0 and "--calibration" in r.stdout, "talus-plot --help", r.stderr)
+        r = run(["python3", plot, "--calibration", "a.h5", "out"], env={"TALUS_PYTHON": "/nonexistent/python"})
         check(r.returncode == 1 and "TALUS_PYTHON=/nonexistent/python" in r.stderr, "talus-plot honours TALUS_PYTHON",
               r.stderr)
         r = run(["python3", plot, "a.h5"])

@@ -9,7 +9,7 @@
 #include "analysis.hpp"
 #include "outputs.hpp"
 #include "settings.hpp"
-#include "talus/cli/plot_helper.hpp"
+#include "figures.hpp"
 #include "talus/cli/tool.hpp"
 #include "talus/core/error.hpp"
 #include "talus/core/log.hpp"
@@ -113,8 +113,6 @@ int main(int argc, char** argv) {
   spec.check = [&](const cli::Invocation& inv) {
     if (inv.output.empty()) throw core::UsageError("-o OUTDIR is required");
     settings.validate();
-    // Before any work: a missing matplotlib is reported at once, not after the analysis.
-    if (settings.plots) cli::check_plotting();
     check_outputs(inv, settings);
   };
   spec.run = [&](const cli::Invocation& inv) {
@@ -141,8 +139,9 @@ int main(int argc, char** argv) {
     if (!layers.empty()) core::log_info("wrote " + std::to_string(layers.size()) + " vector files");
     if (settings.plots) {
       const fs::path plots = dir / "plots";
-      fs::create_directories(plots);
-      stats_tool::draw_plots(summary, plots.string(), settings);
+      io::make_directories(plots.string());
+      const auto figures = stats_tool::draw_figures(runs, analysis, settings, plots.string());
+      core::log_info("wrote " + std::to_string(figures.size()) + " plot files");
     }
     remove_stale_outputs(earlier);
     if (print_table) std::fputs(stats_tool::side_by_side_text(analysis).c_str(), stdout);

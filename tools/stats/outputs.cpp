@@ -13,11 +13,11 @@
 #include <map>
 #include <set>
 
-#include "talus/cli/plot_helper.hpp"
 #include "talus/core/error.hpp"
 #include "talus/dda/state.hpp"
 #include "talus/io/atomic_output.hpp"
 #include "talus/io/hdf5.hpp"
+#include "talus/io/paths.hpp"
 #include "talus/io/raster.hpp"
 
 namespace talus::stats_tool {
@@ -424,7 +424,7 @@ std::vector<std::string> write_hazard_rasters(const std::string& dir, const std:
   std::vector<std::string> written;
   for (std::size_t r = 0; r < runs.size(); ++r) {
     if (!a.runs[r].hazard) continue;
-    fs::create_directories(dir);
+    io::make_directories(dir);
     for (const HazardLayer& layer : a.runs[r].hazard->layers)
       for (const auto& format : settings.raster_formats) {
         const terrain::DemGrid* grid = &layer.grid;
@@ -565,7 +565,7 @@ std::vector<std::string> write_vector_layers(const std::string& dir, const std::
                                              const Settings& settings) {
   std::vector<std::string> written;
   if (settings.vector_format == "none") return written;
-  fs::create_directories(dir);
+  io::make_directories(dir);
   for (std::size_t r = 0; r < runs.size(); ++r) {
     const std::vector<io::VectorLayer> layers = vector_layers(runs[r], a.runs[r]);
     const std::string& crs = a.runs[r].crs_wkt;
@@ -582,14 +582,6 @@ std::vector<std::string> write_vector_layers(const std::string& dir, const std::
     }
   }
   return written;
-}
-
-void draw_plots(const std::string& summary_path, const std::string& dir, const Settings& settings) {
-  std::string formats;
-  for (const auto& f : settings.plot_formats) formats += (formats.empty() ? "" : ",") + f;
-  if (formats.empty()) return;
-  cli::run_plot_helper(cli::shell_quote(summary_path) + " " + cli::shell_quote(dir) + " --formats " + formats +
-                       " --jobs " + std::to_string(settings.plot_jobs));
 }
 
 }  // namespace talus::stats_tool

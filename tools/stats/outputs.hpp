@@ -43,8 +43,4 @@ std::vector<std::string> write_vector_layers(const std::string& dir, const std::
 /// The layers of one run as write_vector_layers writes them (exposed for tests).
 std::vector<io::VectorLayer> vector_layers(const Run& run, const RunResult& result);
 
-/// Draws the plots of a summary file into `dir` with the helper; throws core::RuntimeError
-/// with the helper's one-line message when it fails.
-void draw_plots(const std::string& summary_path, const std::string& dir, const Settings& settings);
-
 }  // namespace talus::stats_tool

@@ -47,10 +47,10 @@ void Settings::visit(core::SettingsVisitor& v) {
   v.choice("vector_format", vector_format, {"gpkg", "geojson", "none"},
            "vector layers of each run (stop points, first barrier crossings, trajectories; m, m/s, J, s): "
            "gpkg = one GeoPackage per run, geojson = one GeoJSON file per layer, none");
-  v.field("plots", plots, "draw plots with the talus-plot helper (Python 3, matplotlib, h5py)");
-  v.field("plot_formats", plot_formats, "plot formats: png, svg (svg on request: it adds about 45 % to the drawing time)");
+  v.field("plots", plots, "draw plots (PNG or SVG figures, drawn with Cairo)");
+  v.field("plot_formats", plot_formats, "plot formats: png, svg");
   v.field("plot_trajectories", plot_trajectories, "", "trajectories drawn in a plan view at most");
-  v.field("plot_jobs", plot_jobs, "", "figures drawn at once, one process each (0 = one per available core)");
+  v.field("plot_jobs", plot_jobs, "", "figures drawn at once, one thread each (0 = one per available core)");
 }
 
 namespace {

@@ -67,9 +67,9 @@ struct Settings {
   /// Vector layers of each run (stop points, first barrier crossings, trajectories):
   /// "gpkg" (one GeoPackage per run), "geojson" (one GeoJSON file per layer) or "none".
   std::string vector_format = "gpkg";
-  /// Plots through the talus-plot helper (Python 3 with matplotlib and h5py).
+  /// Plots (figures.hpp), drawn with Cairo.
   bool plots = true;
-  /// Plot formats among "png" and "svg" (PNG only by default: SVG adds about 45 % to the drawing time).
+  /// Plot formats among "png" and "svg" (PNG only by default).
   std::vector<std::string> plot_formats = {"png"};
   /// Trajectories drawn in each plan view at most (the first by realization index).
   std::int64_t plot_trajectories = 200;

@@ -72,3 +72,15 @@ void check_outputs_distinct(const std::vector<NamedPath>& inputs, const std::vec
 }
 
 }  // namespace talus::io
+
+namespace talus::io {
+
+void make_directories(const std::string& path) {
+  std::error_code ec;
+  std::filesystem::create_directories(path, ec);
+  if (ec || !std::filesystem::is_directory(path))
+    throw core::RuntimeError(path + ": cannot create the folder (" +
+                             (ec ? ec.message() : std::string("a file of that name exists")) + ")");
+}
+
+}  // namespace talus::io

@@ -31,4 +31,8 @@ void check_outputs_distinct(const std::vector<NamedPath>& inputs, const std::vec
 /// True when `path` lies inside the directory `dir` (at any depth), however spelled.
 bool inside_directory(const std::string& path, const std::string& dir);
 
+/// Creates the directory `path` and its missing parents; throws core::RuntimeError naming
+/// it when it cannot (a file of that name, no permission).
+void make_directories(const std::string& path);
+
 }  // namespace talus::io

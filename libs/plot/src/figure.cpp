@@ -51,45 +51,63 @@ namespace {
 // 33 equally spaced samples of the published 256-entry tables (viridis, magma, plasma:
 // van der Walt and Smith; cividis: Nuñez, Anderton and Renslow; all public domain);
 // linear interpolation between them is within 5/255 of the full tables.
-std::vector<std::pair<double, Rgba>> sampled(std::initializer_list<std::uint32_t> rgb) {
-  std::vector<std::pair<double, Rgba>> stops;
-  const double n = static_cast<double>(rgb.size() - 1);
-  for (std::uint32_t c : rgb) stops.emplace_back(static_cast<double>(stops.size()) / n, Rgba::hex(c));
-  return stops;
-}
+struct SampledTable {
+  const char* name;
+  std::array<std::uint32_t, 33> rgb;
+};
+
+constexpr SampledTable kSampled[] = {
+    {"viridis",
+     {
+      0x440154, 0x470d60, 0x48186a, 0x482374, 0x472d7b, 0x453781, 0x424086, 0x3e4989, 0x3b528b,
+      0x375b8d, 0x33638d, 0x2f6b8e, 0x2c728e, 0x297a8e, 0x26828e, 0x23898e, 0x21918c, 0x1f988b,
+      0x1fa088, 0x22a785, 0x28ae80, 0x32b67a, 0x3fbc73, 0x4ec36b, 0x5ec962, 0x70cf57, 0x84d44b,
+      0x98d83e, 0xaddc30, 0xc2df23, 0xd8e219, 0xece51b, 0xfde725
+     }},
+    {"magma",
+     {
+      0x000004, 0x030312, 0x0a0822, 0x130d34, 0x1d1147, 0x29115a, 0x36106b, 0x440f76, 0x51127c,
+      0x5d177f, 0x6a1c81, 0x762181, 0x832681, 0x902a81, 0x9c2e7f, 0xaa337d, 0xb73779, 0xc43c75,
+      0xd0416f, 0xdc4869, 0xe75263, 0xef5d5e, 0xf56b5c, 0xf9795d, 0xfc8961, 0xfd9869, 0xfea772,
+      0xfeb67c, 0xfec488, 0xfed395, 0xfde2a3, 0xfcf0b2, 0xfcfdbf
+     }},
+    {"plasma",
+     {
+      0x0d0887, 0x220690, 0x310597, 0x3f049c, 0x4c02a1, 0x5901a5, 0x6600a7, 0x7201a8, 0x7e03a8,
+      0x8a09a5, 0x9511a1, 0xa01a9c, 0xaa2395, 0xb32c8e, 0xbc3587, 0xc43e7f, 0xcc4778, 0xd35171,
+      0xda5a6a, 0xe06363, 0xe66c5c, 0xeb7655, 0xf0804e, 0xf58b47, 0xf89540, 0xfba139, 0xfdac33,
+      0xfeb82c, 0xfdc527, 0xfcd225, 0xf8df25, 0xf4ed27, 0xf0f921
+     }},
+    {"cividis",
+     {
+      0x00224e, 0x00285b, 0x002e6a, 0x053371, 0x1a386f, 0x273e6e, 0x32436d, 0x3b496c, 0x434e6c,
+      0x4b546c, 0x535a6d, 0x5a5f6e, 0x61656f, 0x686a71, 0x6f7073, 0x767676, 0x7d7c78, 0x848279,
+      0x8c8878, 0x938e78, 0x9b9476, 0xa39a74, 0xaba072, 0xb4a76f, 0xbcae6c, 0xc4b468, 0xcdbb63,
+      0xd5c25e, 0xdec958, 0xe7d150, 0xf0d846, 0xf9e03a, 0xfee838
+     }},
+};
 
 }  // namespace
 
 const Colormap& Colormap::named(std::string_view name) {
-  static const Colormap viridis(
-      "viridis", sampled({0x440154, 0x470d60, 0x48186a, 0x482374, 0x472d7b, 0x453781, 0x424086, 0x3e4989, 0x3b528b,
-                          0x375b8d, 0x33638d, 0x2f6b8e, 0x2c728e, 0x297a8e, 0x26828e, 0x23898e, 0x21918c, 0x1f988b,
-                          0x1fa088, 0x22a785, 0x28ae80, 0x32b67a, 0x3fbc73, 0x4ec36b, 0x5ec962, 0x70cf57, 0x84d44b,
-                          0x98d83e, 0xaddc30, 0xc2df23, 0xd8e219, 0xece51b, 0xfde725}));
-  static const Colormap magma(
-      "magma", sampled({0x000004, 0x030312, 0x0a0822, 0x130d34, 0x1d1147, 0x29115a, 0x36106b, 0x440f76, 0x51127c,
-                        0x5d177f, 0x6a1c81, 0x762181, 0x832681, 0x902a81, 0x9c2e7f, 0xaa337d, 0xb73779, 0xc43c75,
-                        0xd0416f, 0xdc4869, 0xe75263, 0xef5d5e, 0xf56b5c, 0xf9795d, 0xfc8961, 0xfd9869, 0xfea772,
-                        0xfeb67c, 0xfec488, 0xfed395, 0xfde2a3, 0xfcf0b2, 0xfcfdbf}));
-  static const Colormap plasma(
-      "plasma", sampled({0x0d0887, 0x220690, 0x310597, 0x3f049c, 0x4c02a1, 0x5901a5, 0x6600a7, 0x7201a8, 0x7e03a8,
-                         0x8a09a5, 0x9511a1, 0xa01a9c, 0xaa2395, 0xb32c8e, 0xbc3587, 0xc43e7f, 0xcc4778, 0xd35171,
-                         0xda5a6a, 0xe06363, 0xe66c5c, 0xeb7655, 0xf0804e, 0xf58b47, 0xf89540, 0xfba139, 0xfdac33,
-                         0xfeb82c, 0xfdc527, 0xfcd225, 0xf8df25, 0xf4ed27, 0xf0f921}));
-  static const Colormap cividis(
-      "cividis", sampled({0x00224e, 0x00285b, 0x002e6a, 0x053371, 0x1a386f, 0x273e6e, 0x32436d, 0x3b496c, 0x434e6c,
-                          0x4b546c, 0x535a6d, 0x5a5f6e, 0x61656f, 0x686a71, 0x6f7073, 0x767676, 0x7d7c78, 0x848279,
-                          0x8c8878, 0x938e78, 0x9b9476, 0xa39a74, 0xaba072, 0xb4a76f, 0xbcae6c, 0xc4b468, 0xcdbb63,
-                          0xd5c25e, 0xdec958, 0xe7d150, 0xf0d846, 0xf9e03a, 0xfee838}));
-  // Deep blue, sea blue, green, pale yellow, brown, white.
-  static const Colormap terrain("terrain", {{0.00, {0.2, 0.2, 0.6, 1.0}},
-                                            {0.15, {0.0, 0.6, 1.0, 1.0}},
-                                            {0.25, {0.0, 0.8, 0.4, 1.0}},
-                                            {0.50, {1.0, 1.0, 0.6, 1.0}},
-                                            {0.75, {0.5, 0.36, 0.33, 1.0}},
-                                            {1.00, {1.0, 1.0, 1.0, 1.0}}});
-  for (const Colormap* m : {&viridis, &magma, &plasma, &cividis, &terrain})
-    if (m->name_ == name) return *m;
+  static const std::vector<Colormap> maps = [] {
+    std::vector<Colormap> out;
+    for (const SampledTable& t : kSampled) {
+      std::vector<std::pair<double, Rgba>> stops;
+      for (std::size_t k = 0; k < t.rgb.size(); ++k) stops.emplace_back(static_cast<double>(k) / 32.0, Rgba::hex(t.rgb[k]));
+      out.push_back(Colormap(t.name, std::move(stops)));
+    }
+    // Deep blue, sea blue, green, pale yellow, brown, white.
+    out.push_back(Colormap("terrain", {{0.00, {0.2, 0.2, 0.6, 1.0}},
+                                       {0.15, {0.0, 0.6, 1.0, 1.0}},
+                                       {0.25, {0.0, 0.8, 0.4, 1.0}},
+                                       {0.50, {1.0, 1.0, 0.6, 1.0}},
+                                       {0.75, {0.5, 0.36, 0.33, 1.0}},
+                                       {1.00, {1.0, 1.0, 1.0, 1.0}}}));
+    return out;
+  }();
+  for (const Colormap& m : maps)
+    if (m.name_ == name) return m;
   throw std::invalid_argument("unknown colour map '" + std::string(name) + "'");
 }
 

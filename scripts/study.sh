@@ -11,16 +11,20 @@ out=$(realpath -m "${2:-$root/out/reference}")
 cd "$root"
 mkdir -p "$out"
 
-# Terrain: the bench slope at R = 1/8, 1/4, 1/2 (σ = 0.1, 0.2, 0.4 m).
+# Terrain: the bench slope at R = 1/8, 1/4, 1/2 (σ = 0.1, 0.2, 0.4 m); blocks R1–R4:
+# tetrahedron, cube, octahedron, dodecahedron, 1 m³ each, in one library. The four are
+# independent and small: they run at once (each stops the script if it fails).
+pids=()
 for level in S1:0.125 S2:0.25 S3:0.5; do
   name=${level%%:*}
   "$bin/terrain-gen" -c samples/bench-slope/terrain.yaml \
-    --set roughness.roughness_index="${level##*:}" -o "$out/terrain-$name.h5"
+    --set roughness.roughness_index="${level##*:}" -o "$out/terrain-$name.h5" &
+  pids+=($!)
 done
+"$bin/block-gen" -c samples/blocks/platonic.yaml -o "$out/platonic.h5" &
+pids+=($!)
+for pid in "${pids[@]}"; do wait "$pid"; done
 "$bin/terrain-gen" "$out/terrain-S2.h5" --summary
-
-# Blocks R1–R4: tetrahedron, cube, octahedron, dodecahedron, 1 m³ each, in one library.
-"$bin/block-gen" -c samples/blocks/platonic.yaml -o "$out/platonic.h5"
 "$bin/block-gen" info "$out/platonic.h5"
 
 # 1000 realizations per roughness level (block i mod 4: 250 per block), one thread per core.

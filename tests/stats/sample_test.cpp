@@ -181,6 +181,17 @@ TEST(Bootstrap, PlanEqualsSortingEveryResample) {
       for (std::size_t k = 0; k < ps.size(); ++k) EXPECT_EQ(direct[k].lo, fast[k].lo);
     }
   }
+  // Drawn by several threads (1 200 values × 500 resamples: four parts), the plan is the same.
+  const core::RandomStream values(5, core::Stream::bootstrap, 7);
+  std::vector<double> v(1200);
+  for (std::size_t k = 0; k < v.size(); ++k) v[k] = values.uniform(k) * 10.0;
+  const Sample big(v);
+  const auto one = BootstrapPlan(v.size(), ps, 500, 9).intervals(big, 0.05);
+  const auto four = BootstrapPlan(v.size(), ps, 500, 9, 4).intervals(big, 0.05);
+  for (std::size_t k = 0; k < ps.size(); ++k) {
+    EXPECT_EQ(one[k].lo, four[k].lo) << ps[k];
+    EXPECT_EQ(one[k].hi, four[k].hi) << ps[k];
+  }
   EXPECT_THROW(BootstrapPlan(0, ps, 10, 1), core::InputError);
   EXPECT_THROW(BootstrapPlan(5, ps, 10, 1).intervals(Sample({1.0, 2.0}), 0.05), core::InputError);
 }

@@ -13,6 +13,7 @@
 
 #include "talus/core/error.hpp"
 #include "talus/core/log.hpp"
+#include "talus/core/threads.hpp"
 #include "talus/dda/state.hpp"
 #include "talus/io/observed.hpp"
 #include "talus/io/paths.hpp"
@@ -210,7 +211,7 @@ class BootstrapPlans {
     if (it == plans_.end())
       it = plans_.emplace(n, stats::BootstrapPlan(n, settings_.quantiles,
                                                   static_cast<std::size_t>(settings_.bootstrap_resamples),
-                                                  settings_.seed)).first;
+                                                  settings_.seed, core::default_thread_count())).first;
     return it->second;
   }
 

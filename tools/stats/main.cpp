@@ -2,6 +2,7 @@
 // and plots from dda-run run files. See docs/stats.md.
 #include <cstdio>
 #include <filesystem>
+#include <future>
 #include <map>
 #include <vector>
 #include <string>
@@ -123,6 +124,14 @@ int main(int argc, char** argv) {
     make_output_directory(inv.output);
     const fs::path dir = directory_path(inv.output);
     const auto earlier = owned_files(dir);
+    // The figures need only the analysis: they are drawn while the files below are written.
+    std::future<std::vector<std::string>> figures;
+    if (settings.plots) {
+      const fs::path plots = dir / "plots";
+      io::make_directories(plots.string());
+      figures = std::async(std::launch::async,
+                           [&, plots] { return stats_tool::draw_figures(runs, analysis, settings, plots.string()); });
+    }
     io::write_text_file((dir / "summary.csv").string(), stats_tool::summary_csv(analysis, settings));
     io::write_text_file((dir / "convergence.csv").string(), stats_tool::convergence_csv(analysis));
     io::write_text_file((dir / "comparison.csv").string(), stats_tool::comparison_csv(analysis));
@@ -137,12 +146,7 @@ int main(int argc, char** argv) {
     }
     const auto layers = stats_tool::write_vector_layers((dir / "vector").string(), runs, analysis, settings);
     if (!layers.empty()) core::log_info("wrote " + std::to_string(layers.size()) + " vector files");
-    if (settings.plots) {
-      const fs::path plots = dir / "plots";
-      io::make_directories(plots.string());
-      const auto figures = stats_tool::draw_figures(runs, analysis, settings, plots.string());
-      core::log_info("wrote " + std::to_string(figures.size()) + " plot files");
-    }
+    if (figures.valid()) core::log_info("wrote " + std::to_string(figures.get().size()) + " plot files");
     remove_stale_outputs(earlier);
     if (print_table) std::fputs(stats_tool::side_by_side_text(analysis).c_str(), stdout);
     core::log_info("wrote " + inv.output + ": " + std::to_string(analysis.series.size()) + " series of " +

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <thread>
 
 #include "talus/core/error.hpp"
 #include "talus/core/random.hpp"
@@ -86,7 +87,7 @@ double ks_p_value(double d, std::size_t n_a, std::size_t n_b) {
 }
 
 BootstrapPlan::BootstrapPlan(std::size_t n, const std::vector<double>& ps, std::size_t resamples,
-                             std::uint64_t seed)
+                             std::uint64_t seed, unsigned threads)
     : n_(n), ps_(ps), resamples_(resamples), slots_(resamples * ps.size()) {
   if (n == 0) throw core::InputError("sample", "bootstrap of an empty sample");
   // The ranks each quantile needs (Sample::quantile: h = (n − 1)p, ranks ⌊h⌋ and ⌊h⌋ + 1),
@@ -110,23 +111,32 @@ BootstrapPlan::BootstrapPlan(std::size_t n, const std::vector<double>& ps, std::
     }
   }
   std::sort(needs.begin(), needs.end(), [](const Need& a, const Need& b) { return a.rank < b.rank; });
-  std::vector<std::uint32_t> counts(n);
-  for (std::size_t b = 0; b < resamples; ++b) {
-    const core::RandomStream stream(seed, core::Stream::bootstrap, static_cast<std::uint32_t>(b));
-    std::fill(counts.begin(), counts.end(), 0u);
-    for (std::size_t k = 0; k < n; ++k) {
-      const auto idx = static_cast<std::size_t>(stream.uniform(k) * static_cast<double>(n));
-      ++counts[std::min(idx, n - 1)];
+  // Resamples [b0, b1): each has its own stream, so any split gives the same slots.
+  const auto plan = [&](std::size_t b0, std::size_t b1) {
+    std::vector<std::uint32_t> counts(n);
+    for (std::size_t b = b0; b < b1; ++b) {
+      const core::RandomStream stream(seed, core::Stream::bootstrap, static_cast<std::uint32_t>(b));
+      std::fill(counts.begin(), counts.end(), 0u);
+      for (std::size_t k = 0; k < n; ++k) {
+        const auto idx = static_cast<std::size_t>(stream.uniform(k) * static_cast<double>(n));
+        ++counts[std::min(idx, n - 1)];
+      }
+      Slot* row = &slots_[b * ps.size()];
+      std::size_t index = 0, below = counts[0];  // draws of indices <= index
+      for (const Need& need : needs) {
+        while (below <= need.rank) below += counts[++index];
+        Slot& slot = row[need.slot];
+        (need.hi ? slot.hi : slot.lo) = static_cast<std::uint32_t>(index);
+        slot.last = last[need.slot];
+      }
     }
-    Slot* row = &slots_[b * ps.size()];
-    std::size_t index = 0, below = counts[0];  // draws of indices <= index
-    for (const Need& need : needs) {
-      while (below <= need.rank) below += counts[++index];
-      Slot& slot = row[need.slot];
-      (need.hi ? slot.hi : slot.lo) = static_cast<std::uint32_t>(index);
-      slot.last = last[need.slot];
-    }
-  }
+  };
+  // Threads only where they pay: about 10^5 draws or more each.
+  const std::size_t parts = std::clamp<std::size_t>(std::min<std::size_t>(threads, n * resamples / 100000), 1, resamples);
+  std::vector<std::thread> pool;
+  for (std::size_t t = 1; t < parts; ++t) pool.emplace_back(plan, resamples * t / parts, resamples * (t + 1) / parts);
+  plan(0, resamples / parts);
+  for (auto& t : pool) t.join();
 }
 
 std::vector<Interval> BootstrapPlan::intervals(const Sample& sample, double alpha, double* se_first) const {

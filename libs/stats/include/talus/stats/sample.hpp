@@ -57,8 +57,10 @@ struct Interval {
 /// serves every sample of n values (counting the draws, not sorting them: O(n) a resample).
 class BootstrapPlan {
  public:
-  /// Throws core::InputError if n is 0.
-  BootstrapPlan(std::size_t n, const std::vector<double>& ps, std::size_t resamples, std::uint64_t seed);
+  /// Throws core::InputError if n is 0. The resamples are drawn by up to `threads`
+  /// threads when there are enough of them; the plan is the same whatever the count.
+  BootstrapPlan(std::size_t n, const std::vector<double>& ps, std::size_t resamples, std::uint64_t seed,
+                unsigned threads = 1);
 
   std::size_t n() const { return n_; }
   /// Percentile-bootstrap intervals (level 1 − α) of the quantiles at ps of `sample`, which

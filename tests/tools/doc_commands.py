@@ -42,7 +42,7 @@ EXCLUDED = [
     (r"^\./scripts/install-deps\.sh\b", "installs Debian packages (root)"),
     (r"^(cmake|ctest)\b", "builds or tests the tree this test is part of"),
     (r"^scripts/study\.sh\b",
-     "the whole reference study (3 x 1000 realizations and 40 plot files, minutes); its steps are "
+     "the whole reference study (3 x 1000 realizations and 20 figures, about 10 s on 2 cores); its steps are "
      "dda-run.md's and stats.md's commands, run here with fewer realizations"),
     (r"^bench/stress/stress\.sh\b",
      "the stress suite (minutes to hours); its CI subset is the dda_stress_quick test"),
@@ -78,9 +78,6 @@ OVERRIDES = [
     ("docs/terrain.md", r"bench/terrain/big_dem\.py ", "--size 200"),
     # The 100 820-triangle rock of the block measurements, cut to 5 120 triangles.
     ("docs/benchmarks.md", r"block-gen -c bench/block/scan\.yaml", "--set blocks[0].resolution=16"),
-    # Plots left out of the statistics of the reference study (36 figure files, about 40 s
-    # on 2 cores); README's stats command draws the same kinds of figure.
-    ("docs/stats.md", r"^build/bin/stats ", "--set plots=false"),
     # The calibration example (minutes) as a one-generation fit of 6 particles, and a
     # prediction of 3 draws, every simulation of N realizations; the observed drop tests
     # shortened like every run.

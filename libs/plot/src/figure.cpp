@@ -413,18 +413,45 @@ std::string trim_minus(std::string s) {
   return s;
 }
 
-// Ticks of a linear axis over [lo, hi] and the power of ten factored out of their labels
-// (0: none), as matplotlib does outside 1e-3 … 1e4.
-std::vector<Tick> linear_ticks(double lo, double hi, int intervals, int& exponent) {
+// What the labels of a linear axis leave out: an offset subtracted from every tick (the
+// shared leading digits of projected coordinates: 2 600 200 m shows as 200 with
+// "+2600000") and then a power of ten factored out (outside 1e-3 … 1e4, as matplotlib).
+struct Scaling {
+  double offset = 0.0;
+  int exponent = 0;
+  bool any() const { return offset != 0.0 || exponent != 0; }
+  std::string text() const {
+    std::string s = exponent ? "1e" + std::to_string(exponent) : "";
+    if (offset != 0.0) {
+      char buf[64];
+      std::snprintf(buf, sizeof buf, "%.15g", std::abs(offset));
+      s += (offset > 0.0 ? "+" : "\u2212") + std::string(buf);
+    }
+    return s;
+  }
+};
+
+// Ticks of a linear axis over [lo, hi] and what their labels leave out.
+std::vector<Tick> linear_ticks(double lo, double hi, int intervals, Scaling& scaling) {
   const double step = nice_step(lo, hi, intervals);
   std::vector<double> at;
   for (double t = std::ceil(lo / step - 1e-9) * step; t <= hi + 1e-9 * step; t += step)
     at.push_back(std::abs(t) < 1e-9 * step ? 0.0 : t);
+  scaling = {};
+  if (at.empty()) return {};
   double biggest = 0.0;
   for (double t : at) biggest = std::max(biggest, std::abs(t));
-  exponent = 0;
-  if (biggest >= 1e4 || (biggest > 0.0 && biggest < 1e-3)) exponent = static_cast<int>(std::floor(std::log10(biggest)));
-  const double unit = std::pow(10.0, exponent);
+  // An offset when the ticks share their leading digits: the range is under 1 % of them.
+  const double span = at.back() - at.front() + step;
+  if (biggest >= 1e4 && span < 1e-2 * biggest) {
+    const double unit = std::pow(10.0, std::ceil(std::log10(span)));
+    scaling.offset = std::floor(at.front() / unit) * unit;
+    biggest = 0.0;
+    for (double t : at) biggest = std::max(biggest, std::abs(t - scaling.offset));
+  }
+  if (biggest >= 1e4 || (biggest > 0.0 && biggest < 1e-3))
+    scaling.exponent = static_cast<int>(std::floor(std::log10(biggest)));
+  const double unit = std::pow(10.0, scaling.exponent);
   const double scaled = step / unit;
   int decimals = std::max(0, -static_cast<int>(std::floor(std::log10(scaled) + 1e-9)));
   const double mantissa = scaled / std::pow(10.0, std::floor(std::log10(scaled) + 1e-9));
@@ -432,7 +459,7 @@ std::vector<Tick> linear_ticks(double lo, double hi, int intervals, int& exponen
   std::vector<Tick> ticks;
   for (double t : at) {
     char buf[64];
-    std::snprintf(buf, sizeof buf, "%.*f", decimals, t / unit);
+    std::snprintf(buf, sizeof buf, "%.*f", decimals, (t - scaling.offset) / unit);
     ticks.push_back({t, trim_minus(buf)});
   }
   return ticks;
@@ -631,8 +658,6 @@ double vertical_ticks(const Canvas& c, double x, const std::vector<Tick>& ticks,
   return widest;
 }
 
-std::string offset_label(int exponent) { return "1e" + std::to_string(exponent); }
-
 void draw_colorbar(const Canvas& c, const Frame& f, const Axes::Bar& bar) {
   cairo_t* cr = c.cr;
   const double pad = 0.1 * kDpi, w = std::clamp(f.ph / 20.0, 0.08 * kDpi, 0.16 * kDpi);
@@ -651,11 +676,11 @@ void draw_colorbar(const Canvas& c, const Frame& f, const Axes::Bar& bar) {
   c.color({0, 0, 0, 1});
   cairo_set_line_width(cr, 0.8 * kPt);
   cairo_stroke(cr);
-  int exponent = 0;
-  const auto ticks = linear_ticks(lo, hi, std::max(2, static_cast<int>(h / kPt / (2 * kFont))), exponent);
+  Scaling scaling;
+  const auto ticks = linear_ticks(lo, hi, std::max(2, static_cast<int>(h / kPt / (2 * kFont))), scaling);
   const double widest =
       vertical_ticks(c, x + w, ticks, [&](double t) { return y + h - (t - lo) / (hi - lo) * h; }, true);
-  if (exponent) c.text(offset_label(exponent), x, y - 0.3 * kFont * kPt, kFont, {0, 0, 0, 1}, 0.0, 1.0);
+  if (scaling.any()) c.text(scaling.text(), x, y - 0.3 * kFont * kPt, kFont, {0, 0, 0, 1}, 0.0, 1.0);
   if (!bar.label.empty())
     c.text(bar.label, x + w + 2 * kTick * kPt + widest + 0.4 * kFont * kPt, y + h / 2, kFont, {0, 0, 0, 1}, 0.5, 0.0,
            1);
@@ -664,9 +689,9 @@ void draw_colorbar(const Canvas& c, const Frame& f, const Axes::Bar& bar) {
 // The width a colour bar takes right of its panel, labels included (pixels).
 double colorbar_width(const Canvas& c, const Axes::Bar& bar, double panel_height) {
   const double lo = bar.lo, hi = bar.hi > bar.lo ? bar.hi : bar.lo + 1.0;
-  int exponent = 0;
+  Scaling scaling;
   double widest = 0.0;
-  for (const auto& t : linear_ticks(lo, hi, std::max(2, static_cast<int>(0.9 * panel_height / kPt / (2 * kFont))), exponent))
+  for (const auto& t : linear_ticks(lo, hi, std::max(2, static_cast<int>(0.9 * panel_height / kPt / (2 * kFont))), scaling))
     widest = std::max(widest, c.width(t.label, kFont));
   return 0.1 * kDpi + std::clamp(panel_height / 20.0, 0.08 * kDpi, 0.16 * kDpi) + 2 * kTick * kPt + widest +
          (bar.label.empty() ? 0.0 : 0.4 * kFont * kPt + c.ascent(kFont) + c.descent(kFont));
@@ -701,13 +726,13 @@ class Renderer {
       f.px += (f.pw - w) / 2, f.py += (f.ph - h) / 2, f.pw = w, f.ph = h;
     }
     // Ticks: about one per three label heights along x, two along y (matplotlib's density).
-    int xexp = 0, yexp = 0;
+    Scaling xscaling, yscaling;
     const auto xt = a.xscale_ == Scale::log
                         ? log_ticks(f.xl[0], f.xl[1])
-                        : linear_ticks(f.xl[0], f.xl[1], std::clamp(static_cast<int>(f.pw / kPt / (3 * kFont)), 2, 9), xexp);
+                        : linear_ticks(f.xl[0], f.xl[1], std::clamp(static_cast<int>(f.pw / kPt / (3 * kFont)), 2, 9), xscaling);
     const auto yt = a.yscale_ == Scale::log
                         ? log_ticks(f.yl[0], f.yl[1])
-                        : linear_ticks(f.yl[0], f.yl[1], std::clamp(static_cast<int>(f.ph / kPt / (2 * kFont)), 2, 9), yexp);
+                        : linear_ticks(f.yl[0], f.yl[1], std::clamp(static_cast<int>(f.ph / kPt / (2 * kFont)), 2, 9), yscaling);
     cairo_rectangle(cr, f.px, f.py, f.pw, f.ph);
     c.color({1, 1, 1, 1});
     cairo_fill(cr);
@@ -748,14 +773,14 @@ class Renderer {
     for (const auto& t : yt)
       if (f.YS(t.at) >= f.py - 0.5 && f.YS(t.at) <= f.py + f.ph + 0.5) yin.push_back(t);
     const double widest = vertical_ticks(c, f.px, yin, [&](double v) { return f.YS(v); }, false);
-    if (xexp) c.text(offset_label(xexp), f.px + f.pw, f.py + f.ph + 2 * len + label_h, kFont, {0, 0, 0, 1}, 1.0, 0.0);
-    if (yexp) c.text(offset_label(yexp), f.px, f.py - 0.3 * kFont * kPt, kFont, {0, 0, 0, 1}, 0.0, 1.0);
+    if (xscaling.any()) c.text(xscaling.text(), f.px + f.pw, f.py + f.ph + 2 * len + label_h, kFont, {0, 0, 0, 1}, 1.0, 0.0);
+    if (yscaling.any()) c.text(yscaling.text(), f.px, f.py - 0.3 * kFont * kPt, kFont, {0, 0, 0, 1}, 0.0, 1.0);
     const double below = f.py + f.ph + 2 * len + (label_h > 0 ? label_h : c.ascent(kFont) + c.descent(kFont)) + len;
     if (!a.xlabel_.empty()) c.text(a.xlabel_, f.px + f.pw / 2, below, kFont, {0, 0, 0, 1}, 0.5, 0.0);
     if (!a.ylabel_.empty())
       c.text(a.ylabel_, f.px - 2 * len - widest - len, f.py + f.ph / 2, kFont, {0, 0, 0, 1}, 0.5, 1.0, 1);
     if (!a.title_.empty())
-      c.text(a.title_, f.px + f.pw / 2, f.py - 6.0 * kPt - (yexp ? label_h : 0.0), a.title_size_, {0, 0, 0, 1}, 0.5, 1.0);
+      c.text(a.title_, f.px + f.pw / 2, f.py - 6.0 * kPt - (yscaling.any() ? label_h : 0.0), a.title_size_, {0, 0, 0, 1}, 0.5, 1.0);
     if (a.legend_) draw_legend(c, f, a.entries_, a.legend_->first, a.legend_->second);
     if (a.bar_) draw_colorbar(c, f, *a.bar_);
   }

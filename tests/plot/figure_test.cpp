@@ -128,19 +128,32 @@ TEST_F(PlotFigure, LinesAndMarkersFollowLinearAndLogScales) {
 }
 
 TEST_F(PlotFigure, ContoursFillTheSurfaceByBands) {
-  // z = x on the unit square: the bands run across x, lowest colour on the left.
-  Figure fig(2.0, 2.0);
-  Axes& ax = fig.add_axes(0.5, 0.5, 1.0, 1.0);
-  const auto& map = Colormap::named("viridis");
-  ax.contours({0.0, 1.0, 1.0, 0.0}, {0.0, 0.0, 1.0, 1.0}, {0.0, 1.0, 1.0, 0.0}, {{{0, 1, 2}}, {{0, 2, 3}}}, 10, map,
-              1.0);
-  ASSERT_TRUE(ax.has_data());
-  const fs::path png = dir_ / "contours.png";
-  fig.save(png.string(), Format::png);
-  const Pixels p = read_png(png);
-  EXPECT_TRUE(near(p.at(63, 80), map.at(0.05), 4.0 / 255));   // first band, x in [0, 0.1]
-  EXPECT_TRUE(near(p.at(177, 150), map.at(0.95), 4.0 / 255)); // last band, x in [0.9, 1]
-  EXPECT_TRUE(near(p.at(123, 70), map.at(0.55), 4.0 / 255));  // x ≈ 0.525
+  // z = x on the unit square: the bands run across x, lowest colour on the left. Two
+  // triangles are drawn as polygons; 240 000 (a grid of 300 × 400 cells) as a raster.
+  for (const int cells : {1, 300}) {
+    std::vector<double> x, y;
+    std::vector<std::array<std::int32_t, 3>> triangles;
+    const int ny = cells == 1 ? 1 : 400;
+    for (int j = 0; j <= ny; ++j)
+      for (int i = 0; i <= cells; ++i) x.push_back(static_cast<double>(i) / cells), y.push_back(static_cast<double>(j) / ny);
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < cells; ++i) {
+        const std::int32_t a = j * (cells + 1) + i, b = a + 1, c = a + cells + 2, d = a + cells + 1;
+        triangles.push_back({a, b, c});
+        triangles.push_back({a, c, d});
+      }
+    Figure fig(2.0, 2.0);
+    Axes& ax = fig.add_axes(0.5, 0.5, 1.0, 1.0);
+    const auto& map = Colormap::named("viridis");
+    ax.contours(x, y, x, triangles, 10, map, 1.0);
+    ASSERT_TRUE(ax.has_data());
+    const fs::path png = dir_ / ("contours-" + std::to_string(cells) + ".png");
+    fig.save(png.string(), Format::png);
+    const Pixels p = read_png(png);
+    EXPECT_TRUE(near(p.at(63, 80), map.at(0.05), 4.0 / 255)) << cells;   // first band, x in [0, 0.1]
+    EXPECT_TRUE(near(p.at(177, 150), map.at(0.95), 4.0 / 255)) << cells; // last band, x in [0.9, 1]
+    EXPECT_TRUE(near(p.at(123, 70), map.at(0.55), 4.0 / 255)) << cells;  // x ≈ 0.525
+  }
 }
 
 TEST_F(PlotFigure, SvgAndRepeatsAreExact) {

@@ -241,6 +241,48 @@ std::vector<Vertex> clip(const std::vector<Vertex>& poly, double level, bool kee
 
 }  // namespace
 
+namespace {
+
+// Surfaces of more triangles than this are drawn as a raster of kRasterCells cells along
+// the longer side (finer than a panel's pixels) instead of one polygon per triangle: a
+// valley-scale DEM's millions of triangles then cost megabytes and a fraction of a second.
+constexpr std::size_t kVectorTriangles = 200000;
+constexpr int kRasterCells = 1200;
+
+// The surface sampled at the centres of square cells of side `cell` from (x0, y0): NaN
+// where no triangle covers a centre.
+std::vector<double> sample_surface(const std::vector<double>& x, const std::vector<double>& y,
+                                   const std::vector<double>& z, const std::vector<std::array<std::int32_t, 3>>& triangles,
+                                   double x0, double y0, double cell, int nx, int ny) {
+  std::vector<double> g(static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny), std::nan(""));
+  for (const auto& t : triangles) {
+    const double ax = x[t[0]], ay = y[t[0]], bx = x[t[1]], by = y[t[1]], cx = x[t[2]], cy = y[t[2]];
+    const double det = (by - cy) * (ax - cx) + (cx - bx) * (ay - cy);
+    if (std::abs(det) <= 1e-300) continue;
+    const auto index = [&](double v, double origin, int n, bool up) {
+      const double u = (v - origin) / cell - 0.5;
+      return std::clamp(static_cast<int>(up ? std::ceil(u) : std::floor(u)), 0, n - 1);
+    };
+    const int i0 = index(std::min({ax, bx, cx}), x0, nx, true), i1 = index(std::max({ax, bx, cx}), x0, nx, false);
+    const int j0 = index(std::min({ay, by, cy}), y0, ny, true), j1 = index(std::max({ay, by, cy}), y0, ny, false);
+    for (int j = j0; j <= j1; ++j) {
+      const double py = y0 + (j + 0.5) * cell;
+      for (int i = i0; i <= i1; ++i) {
+        const double px = x0 + (i + 0.5) * cell;
+        const double l1 = ((by - cy) * (px - cx) + (cx - bx) * (py - cy)) / det;
+        const double l2 = ((cy - ay) * (px - cx) + (ax - cx) * (py - cy)) / det;
+        const double l3 = 1.0 - l1 - l2;
+        if (l1 >= -1e-9 && l2 >= -1e-9 && l3 >= -1e-9)
+          g[static_cast<std::size_t>(j) * static_cast<std::size_t>(nx) + static_cast<std::size_t>(i)] =
+              l1 * z[t[0]] + l2 * z[t[1]] + l3 * z[t[2]];
+      }
+    }
+  }
+  return g;
+}
+
+}  // namespace
+
 void Axes::contours(const std::vector<double>& x, const std::vector<double>& y, const std::vector<double>& z,
                     const std::vector<std::array<std::int32_t, 3>>& triangles, int levels, const Colormap& map,
                     double alpha) {
@@ -249,20 +291,71 @@ void Axes::contours(const std::vector<double>& x, const std::vector<double>& y, 
   const double step = nice_step(*zmin_it, *zmax_it, levels);
   const double first = std::floor(*zmin_it / step) * step;
   const int bands = std::max(1, static_cast<int>(std::ceil((*zmax_it - first) / step - 1e-9)));
+  std::vector<Rgba> colors;
+  for (int k = 0; k < bands; ++k) colors.push_back(map.at((k + 0.5) / bands).with_alpha(alpha));
+  Item lines(Item::Kind::path);
+  lines.style = {Rgba{0, 0, 0, 0.5}, 0.3, Dash::solid};
+  const auto band_of = [&](double v) { return std::clamp(static_cast<int>(std::floor((v - first) / step)), 0, bands - 1); };
+  if (triangles.size() > kVectorTriangles) {
+    const auto [xl, xh] = std::minmax_element(x.begin(), x.end());
+    const auto [yl, yh] = std::minmax_element(y.begin(), y.end());
+    const double cell = std::max(*xh - *xl, *yh - *yl) / kRasterCells;
+    if (!(cell > 0.0)) return;
+    const int nx = std::max(1, static_cast<int>(std::ceil((*xh - *xl) / cell))), ny = std::max(1, static_cast<int>(std::ceil((*yh - *yl) / cell)));
+    const auto g = sample_surface(x, y, z, triangles, *xl, *yl, cell, nx, ny);
+    const auto at = [&](int i, int j) { return g[static_cast<std::size_t>(j) * static_cast<std::size_t>(nx) + static_cast<std::size_t>(i)]; };
+    Item image(Item::Kind::image);
+    image.width = nx, image.height = ny, image.sticky = true;
+    image.x0 = *xl, image.x1 = *xl + nx * cell, image.y0 = *yl, image.y1 = *yl + ny * cell;
+    image.pixels.resize(g.size(), 0u);
+    const auto byte = [](double u) { return static_cast<std::uint32_t>(std::lround(255.0 * u)); };
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) {
+        if (!std::isfinite(at(i, j))) continue;
+        const Rgba& c = colors[static_cast<std::size_t>(band_of(at(i, j)))];  // premultiplied by its opacity
+        image.pixels[static_cast<std::size_t>(ny - 1 - j) * static_cast<std::size_t>(nx) + static_cast<std::size_t>(i)] =
+            byte(c.a) << 24 | byte(c.r * c.a) << 16 | byte(c.g * c.a) << 8 | byte(c.b * c.a);
+      }
+    items_.push_back(std::move(image));
+    // Contour lines by marching squares over the cell centres.
+    for (int j = 0; j + 1 < ny; ++j)
+      for (int i = 0; i + 1 < nx; ++i) {
+        const double q[4] = {at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)};
+        if (!std::isfinite(q[0] + q[1] + q[2] + q[3])) continue;
+        const double px[4] = {*xl + (i + 0.5) * cell, *xl + (i + 1.5) * cell, *xl + (i + 1.5) * cell, *xl + (i + 0.5) * cell};
+        const double py[4] = {*yl + (j + 0.5) * cell, *yl + (j + 0.5) * cell, *yl + (j + 1.5) * cell, *yl + (j + 1.5) * cell};
+        const double lo = std::min({q[0], q[1], q[2], q[3]}), hi = std::max({q[0], q[1], q[2], q[3]});
+        for (int k = band_of(lo) + 1; k <= band_of(hi); ++k) {
+          const double a = first + k * step;
+          double cross_x[4], cross_y[4];
+          int n = 0;
+          for (int e = 0; e < 4; ++e) {
+            const int f = (e + 1) % 4;
+            if ((q[e] - a) * (q[f] - a) < 0.0) {
+              const double s = (a - q[e]) / (q[f] - q[e]);
+              cross_x[n] = px[e] + s * (px[f] - px[e]), cross_y[n] = py[e] + s * (py[f] - py[e]), ++n;
+            }
+          }
+          for (int m = 0; m + 1 < n; m += 2) {
+            lines.x.insert(lines.x.end(), {cross_x[m], cross_x[m + 1], std::nan("")});
+            lines.y.insert(lines.y.end(), {cross_y[m], cross_y[m + 1], std::nan("")});
+          }
+        }
+      }
+    items_.push_back(std::move(lines));
+    return;
+  }
   // One fill item per band (its polygons in one path, so abutting pieces show no seam),
   // then one path of every contour segment.
   std::vector<Item> fills;
-  Item lines(Item::Kind::path);
-  lines.style = {Rgba{0, 0, 0, 0.5}, 0.3, Dash::solid};
   for (int k = 0; k < bands; ++k) {
     fills.emplace_back(Item::Kind::fill).sticky = true;
-    fills.back().style.color = map.at((k + 0.5) / bands).with_alpha(alpha);
+    fills.back().style.color = colors[static_cast<std::size_t>(k)];
   }
   for (const auto& t : triangles) {
     const std::vector<Vertex> tri = {{x[t[0]], y[t[0]], z[t[0]]}, {x[t[1]], y[t[1]], z[t[1]]}, {x[t[2]], y[t[2]], z[t[2]]}};
     const double lo = std::min({tri[0].z, tri[1].z, tri[2].z}), hi = std::max({tri[0].z, tri[1].z, tri[2].z});
-    const int k0 = std::clamp(static_cast<int>(std::floor((lo - first) / step)), 0, bands - 1);
-    const int k1 = std::clamp(static_cast<int>(std::floor((hi - first) / step)), 0, bands - 1);
+    const int k0 = band_of(lo), k1 = band_of(hi);
     for (int k = k0; k <= k1; ++k) {
       const double a = first + k * step, b = a + step;
       const auto piece = k0 == k1 ? tri : clip(clip(tri, a, true), b, false);

@@ -415,7 +415,9 @@ RunResult run_result(const Run& run, const Settings& settings) {
   if (settings.hazard_maps && grid) out.hazard = hazard_maps(run.file, out.origin_shift, settings.energy_unit);
   const auto& shift = out.origin_shift;
   PlanView& plan = out.plan;
-  // Terrains of millions of points are left out of the plan view (the plot would not show them).
+  // The plan view's terrain: the whole mesh up to two million points; a grid of more
+  // points is thinned to about 600 points along its longer side (finer than the figure
+  // shows); a larger TIN is left out.
   if (ground && ground->mesh.vertices.size() <= 2000000) {
     for (const auto& v : ground->mesh.vertices) {
       plan.terrain_x.push_back(v.x() + shift[0]);
@@ -423,6 +425,23 @@ RunResult run_result(const Run& run, const Settings& settings) {
       plan.terrain_z.push_back(v.z() + shift[2]);
     }
     for (const auto& t : ground->mesh.triangles) plan.terrain_triangles.push_back({t[0], t[1], t[2]});
+  } else if (ground && ground->grid) {
+    const terrain::GridSpec& g = *ground->grid;
+    const std::int32_t stride = std::max<std::int32_t>(1, static_cast<std::int32_t>(std::ceil(std::max(g.nx, g.ny) / 600.0)));
+    const std::int32_t mx = (g.nx - 1) / stride + 1, my = (g.ny - 1) / stride + 1;
+    for (std::int32_t j = 0; j < my; ++j)
+      for (std::int32_t i = 0; i < mx; ++i) {
+        const auto& v = ground->mesh.vertices[g.index(i * stride, j * stride)];
+        plan.terrain_x.push_back(v.x() + shift[0]);
+        plan.terrain_y.push_back(v.y() + shift[1]);
+        plan.terrain_z.push_back(v.z() + shift[2]);
+      }
+    for (std::int32_t j = 0; j + 1 < my; ++j)
+      for (std::int32_t i = 0; i + 1 < mx; ++i) {
+        const std::int32_t a = j * mx + i;
+        plan.terrain_triangles.push_back({a, a + 1, a + mx + 1});
+        plan.terrain_triangles.push_back({a, a + mx + 1, a + mx});
+      }
   }
   std::set<std::uint32_t> drawn;
   for (const auto& p : run.file.data.trajectories) {

@@ -548,7 +548,7 @@ std::vector<Tick> linear_ticks(double lo, double hi, int intervals, Scaling& sca
   const double scaled = step / unit;
   int decimals = std::max(0, -static_cast<int>(std::floor(std::log10(scaled) + 1e-9)));
   const double mantissa = scaled / std::pow(10.0, std::floor(std::log10(scaled) + 1e-9));
-  if (std::abs(mantissa - 2.5) < 1e-6) ++decimals;
+  if (std::abs(mantissa - 2.5) < 1e-6 && scaled < 10.0) ++decimals;  // 0.25, 2.5; not 25 or 250
   std::vector<Tick> ticks;
   for (double t : at) {
     char buf[64];

@@ -86,7 +86,6 @@ OVERRIDES = [
      "--set particles=6 --set generations=1 --set realizations={n}"),
     ("docs/calibration.md", r"^calibrate -c samples/calibration/predict\.yaml",
      "--set predictive_draws=3 --set realizations={n}"),
-    ("docs/benchmarks.md", r"^\s*stats .* -o (stats|b2)\b", "--set plots=false"),
 ]
 
 # Documents whose commands go on from another document's outputs, as their text says:

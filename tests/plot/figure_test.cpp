@@ -97,6 +97,19 @@ TEST_F(PlotFigure, ImageCellsLandWhereTheirCoordinatesSay) {
   EXPECT_TRUE(near(p.at(90, 90), Rgba{1, 1, 1, 1}));    // no value: blank
   EXPECT_TRUE(near(p.at(150, 90), map.at(1.0)));        // value 3
   EXPECT_TRUE(near(p.at(20, 20), Rgba{1, 1, 1, 1}));    // outside the panel
+
+  // 10 000 × 2 cells of 0.2 mm (thinned to every third): the left half 0, the right half 3.
+  Figure wide(2.0, 2.0);
+  Axes& w = wide.add_axes(0.5, 0.5, 1.0, 1.0);
+  std::vector<double> halves(20000, 0.0);
+  for (std::size_t j = 0; j < 2; ++j)
+    for (std::size_t i = 5000; i < 10000; ++i) halves[j * 10000 + i] = 3.0;
+  w.image(halves, 10000, 2, 1e-4, 0.5, 2e-4, 1.0, map, 0.0, 3.0);
+  const fs::path wpng = dir_ / "wide.png";
+  wide.save(wpng.string(), Format::png);
+  const Pixels pw = read_png(wpng);
+  EXPECT_TRUE(near(pw.at(90, 120), map.at(0.0)));
+  EXPECT_TRUE(near(pw.at(150, 120), map.at(1.0)));
 }
 
 TEST_F(PlotFigure, LinesAndMarkersFollowLinearAndLogScales) {

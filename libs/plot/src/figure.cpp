@@ -189,19 +189,25 @@ void Axes::hline(double y, LineStyle style) {
 
 void Axes::image(const std::vector<double>& values, std::size_t nx, std::size_t ny, double x0, double y0, double dx,
                  double dy, const Colormap& map, double lo, double hi) {
+  if (nx == 0 || ny == 0) return;
+  // Rasters wider than any panel's pixels (and Cairo's 32 767-pixel limit) keep every
+  // stride-th cell along each side: the panel shows one pixel for many cells either way.
+  constexpr std::size_t kMaxCells = 4096;
+  const std::size_t stride = (std::max(nx, ny) + kMaxCells - 1) / kMaxCells;
+  const std::size_t mx = (nx + stride - 1) / stride, my = (ny + stride - 1) / stride;
   Item item(Item::Kind::image);
-  item.width = static_cast<int>(nx), item.height = static_cast<int>(ny), item.sticky = true;
-  item.x0 = x0 - dx / 2, item.x1 = x0 + (static_cast<double>(nx) - 0.5) * dx;
-  item.y0 = y0 - dy / 2, item.y1 = y0 + (static_cast<double>(ny) - 0.5) * dy;
-  item.pixels.resize(nx * ny, 0u);  // transparent
+  item.width = static_cast<int>(mx), item.height = static_cast<int>(my), item.sticky = true;
+  item.x0 = x0 - dx / 2, item.x1 = item.x0 + static_cast<double>(mx * stride) * dx;
+  item.y0 = y0 - dy / 2, item.y1 = item.y0 + static_cast<double>(my * stride) * dy;
+  item.pixels.resize(mx * my, 0u);  // transparent
   const double span = hi > lo ? hi - lo : 1.0;
-  for (std::size_t j = 0; j < ny; ++j)
-    for (std::size_t i = 0; i < nx; ++i) {
-      const double v = values[j * nx + i];
+  for (std::size_t j = 0; j < my; ++j)
+    for (std::size_t i = 0; i < mx; ++i) {
+      const double v = values[j * stride * nx + i * stride];
       if (!std::isfinite(v)) continue;
       const Rgba c = map.at((v - lo) / span);
       const auto byte = [](double u) { return static_cast<std::uint32_t>(std::lround(255.0 * u)); };
-      item.pixels[(ny - 1 - j) * nx + i] = 0xff000000u | byte(c.r) << 16 | byte(c.g) << 8 | byte(c.b);
+      item.pixels[(my - 1 - j) * mx + i] = 0xff000000u | byte(c.r) << 16 | byte(c.g) << 8 | byte(c.b);
     }
   items_.push_back(std::move(item));
 }

@@ -70,7 +70,8 @@ class Axes {
   void hline(double y, LineStyle style);
   /// A raster of ny rows of nx cells (row j at y0 + j·dy, cell centres), values row by row,
   /// coloured by `map` over [lo, hi]; non-finite values are transparent. The cells span
-  /// [x0 − dx/2, x0 + (nx − ½)dx] × [y0 − dy/2, y0 + (ny − ½)dy].
+  /// [x0 − dx/2, x0 + (nx − ½)dx] × [y0 − dy/2, y0 + (ny − ½)dy]. Of a raster of more than
+  /// 4 096 cells along a side, every k-th cell is drawn (k the smallest that fits).
   void image(const std::vector<double>& values, std::size_t nx, std::size_t ny, double x0, double y0, double dx,
              double dy, const Colormap& map, double lo, double hi);
   /// Filled contour bands of a triangulated surface (`levels` bands between the extreme

@@ -895,9 +895,9 @@ Axes& Figure::add_axes(double left, double top, double width, double height) {
 namespace {
 
 // Writes an opaque ARGB32 image as an 8-bit RGB PNG. Plots are mostly flat colour: the
-// "sub" filter and zlib level 3 write them about five times faster than libpng's
-// defaults (adaptive filters, level 6) for files about 10 % larger. Returns false when the
-// file cannot be written. No C++ object lives across the setjmp.
+// "sub" filter and zlib level 3 halve the drawing time of the study's figures against
+// libpng's defaults (adaptive filters, level 6). Returns false when the file cannot be
+// written. No C++ object lives across the setjmp.
 bool write_png(const char* path, const unsigned char* data, int width, int height, int stride, unsigned char* row) {
   std::FILE* file = std::fopen(path, "wb");
   if (!file) return false;

@@ -125,6 +125,16 @@ Rgba Colormap::at(double t) const {
 // ---------------------------------------------------------------------------------------
 // What a panel holds
 
+namespace {
+
+// A colour as one pixel of a Cairo ARGB32 image (premultiplied by its opacity).
+std::uint32_t argb(const Rgba& c) {
+  const auto byte = [](double u) { return static_cast<std::uint32_t>(std::lround(255.0 * u)); };
+  return byte(c.a) << 24 | byte(c.r * c.a) << 16 | byte(c.g * c.a) << 8 | byte(c.b * c.a);
+}
+
+}  // namespace
+
 struct Axes::Item {
   enum class Kind { path, fill, markers, hline, image, text } kind;
   explicit Item(Kind k) : kind(k) {}
@@ -206,9 +216,7 @@ void Axes::image(const std::vector<double>& values, std::size_t nx, std::size_t 
     for (std::size_t i = 0; i < mx; ++i) {
       const double v = values[j * stride * nx + i * stride];
       if (!std::isfinite(v)) continue;
-      const Rgba c = map.at((v - lo) / span);
-      const auto byte = [](double u) { return static_cast<std::uint32_t>(std::lround(255.0 * u)); };
-      item.pixels[(my - 1 - j) * mx + i] = 0xff000000u | byte(c.r) << 16 | byte(c.g) << 8 | byte(c.b);
+      item.pixels[(my - 1 - j) * mx + i] = argb(map.at((v - lo) / span));
     }
   items_.push_back(std::move(item));
 }
@@ -315,13 +323,11 @@ void Axes::contours(const std::vector<double>& x, const std::vector<double>& y, 
     image.width = nx, image.height = ny, image.sticky = true;
     image.x0 = *xl, image.x1 = *xl + nx * cell, image.y0 = *yl, image.y1 = *yl + ny * cell;
     image.pixels.resize(g.size(), 0u);
-    const auto byte = [](double u) { return static_cast<std::uint32_t>(std::lround(255.0 * u)); };
     for (int j = 0; j < ny; ++j)
       for (int i = 0; i < nx; ++i) {
         if (!std::isfinite(at(i, j))) continue;
-        const Rgba& c = colors[static_cast<std::size_t>(band_of(at(i, j)))];  // premultiplied by its opacity
         image.pixels[static_cast<std::size_t>(ny - 1 - j) * static_cast<std::size_t>(nx) + static_cast<std::size_t>(i)] =
-            byte(c.a) << 24 | byte(c.r * c.a) << 16 | byte(c.g * c.a) << 8 | byte(c.b * c.a);
+            argb(colors[static_cast<std::size_t>(band_of(at(i, j)))]);
       }
     items_.push_back(std::move(image));
     // Contour lines by marching squares over the cell centres.

@@ -3,6 +3,7 @@
 // Box trees over a block's features in its body frame, so that contact detection and the
 // step control cost what the block touches, not what it has: a scanned rock of 10⁴ faces
 // near a few terrain triangles is queried in logarithmic time instead of scanned.
+#include <array>
 #include <cstdint>
 #include <limits>
 #include <utility>
@@ -53,6 +54,46 @@ class FeatureTree {
   std::vector<std::int32_t> ids_;      ///< feature id of item i
 };
 
+/// Steepest ascent over the vertex graph of a convex block (Model::convex): the vertex
+/// farthest along a body direction m, max m·rᵢ, in a few steps instead of a tree search.
+/// On a convex polyhedron a vertex none of whose neighbours lies farther is the farthest
+/// of all (exactly; in floating point within a few ulps of |m|·radius, which the callers
+/// allow for). The walk starts at the farthest vertex along the nearest of 26 fixed
+/// directions (tabulated), so its result depends on m alone.
+class VertexClimb {
+ public:
+  /// The graph of the convex `model` (vertices and edges set); empty when not convex.
+  void build(const Model& model);
+  bool empty() const { return offsets_.empty(); }
+  /// The vertex farthest along m (body frame): from the tabulated start, or from `from`
+  /// when that is a vertex (a walk of nearby directions, warm).
+  std::int32_t farthest(const std::vector<Vec3>& vertices, const Vec3& m, std::int32_t from = -1) const {
+    std::int32_t at = from >= 0 ? from : start(m);
+    double best = m.dot(vertices[static_cast<std::size_t>(at)]);
+    for (;;) {
+      std::int32_t next = -1;
+      const std::int32_t end = offsets_[static_cast<std::size_t>(at) + 1];
+      for (std::int32_t k = offsets_[static_cast<std::size_t>(at)]; k < end; ++k) {
+        const std::int32_t j = neighbours_[static_cast<std::size_t>(k)];
+        const double value = m.dot(vertices[static_cast<std::size_t>(j)]);
+        if (value > best) {
+          best = value;
+          next = j;
+        }
+      }
+      if (next < 0) return at;
+      at = next;
+    }
+  }
+
+ private:
+  std::int32_t start(const Vec3& m) const;
+
+  std::vector<std::int32_t> offsets_, neighbours_;  ///< the graph, compressed rows
+  std::array<Vec3, 26> directions_{};               ///< (±1|0)³ ≠ 0, normalised
+  std::array<std::int32_t, 26> starts_{};           ///< farthest vertex along each
+};
+
 /// The block's box trees (body frame): its vertices, its convex edges and its faces.
 struct BlockIndex {
   /// The box of the block's body-frame vertices (m).
@@ -63,6 +104,8 @@ struct BlockIndex {
   /// tolerance of it, so a point whose foot lies inside the polygon is inside the box
   /// inflated by its distance to the plane.
   FeatureTree faces;
+  /// A convex block's vertex graph for support queries (empty when it is concave).
+  VertexClimb climb;
 };
 
 /// The index of the features of `model` (its vertices, faces and edges must be set),

@@ -747,8 +747,23 @@ PlacedBlock::PlacedBlock(const Model& model, const Pose& pose, std::vector<Vec3>
       return;
     }
   }
-  // The box's faces are the extreme vertices along each axis, found by branch and bound
-  // over the vertex tree; the values are the vertices' own world coordinates.
+  // The box's faces are the extreme vertices along each axis: on a convex block by
+  // climbing its vertex graph along the rows of F (the farthest vertex by its body-frame
+  // value, within round-off of the farthest by world coordinate, so the box is widened by
+  // twice the round-off of a world vertex); else by branch and bound over the vertex tree,
+  // the values then the vertices' own world coordinates.
+  if (!index_->climb.empty()) {
+    const double slack = 2.0 * round_off_;
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 row = pose.map.row(k).transpose();
+      const std::int32_t hi = index_->climb.farthest(model.vertices, row);
+      const std::int32_t lo = index_->climb.farthest(model.vertices, -row);
+      box_.hi[k] = world_point(pose, model.vertices[static_cast<std::size_t>(hi)])[k] + slack;
+      box_.lo[k] = world_point(pose, model.vertices[static_cast<std::size_t>(lo)])[k] - slack;
+    }
+    if (reuse != nullptr) *reuse = BlockBox{&model, pose.centre, pose.map, box_};
+    return;
+  }
   for (int k = 0; k < 3; ++k) {
     const Vec3 row = pose.map.row(k).transpose();
     const Vec3 abs_row = abs_map.row(k).transpose();
@@ -777,9 +792,17 @@ double PlacedBlock::support(const Vec3& u) const {
     for (const Vec3& x : *world_) far = std::max(far, u.dot(x - centre));
     return far;
   }
-  // u·(c + F·r − c) = (Fᵀu)·r, bounded over a body box by its centre and half-sizes; the
-  // world vertex's round-off (per coordinate) on top.
+  // u·(c + F·r − c) = (Fᵀu)·r. A convex block's farthest vertex by that body-frame value
+  // (VertexClimb) is within round-off of the farthest by world value: twice a world
+  // vertex's round-off (per coordinate) on top makes it an upper bound.
   const Vec3 m = pose_->map.transpose() * u;
+  if (!index_->climb.empty()) {
+    const std::int32_t i = index_->climb.farthest(model_->vertices, m);
+    return u.dot(world_point(*pose_, model_->vertices[static_cast<std::size_t>(i)]) - centre) +
+           2.0 * round_off_ * u.cwiseAbs().sum();
+  }
+  // Else bounded over a body box by its centre and half-sizes; the world vertex's
+  // round-off (per coordinate) on top.
   const Vec3 abs_m = m.cwiseAbs();
   const double slack = round_off_ * u.cwiseAbs().sum();
   return index_->vertices.maximum(
@@ -988,6 +1011,7 @@ double FlightBound::plane_time(const Vec3& n, double offset, double limit) const
     // The block's box first (a lower height, in constant time): a plane it keeps clear
     // of for the whole limit needs no search of the vertex tree.
     if (box_plane_time(n, offset, limit) >= limit) return limit;
+    if (!placed_->index()->climb.empty()) return climb_plane_time(n, offset, limit);
     // Then each vertex's own time, as the scan below computes it, by branch and bound over
     // the vertex tree (the largest −time): over a body box (centre c, half-sizes h) the
     // height n·(centre + F·r) is at least its value at c less |Fᵀn|·h, the approach
@@ -1044,6 +1068,80 @@ double FlightBound::box_plane_time(const Vec3& n, double offset, double limit) c
   const double height = n.dot(centre_) - placed_->support_bound(-n) - offset - round_off_;
   if (!(height > 0.0)) return 0.0;
   return reach_time(height, rate, fall + spin_ * spin_ * radius_, limit);
+}
+
+// On a convex block the vertices' least gap to the plane after a time t of free flight is
+// bounded by one concave function of t, with every vertex's curvature taken at the radius
+// R (A = max(0, g·n_z + |ω|²·R)) and k = n × ω:
+//   G(t) = n·c − offset + (n·v)·t − ½A·t² − S(−(n + t·k)),
+// S(u) = max over the vertices of u·(xᵢ − c), the support (convex in u, so −S of an affine
+// direction is concave in t). When damped, the approaches count only where positive:
+// (n·v)·t becomes −max(0, −n·v)·t and S(−(n + t·k)) becomes max(S(−n), S(−(n + t·k))),
+// still concave. G(0) > 0 and G(t) > 0 give G > 0 on [0, t] (concavity), so a time at
+// which the evaluated G is positive is a proven lower bound of the first reach. It is
+// found by Newton steps from above (the tangent of a concave function lies above it, so
+// they never pass the root) and chords from below (a chord lies below it), to within a
+// thousandth of the limit. Each evaluation is one support query, warm from the last.
+double FlightBound::climb_plane_time(const Vec3& n, double offset, double limit) const {
+  const Pose& pose = placed_->pose();
+  const Model& model = placed_->model();
+  const VertexClimb& climb = placed_->index()->climb;
+  const Vec3 k = n.cross(spin_vector_);
+  const double base = n.dot(centre_) - offset - round_off_;
+  const double lift = damped_ ? -std::max(0.0, -n.dot(velocity_)) : n.dot(velocity_);
+  const double fall = gravity_ * (damped_ ? std::max(0.0, n.z()) : n.z());
+  const double a = std::max(0.0, fall + spin_ * spin_ * radius_);
+  const double vertex_round_off = 2.0 * placed_->round_off();
+  std::int32_t from = -1;
+  Vec3 lever = Vec3::Zero();  // xᵢ − c of the last support vertex
+  const auto extent = [&](const Vec3& u) {
+    from = climb.farthest(model.vertices, pose.map.transpose() * u, from);
+    lever = world_point(pose, model.vertices[static_cast<std::size_t>(from)]) - centre_;
+    return u.dot(lever) + vertex_round_off * u.cwiseAbs().sum();
+  };
+  const double floor_extent = damped_ ? extent(-n) : -std::numeric_limits<double>::infinity();
+  // G(t), and its slope there (the support vertex's, a supergradient).
+  const auto gap = [&](double t, double& slope) {
+    const double s = extent(-(n + t * k));
+    const double free = base + lift * t - 0.5 * a * t * t;
+    if (s >= floor_extent) {
+      slope = lift - a * t + k.dot(lever);
+      return free - s;
+    }
+    slope = lift - a * t;
+    return free - floor_extent;
+  };
+  double slope_lo = 0.0, slope_hi = 0.0;
+  double g_lo = gap(0.0, slope_lo);
+  if (!(g_lo > 0.0)) return 0.0;
+  double g_hi = gap(limit, slope_hi);
+  if (g_hi > 0.0) return limit;
+  double t_lo = 0.0, t_hi = limit;
+  const double tolerance = 1e-3 * limit;
+  const auto take = [&](double t) {
+    double slope = 0.0;
+    const double g = gap(t, slope);
+    // G(t) = 0 (a Newton step onto a straight piece): the first reach is t itself.
+    if (g >= 0.0) {
+      t_lo = t;
+      g_lo = g;
+    } else {
+      t_hi = t;
+      g_hi = g;
+      slope_hi = slope;
+    }
+  };
+  for (int iteration = 0; iteration < 16 && t_hi - t_lo > tolerance; ++iteration) {
+    if (slope_hi < 0.0) {
+      const double t = t_hi - g_hi / slope_hi;
+      if (t > t_lo && t < t_hi) take(t);
+      if (t_hi - t_lo <= tolerance) break;
+    }
+    if (!(g_lo > 0.0)) break;
+    const double chord = t_lo + g_lo * (t_hi - t_lo) / (g_lo - g_hi);
+    take(chord > t_lo && chord < t_hi ? chord : 0.5 * (t_lo + t_hi));
+  }
+  return t_lo;
 }
 
 double FlightBound::quick_triangle_time(const Vec3& normal, const std::array<Vec3, 3>& corners, double limit) const {

@@ -58,7 +58,9 @@ class PlacedBlock {
   double inverse_stretch() const { return inverse_stretch_; }
   /// The block's extent along the world direction u from its centre, max u·(xᵢ − centre)
   /// over the world vertices xᵢ (m for a unit u): a scan, or branch and bound over the
-  /// vertex tree of a detailed block, with the same vertices' numbers either way.
+  /// vertex tree of a detailed block, with the same vertices' numbers either way; for a
+  /// detailed convex block, an upper bound within twice a world vertex's round-off of it
+  /// (VertexClimb).
   double support(const Vec3& u) const;
   /// An upper bound of support(u) in constant time for a detailed block (that of its
   /// body-frame vertex box, round-off included); support(u) for a scanned one.
@@ -152,6 +154,8 @@ class FlightBound {
   /// A detailed block's plane_time from its box, every vertex at the radius R (a lower
   /// bound, in constant time; 0 when the box reaches the plane).
   double box_plane_time(const Vec3& n, double offset, double limit) const;
+  /// A detailed convex block's plane_time, from its support (VertexClimb).
+  double climb_plane_time(const Vec3& n, double offset, double limit) const;
 
   const std::vector<Vec3>* vertices_ = nullptr;
   const PlacedBlock* placed_ = nullptr;  // a detailed block's (then vertices_ is null)

@@ -773,8 +773,9 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
 // step) is dropped: a real crossing is found while it approaches, and the normal e₁ × e₂
 // of a pair found deep inside says nothing about the way out.
 //
-// `matched`, when given, receives per contact of `now` whether it carries a previous one.
-inline void carry_contacts(const std::vector<Contact>& previous, std::vector<Contact>& now, const Pose& pose,
+// `matched`, when given, receives per contact of `now` whether it carries a previous one;
+// the return value is whether every previous contact is carried by one of `now`.
+inline bool carry_contacts(const std::vector<Contact>& previous, std::vector<Contact>& now, const Pose& pose,
                     double friction, double shear_stiffness, double fresh_depth, double radius,
                     std::vector<std::uint8_t>* matched = nullptr) {
   // The previous contacts of the same kind and block feature as c, in their order: all
@@ -811,6 +812,8 @@ inline void carry_contacts(const std::vector<Contact>& previous, std::vector<Con
     return !carried;
   });
   if (matched != nullptr) matched->assign(now.size(), 0);
+  thread_local std::vector<std::uint8_t> used;
+  used.assign(previous.size(), 0);
   for (std::size_t i = 0; i < now.size(); ++i) {
     Contact& c = now[i];
     c.gap_offset = std::min(c.gap, 0.0);
@@ -825,6 +828,7 @@ inline void carry_contacts(const std::vector<Contact>& previous, std::vector<Con
     });
     if (match == nullptr) continue;
     if (matched != nullptr) (*matched)[i] = 1;
+    used[static_cast<std::size_t>(match - previous.data())] = 1;
     const Contact& old = *match;
     c.mode = old.mode;
     c.resume = old.resume;
@@ -852,6 +856,7 @@ inline void carry_contacts(const std::vector<Contact>& previous, std::vector<Con
       if (stretch > allowed) c.ground_anchor += st * (1.0 - allowed / stretch);
     }
   }
+  return std::all_of(used.begin(), used.end(), [](std::uint8_t u) { return u != 0; });
 }
 
 // A contact closed through a whole step, at its end: the point (world, m), the unit

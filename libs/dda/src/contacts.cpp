@@ -515,7 +515,7 @@ void gather_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
 // (gathered by gather_indexed at this pose or one close enough): every test of a search
 // that gathered at this very pose, in its order, so the same contacts in the same order,
 // those of the scan. Terrain vertices are searched afresh (the faces near each).
-void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds, double depth,
+void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds, double vertex_ds, double depth,
                     const TerrainPatch::Candidates& c, std::vector<Contact>& out) {
   const Model& model = at.model();
   const Pose& pose = at.pose();
@@ -567,17 +567,21 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
   }
   for (std::size_t k = first; k < out.size(); ++k) latest[static_cast<std::size_t>(out[k].block_feature)] = -1;
 
-  // Terrain vertex – block face, against the faces whose polygon is near it.
-  const double face_tol = kSlack * margin + 1e-6 * model.radius;
+  // Terrain vertex – block face, against the faces whose polygon is near it, within the
+  // terrain vertices' own search distance.
+  const double vertex_margin = std::max(vertex_ds, depth);
+  const geometry::Aabb vertex_reach = at.box().inflated(vertex_margin);
+  const double face_tol = kSlack * vertex_margin + 1e-6 * model.radius;
   thread_local std::vector<std::int32_t> faces;
   for (const TerrainPatch::Vertex& tv : patch.vertices) {
-    if (!contains(reach, tv.p)) continue;
+    if (!contains(vertex_reach, tv.p)) continue;
     const Vec3 qb = pose.inverse_map * (tv.p - pose.centre);
     faces.clear();
-    const geometry::Aabb near_qb{qb - Vec3::Constant(margin + face_tol), qb + Vec3::Constant(margin + face_tol)};
+    const geometry::Aabb near_qb{qb - Vec3::Constant(vertex_margin + face_tol),
+                                 qb + Vec3::Constant(vertex_margin + face_tol)};
     index->faces.query([&](const geometry::Aabb& b) { return overlaps(b, near_qb); }, faces);
     std::sort(faces.begin(), faces.end());
-    terrain_vertex_contact(at, patch, tv, qb, &faces, ds, depth, face_tol, out);
+    terrain_vertex_contact(at, patch, tv, qb, &faces, vertex_ds, depth, face_tol, out);
   }
 
   // Block edge – terrain ridge crossings, in the order of the scan.
@@ -827,7 +831,7 @@ geometry::Aabb PlacedBlock::body_box(const geometry::Aabb& world) const {
 }
 
 void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, double search_distance,
-                     double depth_limit, TerrainPatch& patch, std::vector<Contact>& out) {
+                     double depth_limit, TerrainPatch& patch, std::vector<Contact>& out, double near_distance) {
   const geometry::Aabb box = at.box().inflated(std::max(search_distance, depth_limit));
   if (patch.surface != &surface || patch.box.empty() || !patch.box.contains(box.lo) || !patch.box.contains(box.hi)) {
     // Gather with a margin of half the block's radius, so the next steps reuse it.
@@ -849,15 +853,18 @@ void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, dou
   const double moved = c.model == &model ? (pose.centre - c.centre).norm() + (pose.map - c.map).norm() * model.radius +
                                                1e-9 * (pose.centre.cwiseAbs().maxCoeff() + model.radius)
                                          : std::numeric_limits<double>::infinity();
-  const bool reusable = search_distance + moved <= c.ds && depth_limit + moved <= c.depth && moved <= c.motion;
   if (at.index() != nullptr) {
+    // The pairs serve the vertex–triangle and edge–ridge tests, at the near distance.
+    const double ds = near_distance > 0.0 && near_distance < search_distance ? near_distance : search_distance;
+    const bool reusable = ds + moved <= c.ds && depth_limit + moved <= c.depth && moved <= c.motion;
     if (!reusable) {
       const double widening = kIndexedWidening * model.radius;
-      gather_indexed(at, patch, search_distance + widening, depth_limit + widening, widening, c);
+      gather_indexed(at, patch, ds + widening, depth_limit + widening, widening, c);
     }
-    detect_indexed(at, patch, search_distance, depth_limit, c, out);
+    detect_indexed(at, patch, ds, search_distance, depth_limit, c, out);
     return;
   }
+  const bool reusable = search_distance + moved <= c.ds && depth_limit + moved <= c.depth && moved <= c.motion;
   if (!reusable) {
     const double widening = kCandidateWidening * model.radius;
     gather_candidates(at, patch, search_distance + widening, depth_limit + widening, true, c);

@@ -91,8 +91,15 @@ inline thread_local double set_aside_scale = 2.0;
 /// only when the block's search box leaves it. Appends to `out` (geometric fields only).
 /// A detailed block's features are found through its index, with the same contacts in
 /// the same order as scanning them all would give.
+///
+/// `near_distance` (m), when positive and less than `search_distance`, narrows a detailed
+/// block's search: its vertex–triangle and edge–ridge pairs only within that distance;
+/// terrain vertex – block face contacts (whose choice of face depends on the distance)
+/// and the patch still within `search_distance`. The contacts are then those of the full
+/// search less its vertex–triangle and edge–ridge contacts with a gap of near_distance
+/// or more, in the same order with the same numbers. A scanned block ignores it.
 void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, double search_distance,
-                     double depth_limit, TerrainPatch& patch, std::vector<Contact>& out);
+                     double depth_limit, TerrainPatch& patch, std::vector<Contact>& out, double near_distance = 0.0);
 
 /// Brute-force reference of detect_contacts: every triangle of the surface and every
 /// feature of the block, no pruning.

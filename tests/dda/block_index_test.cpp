@@ -285,6 +285,36 @@ TEST(DdaBlockIndex, OnlyDetailedBlocksAreIndexed) {
   EXPECT_FALSE(Model::build(Settings{}, solid(block::SolidKind::ellipsoid, 8, 0.15)).convex);
 }
 
+// A convex detailed block's vertex graph climbs to the farthest vertex a scan finds, along
+// any direction (axis-aligned ones, with ties on a symmetric mesh, included), from the
+// cube map's start or from any vertex; a concave block has no graph to climb.
+TEST(DdaBlockIndex, ClimbFindsTheFarthestVertex) {
+  const core::RandomStream rng(5, core::Stream::release, 3);
+  for (const geometry::Polyhedron& poly :
+       {solid(block::SolidKind::ellipsoid, 16, 0.0), solid(block::SolidKind::ellipsoid, 32, 0.0),
+        solid(block::SolidKind::rock, 8, 0.0, 200), solid(block::SolidKind::ellipsoid, 8, 0.15)}) {
+    const Model m = Model::build(Settings{}, poly);
+    ASSERT_NE(m.index, nullptr);
+    const detail::VertexClimb& climb = m.index->climb;
+    EXPECT_EQ(climb.empty(), !m.convex);
+    if (climb.empty()) continue;
+    int steps_from_start = 0;
+    for (std::uint64_t k = 0; k < 2000; ++k) {
+      Vec3 u(rng.normal(4 * k), rng.normal(4 * k + 1), rng.normal(4 * k + 2));
+      if (k < 6) u = Vec3::Unit(static_cast<Eigen::Index>(k / 2)) * (k % 2 == 0 ? 1.0 : -1.0);
+      double best = -std::numeric_limits<double>::infinity();
+      for (const Vec3& v : m.vertices) best = std::max(best, u.dot(v));
+      const std::int32_t from_start = climb.farthest(m.vertices, u);
+      const auto from_any = static_cast<std::int32_t>(rng.uniform(4 * k + 3) * static_cast<double>(m.vertices.size()));
+      const std::int32_t from_vertex = climb.farthest(m.vertices, u, from_any);
+      EXPECT_NEAR(u.dot(m.vertices[static_cast<std::size_t>(from_start)]), best, 1e-12 * m.radius * u.norm()) << k;
+      EXPECT_NEAR(u.dot(m.vertices[static_cast<std::size_t>(from_vertex)]), best, 1e-12 * m.radius * u.norm()) << k;
+      steps_from_start += from_start != climb.farthest(m.vertices, u, from_start);  // a fixed point
+    }
+    EXPECT_EQ(steps_from_start, 0);
+  }
+}
+
 // The feature tree finds what a scan of the boxes finds, and the branch-and-bound maximum
 // is the scan's maximum.
 TEST(DdaBlockIndex, FeatureTreeQueriesAndMaximaMatchAScan) {

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: MIT
 #include "block_index.hpp"
 
+#include <algorithm>
+
 namespace talus::dda::detail {
 
 void VertexClimb::build(const Model& model) {
@@ -21,31 +23,33 @@ void VertexClimb::build(const Model& model) {
     neighbours_[static_cast<std::size_t>(fill[static_cast<std::size_t>(e.a)]++)] = e.b;
     neighbours_[static_cast<std::size_t>(fill[static_cast<std::size_t>(e.b)]++)] = e.a;
   }
-  std::size_t k = 0;
-  for (int x = -1; x <= 1; ++x)
-    for (int y = -1; y <= 1; ++y)
-      for (int z = -1; z <= 1; ++z) {
-        if (x == 0 && y == 0 && z == 0) continue;
-        directions_[k] = Vec3(x, y, z).normalized();
-        std::int32_t best = 0;
-        for (std::size_t i = 1; i < n; ++i)
-          if (directions_[k].dot(model.vertices[i]) > directions_[k].dot(model.vertices[static_cast<std::size_t>(best)]))
-            best = static_cast<std::int32_t>(i);
-        starts_[k++] = best;
+  // Each cell's centre direction; its farthest vertex by climbing from the last cell's
+  // (the graph is that of a convex polyhedron: the same vertex a scan finds).
+  starts_.assign(6 * kCells * kCells, 0);
+  std::int32_t from = 0;
+  for (int face = 0; face < 6; ++face)
+    for (int i = 0; i < kCells; ++i)
+      for (int j = 0; j < kCells; ++j) {
+        const int axis = face / 2;
+        Vec3 d = Vec3::Zero();
+        d[axis] = face % 2 == 0 ? 1.0 : -1.0;
+        d[(axis + 1) % 3] = -1.0 + (2.0 * i + 1.0) / kCells;
+        d[(axis + 2) % 3] = -1.0 + (2.0 * j + 1.0) / kCells;
+        from = farthest(model.vertices, d, from);
+        starts_[static_cast<std::size_t>(cell(d))] = from;
       }
 }
 
-std::int32_t VertexClimb::start(const Vec3& m) const {
-  std::size_t best = 0;
-  double value = directions_[0].dot(m);
-  for (std::size_t k = 1; k < directions_.size(); ++k) {
-    const double v = directions_[k].dot(m);
-    if (v > value) {
-      value = v;
-      best = k;
-    }
-  }
-  return starts_[best];
+int VertexClimb::cell(const Vec3& m) {
+  const Vec3 a = m.cwiseAbs();
+  const int axis = a.x() >= a.y() && a.x() >= a.z() ? 0 : a.y() >= a.z() ? 1 : 2;
+  const double top = a[axis];
+  if (!(top > 0.0)) return 0;
+  const int face = 2 * axis + (m[axis] >= 0.0 ? 0 : 1);
+  const auto index = [&](double c) {
+    return std::clamp(static_cast<int>((c / top + 1.0) * 0.5 * kCells), 0, kCells - 1);
+  };
+  return (face * kCells + index(m[(axis + 1) % 3])) * kCells + index(m[(axis + 2) % 3]);
 }
 
 BlockIndex make_block_index(const Model& model, double plane_tolerance) {

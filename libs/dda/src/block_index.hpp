@@ -58,8 +58,9 @@ class FeatureTree {
 /// farthest along a body direction m, max m·rᵢ, in a few steps instead of a tree search.
 /// On a convex polyhedron a vertex none of whose neighbours lies farther is the farthest
 /// of all (exactly; in floating point within a few ulps of |m|·radius, which the callers
-/// allow for). The walk starts at the farthest vertex along the nearest of 26 fixed
-/// directions (tabulated), so its result depends on m alone.
+/// allow for). The walk starts at the farthest vertex along the centre of the cell of a
+/// cube map (6 faces of kCells × kCells cells, tabulated) that m points into, a few
+/// degrees from m, so its result depends on m alone and it takes a few steps.
 class VertexClimb {
  public:
   /// The graph of the convex `model` (vertices and edges set); empty when not convex.
@@ -87,11 +88,14 @@ class VertexClimb {
   }
 
  private:
-  std::int32_t start(const Vec3& m) const;
+  static constexpr int kCells = 8;
+  /// The cube-map cell m points into: face (axis of |m|'s largest coordinate and its
+  /// sign) and the cell of the other two coordinates over it.
+  static int cell(const Vec3& m);
+  std::int32_t start(const Vec3& m) const { return starts_[static_cast<std::size_t>(cell(m))]; }
 
   std::vector<std::int32_t> offsets_, neighbours_;  ///< the graph, compressed rows
-  std::array<Vec3, 26> directions_{};               ///< (±1|0)³ ≠ 0, normalised
-  std::array<std::int32_t, 26> starts_{};           ///< farthest vertex along each
+  std::vector<std::int32_t> starts_;                ///< farthest vertex along each cell's centre
 };
 
 /// The block's box trees (body frame): its vertices, its convex edges and its faces.

@@ -543,6 +543,11 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
   std::int32_t current = -1;
   bool in_reach = false;
   geometry::Aabb tbox;
+  // The triangle's plane over the body frame: a vertex whose gap there lies outside
+  // (−depth, ds) by more than the round-off of either computation fails the exact test
+  // below, so it is passed over before its world position is computed (the pairs were
+  // gathered for a wider distance).
+  BodyPlane slab;
   for (const auto& [t, vi] : c.vertex_triangle) {
     if (!any_low) break;
     const TerrainPatch::Triangle& tri = patch.triangles[static_cast<std::size_t>(t)];
@@ -550,9 +555,12 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
       current = t;
       in_reach = overlaps(tri.box, reach);
       tbox = tri.box.inflated(margin);
+      slab = BodyPlane(pose, tri.normal, tri.p[0], at.round_off() + kRound * magnitude(tbox));
     }
     if (!in_reach) continue;
     const std::size_t i = static_cast<std::size_t>(vi);
+    const double body_gap = slab.s0 + slab.m.dot(model.vertices[i]);
+    if (body_gap - slab.tol >= ds || body_gap + slab.tol <= -depth) continue;
     const Vec3 p = at.vertex(i);
     if (p.z() > ceiling || !contains(tbox, p)) continue;
     double gap = 0.0;

@@ -312,6 +312,12 @@ TEST(DdaBlockIndex, ClimbFindsTheFarthestVertex) {
       steps_from_start += from_start != climb.farthest(m.vertices, u, from_start);  // a fixed point
     }
     EXPECT_EQ(steps_from_start, 0);
+    // No direction (zero, infinite or not a number): some vertex, at once.
+    for (const Vec3& u : {Vec3(Vec3::Zero()), Vec3(std::numeric_limits<double>::infinity(), 1.0, 0.0),
+                          Vec3(std::numeric_limits<double>::quiet_NaN(), 0.0, 1.0)}) {
+      const std::int32_t i = climb.farthest(m.vertices, u);
+      EXPECT_TRUE(i >= 0 && static_cast<std::size_t>(i) < m.vertices.size());
+    }
   }
 }
 

@@ -2,6 +2,7 @@
 #include "block_index.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace talus::dda::detail {
 
@@ -44,10 +45,11 @@ int VertexClimb::cell(const Vec3& m) {
   const Vec3 a = m.cwiseAbs();
   const int axis = a.x() >= a.y() && a.x() >= a.z() ? 0 : a.y() >= a.z() ? 1 : 2;
   const double top = a[axis];
-  if (!(top > 0.0)) return 0;
+  if (!(top > 0.0) || !std::isfinite(top)) return 0;  // no direction: any start will do
   const int face = 2 * axis + (m[axis] >= 0.0 ? 0 : 1);
   const auto index = [&](double c) {
-    return std::clamp(static_cast<int>((c / top + 1.0) * 0.5 * kCells), 0, kCells - 1);
+    const double x = (c / top + 1.0) * 0.5 * kCells;  // in [0, kCells] unless c is NaN
+    return x >= 1.0 ? std::min(static_cast<int>(x), kCells - 1) : 0;
   };
   return (face * kCells + index(m[(axis + 1) % 3])) * kCells + index(m[(axis + 2) % 3]);
 }

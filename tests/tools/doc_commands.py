@@ -51,7 +51,7 @@ EXCLUDED = [
     (r"^bench/dda/threshold_sensitivity\.sh\b", "36 runs of 1000 realizations"),
     (r"^bench/dda/compare_runs\.py compare\b", "compares with run files of an earlier revision (BEFORE-S1.h5)"),
     (r"^make (-j2 )?-C samples/bench-slope( check)?\s*(#.*)?$",
-     "the whole bench-slope study (about 11 minutes) and its check; the bench_slope_make test runs "
+     "the whole bench-slope study (about 35 s on two cores) and its check; the bench_slope_make test runs "
      "the check (the study at 16 realizations per level, outputs checked)"),
     (r"^bench/pareto/pareto\.py\b", "run time against error: about 80 runs of 500 realizations (an hour on 2 cores)"),
 ]

@@ -3,7 +3,6 @@
 // Box trees over a block's features in its body frame, so that contact detection and the
 // step control cost what the block touches, not what it has: a scanned rock of 10⁴ faces
 // near a few terrain triangles is queried in logarithmic time instead of scanned.
-#include <array>
 #include <cstdint>
 #include <limits>
 #include <utility>

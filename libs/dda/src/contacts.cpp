@@ -807,12 +807,12 @@ double PlacedBlock::support(const Vec3& u) const {
   // u·(c + F·r − c) = (Fᵀu)·r. A convex block's farthest vertex by that body-frame value
   // (VertexClimb) is within round-off of the farthest by world value: twice a world
   // vertex's round-off (per coordinate) on top makes it an upper bound.
-  const Vec3 m = pose_->map.transpose() * u;
   if (!index_->climb.empty()) {
-    const std::int32_t i = index_->climb.farthest(model_->vertices, m);
-    return u.dot(world_point(*pose_, model_->vertices[static_cast<std::size_t>(i)]) - centre) +
-           2.0 * round_off_ * u.cwiseAbs().sum();
+    std::int32_t from = -1;
+    Vec3 lever;
+    return climbed_support(u, from, lever);
   }
+  const Vec3 m = pose_->map.transpose() * u;
   // Else bounded over a body box by its centre and half-sizes; the world vertex's
   // round-off (per coordinate) on top.
   const Vec3 abs_m = m.cwiseAbs();
@@ -820,6 +820,12 @@ double PlacedBlock::support(const Vec3& u) const {
   return index_->vertices.maximum(
       [&](const geometry::Aabb& b) { return m.dot(b.center()) + abs_m.dot(0.5 * b.extent()) + slack; },
       [&](std::int32_t i) { return u.dot(world_point(*pose_, model_->vertices[static_cast<std::size_t>(i)]) - centre); });
+}
+
+double PlacedBlock::climbed_support(const Vec3& u, std::int32_t& from, Vec3& lever) const {
+  from = index_->climb.farthest(model_->vertices, pose_->map.transpose() * u, from);
+  lever = world_point(*pose_, model_->vertices[static_cast<std::size_t>(from)]) - pose_->centre;
+  return u.dot(lever) + 2.0 * round_off_ * u.cwiseAbs().sum();
 }
 
 double PlacedBlock::support_bound(const Vec3& u) const {
@@ -1098,22 +1104,14 @@ double FlightBound::box_plane_time(const Vec3& n, double offset, double limit) c
 // they never pass the root) and chords from below (a chord lies below it), to within a
 // thousandth of the limit. Each evaluation is one support query, warm from the last.
 double FlightBound::climb_plane_time(const Vec3& n, double offset, double limit) const {
-  const Pose& pose = placed_->pose();
-  const Model& model = placed_->model();
-  const VertexClimb& climb = placed_->index()->climb;
   const Vec3 k = n.cross(spin_vector_);
   const double base = n.dot(centre_) - offset - round_off_;
   const double lift = damped_ ? -std::max(0.0, -n.dot(velocity_)) : n.dot(velocity_);
   const double fall = gravity_ * (damped_ ? std::max(0.0, n.z()) : n.z());
   const double a = std::max(0.0, fall + spin_ * spin_ * radius_);
-  const double vertex_round_off = 2.0 * placed_->round_off();
   std::int32_t from = -1;
   Vec3 lever = Vec3::Zero();  // xᵢ − c of the last support vertex
-  const auto extent = [&](const Vec3& u) {
-    from = climb.farthest(model.vertices, pose.map.transpose() * u, from);
-    lever = world_point(pose, model.vertices[static_cast<std::size_t>(from)]) - centre_;
-    return u.dot(lever) + vertex_round_off * u.cwiseAbs().sum();
-  };
+  const auto extent = [&](const Vec3& u) { return placed_->climbed_support(u, from, lever); };
   const double floor_extent = damped_ ? extent(-n) : -std::numeric_limits<double>::infinity();
   // G(t), and its slope there (the support vertex's, a supergradient).
   const auto gap = [&](double t, double& slope) {

@@ -62,6 +62,10 @@ class PlacedBlock {
   /// detailed convex block, an upper bound within twice a world vertex's round-off of it
   /// (VertexClimb).
   double support(const Vec3& u) const;
+  /// support(u) of a detailed convex block (index()->climb not empty), climbing from
+  /// vertex `from` (−1: the climb's own start), which receives the vertex found; `lever`
+  /// receives that vertex's world offset from the centre (m).
+  double climbed_support(const Vec3& u, std::int32_t& from, Vec3& lever) const;
   /// An upper bound of support(u) in constant time for a detailed block (that of its
   /// body-frame vertex box, round-off included); support(u) for a scanned one.
   double support_bound(const Vec3& u) const;
@@ -134,13 +138,14 @@ class FlightBound {
   /// every height.
   void reset(const std::vector<Vec3>& vertices, const Vec3& centre, const Vec3& velocity, const Vec3& spin,
              double gravity, bool damped, double round_off);
-  /// The bound of a detailed block (`at` has an index; it must outlive the bound's use):
-  /// the same times, each vertex's, found by branch and bound over the vertex tree (a
-  /// body box bounds its vertices' heights, approaches and curvatures), after a check in
-  /// constant time with the block's box and every vertex taken at the block's radius R
-  /// (an approach of at most −n·v + |ω|·R, a curvature of at most g·n_z + |ω|²·R). The
-  /// separation direction's extent is PlacedBlock::support. Its round-off allowance is
-  /// a little wider than the scan's.
+  /// The bound of a detailed block (`at` has an index; it must outlive the bound's use),
+  /// after a check in constant time with the block's box and every vertex taken at the
+  /// block's radius R (an approach of at most −n·v + |ω|·R, a curvature of at most
+  /// g·n_z + |ω|²·R): for a concave block the same times, each vertex's, found by branch
+  /// and bound over the vertex tree (a body box bounds its vertices' heights, approaches
+  /// and curvatures); for a convex one a time from its support with every curvature at R
+  /// (climb_plane_time), never longer. The separation direction's extent is
+  /// PlacedBlock::support. Its round-off allowance is a little wider than the scan's.
   void reset(const PlacedBlock& at, const Vec3& velocity, const Vec3& spin, double gravity, bool damped,
              double round_off);
   /// The earliest time (s) at which a vertex may reach the plane {x : n·x = offset}

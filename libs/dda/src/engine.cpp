@@ -279,9 +279,12 @@ double search_reach(const Model& model, const State& s, double h) {
 // stays far below: for a rolling sphere of 5 120 triangles most candidates lie between
 // the two. Contact points lie within the radius of the centroid, so their motion is at
 // most predicted_reach; a micro-gap (1e-6 radius) carried from the last step is always
-// within it.
+// within it. Until the realization's friction is drawn (from the first candidate of the
+// full search, contact_step) the search is full.
 double near_reach(const Model& model, const State& s, double h, double scale) {
-  if (model.index == nullptr || model.dof != DofPath::rigid6 || !std::isfinite(scale) || !(scale > 0.0)) return 0.0;
+  if (model.index == nullptr || model.dof != DofPath::rigid6 || !s.friction_drawn || !std::isfinite(scale) ||
+      !(scale > 0.0))
+    return 0.0;
   // At least twice the reach, so that the flight test's free motion keeps whatever lies
   // beyond it open too.
   const double near = std::max(std::max(2.0, scale) * predicted_reach(model, s, h) * (1.0 + 1e-6), 1e-5 * model.radius);
@@ -516,7 +519,7 @@ bool stays_open(const Model& model, const State& s, const std::vector<Contact>& 
 bool beyond_contact_reach(const Model& model, const Ground& ground, State& s, const PlacedBlock& at, double dt) {
   s.scratch_contacts.clear();
   const double reach = search_reach(model, s, dt);
-  const double near = s.contacts.empty() && s.friction_drawn ? near_reach(model, s, dt, set_aside_scale) : 0.0;
+  const double near = s.contacts.empty() ? near_reach(model, s, dt, set_aside_scale) : 0.0;
   detect_contacts(at, *ground.surface, reach, model.penetration_limit(), s.patch, s.scratch_contacts, near);
   s.scratch_reach = near > 0.0 ? near : reach;
   if (s.scratch_contacts.empty()) return true;
@@ -748,14 +751,29 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   double near = 0.0;
   thread_local std::vector<Contact> far;
   thread_local std::vector<std::uint8_t> far_carried;
+  // Carries the last step's contacts into `into` (`matched`: per candidate, whether it
+  // carries one); whether every one of them is carried.
+  const auto carry = [&](std::vector<Contact>& into, std::vector<std::uint8_t>& matched) {
+    return carry_contacts(s.contacts, into, pose, friction, model.stiffness / set.shear_stiffness_ratio,
+                          search_reach(model, s, dt), model.radius, &matched);
+  };
+  // The search at the full distance into `into`, carried.
+  const auto search_in_full = [&](std::vector<Contact>& into, std::vector<std::uint8_t>& matched) {
+    into.clear();
+    detail::detect_contacts(at, *ground.surface, search_reach(model, s, dt), depth, s.patch, into);
+    carry(into, matched);
+  };
+  // Whether a candidate is set aside from the solve (`carries`: it carries a contact).
+  const auto goes_aside = [&](const Contact& c, bool carries) {
+    return !carries && c.mode == ContactMode::open && c.gap > point_reach(model, s, c.point, dt, aside_scale);
+  };
   for (;;) {
     {
       PhaseTimer timer(timing, s.times.detect);
       const double reach = search_reach(model, s, dt);
       // A detailed rigid block searches within the near distance first (near_reach), as
-      // long as the set-aside margin has not been widened and the realization's friction
-      // (from the first candidate of the full search) is drawn.
-      near = aside_scale == set_aside_scale && s.friction_drawn ? near_reach(model, s, dt, aside_scale) : 0.0;
+      // long as the set-aside margin has not been widened.
+      near = aside_scale == set_aside_scale ? near_reach(model, s, dt, aside_scale) : 0.0;
       const double searched = near > 0.0 ? near : reach;
       // The flight test may have searched from this pose at this distance already.
       if (searched != s.scratch_reach) {
@@ -765,16 +783,11 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
       s.scratch_reach = -1.0;
       if (!s.friction_drawn && !contacts.empty())
         friction = mean_friction(material_of(ground, contacts.front().triangle));
-      if (!carry_contacts(s.contacts, contacts, pose, friction, model.stiffness / set.shear_stiffness_ratio, reach,
-                          model.radius, &carried) &&
-          near > 0.0) {
+      if (!carry(contacts, carried) && near > 0.0) {
         // A contact of the last step that the near search did not find may lie beyond
         // it, with a state to carry: search in full.
         near = 0.0;
-        contacts.clear();
-        detail::detect_contacts(at, *ground.surface, reach, depth, s.patch, contacts);
-        carry_contacts(s.contacts, contacts, pose, friction, model.stiffness / set.shear_stiffness_ratio, reach,
-                       model.radius, &carried);
+        search_in_full(contacts, carried);
       }
       found = contacts.size();
       set_aside.clear();
@@ -782,7 +795,7 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
         std::size_t kept = 0;
         for (std::size_t i = 0; i < contacts.size(); ++i) {
           Contact& c = contacts[i];
-          if (!carried[i] && c.mode == ContactMode::open && c.gap > point_reach(model, s, c.point, dt, aside_scale)) {
+          if (goes_aside(c, carried[i] != 0)) {
             set_aside.push_back(std::move(c));
           } else {
             if (kept != i) contacts[kept] = std::move(c);
@@ -818,15 +831,9 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
       const double moved = d.template head<3>().norm() + d.template segment<3>(3).norm() * model.radius;
       if (!(moved < near)) {
         ++s.counters.far_searches;
-        far.clear();
-        detail::detect_contacts(at, *ground.surface, search_reach(model, s, dt), depth, s.patch, far);
-        carry_contacts(s.contacts, far, pose, friction, model.stiffness / set.shear_stiffness_ratio,
-                       search_reach(model, s, dt), model.radius, &far_carried);
-        for (std::size_t i = 0; i < far.size() && !widen; ++i) {
-          const Contact& c = far[i];
-          widen = !far_carried[i] && c.mode == ContactMode::open &&
-                  c.gap > point_reach(model, s, c.point, dt, aside_scale) && closes(c);
-        }
+        search_in_full(far, far_carried);
+        for (std::size_t i = 0; i < far.size() && !widen; ++i)
+          widen = goes_aside(far[i], far_carried[i] != 0) && closes(far[i]);
       }
     }
     if (widen) {

@@ -154,6 +154,7 @@ void BM_ContactStepDetailed(benchmark::State& bm) {
       500.0;
   bm.counters["flight_us"] = 1e6 * (a.flight - b.flight) / 500.0;
   bm.counters["widened"] = static_cast<double>(s.counters.widened_steps - checkpoint.counters.widened_steps) / contact_steps;
+  bm.counters["far"] = static_cast<double>(s.counters.far_searches - checkpoint.counters.far_searches) / contact_steps;
 }
 BENCHMARK(BM_ContactStepDetailed)->Arg(1)->Arg(5)->Arg(8)->Arg(16)->Arg(32);
 

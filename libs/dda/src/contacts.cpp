@@ -844,6 +844,14 @@ geometry::Aabb PlacedBlock::body_box(const geometry::Aabb& world) const {
   return geometry::Aabb{c - h - Vec3::Constant(slack), c + h + Vec3::Constant(slack)};
 }
 
+geometry::Aabb PlacedBlock::world_box(const geometry::Aabb& body) const {
+  const Vec3 c = world_point(*pose_, body.center());
+  const Vec3 h = pose_->map.cwiseAbs() * (0.5 * body.extent());
+  // The round-off of centre + F·r (a few ulps of |centre| + |F|·|r|) on top.
+  const double slack = round_off_ + kRound * (c.cwiseAbs().maxCoeff() + h.maxCoeff());
+  return geometry::Aabb{c - h - Vec3::Constant(slack), c + h + Vec3::Constant(slack)};
+}
+
 void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, double search_distance,
                      double depth_limit, TerrainPatch& patch, std::vector<Contact>& out, double near_distance) {
   const geometry::Aabb box = at.box().inflated(std::max(search_distance, depth_limit));

@@ -51,6 +51,9 @@ class PlacedBlock {
   /// A body-frame box holding every body point whose world image (as world_point
   /// computes it) lies in the world box `world`.
   geometry::Aabb body_box(const geometry::Aabb& world) const;
+  /// A world box holding the world image (as world_point computes it) of every point of
+  /// the body-frame box `body`.
+  geometry::Aabb world_box(const geometry::Aabb& body) const;
   /// Bound of the round-off of a world vertex's coordinates (m).
   double round_off() const { return round_off_; }
   /// Bound of the factor by which F⁻¹ lengthens a world distance in the body frame (1 for

@@ -15,4 +15,10 @@ double terrain_depth_in_block(const Model& model, const Pose& pose, const Terrai
 /// over (vertical projection, depth measured along the triangle normal), 0 if none.
 double block_depth_below_terrain(const std::vector<Vec3>& world, const TerrainPatch& patch, double radius);
 
+/// Whether part of the block (state `s`) has dropped past the terrain's rim (engine.cpp,
+/// where the rule is written out). A detailed block over a grid looks only at the
+/// vertices its tree finds near the rim or off the ground; `scan` looks at every vertex
+/// (the reference the tests compare with).
+bool hangs_past_rim(const Model& model, const terrain::Surface& surf, const State& s, bool scan = false);
+
 }  // namespace talus::dda::detail

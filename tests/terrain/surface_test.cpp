@@ -592,6 +592,33 @@ TEST(GridSurface, RimIsTheBorderOfTheGrid) {
   ASSERT_TRUE(inside);
   EXPECT_EQ(inside->point.x(), b.hi.x());
   EXPECT_EQ(inside->point.y(), 40.0);
+  EXPECT_TRUE(s.rim_bounds_footprint());
+}
+
+// The rim bounds a TIN's footprint when its triangles all face up and each edge has at
+// most two, running along it in opposite directions: a square of two triangles does; so
+// does a fan of four around a raised centre; not when a triangle faces down (reversed),
+// when a third triangle shares an edge, or when two share one in the same direction (a
+// fold).
+TEST(TinSurface, RimBoundsTheFootprintOfAPlainSheet) {
+  const auto bounds = [](std::vector<Vec3> vertices, std::vector<std::array<std::int32_t, 3>> triangles) {
+    Terrain t;
+    t.mesh.vertices = std::move(vertices);
+    t.mesh.triangles = std::move(triangles);
+    return Surface::realize(t, std::nullopt).rim_bounds_footprint();
+  };
+  const std::vector<Vec3> square = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0.5), Vec3(0, 1, 0.5)};
+  EXPECT_TRUE(bounds(square, {{0, 1, 2}, {0, 2, 3}}));
+  EXPECT_FALSE(bounds(square, {{0, 2, 1}, {0, 2, 3}}));  // the first faces down
+  std::vector<Vec3> fan = square;
+  fan.emplace_back(0.5, 0.5, 1.0);
+  EXPECT_TRUE(bounds(fan, {{0, 1, 4}, {1, 2, 4}, {2, 3, 4}, {3, 0, 4}}));
+  EXPECT_FALSE(bounds(fan, {{0, 1, 4}, {1, 2, 4}, {2, 3, 4}, {3, 0, 4}, {0, 1, 4}}));  // three on an edge
+  std::vector<Vec3> folded = square, beside = square;
+  folded.emplace_back(0.5, 0.3, 1.0);  // a flap on edge 0-1 over the first triangle, facing up
+  EXPECT_FALSE(bounds(folded, {{0, 1, 2}, {0, 2, 3}, {0, 1, 4}}));
+  beside.emplace_back(0.5, -0.5, 1.0);  // a flap on edge 0-1 beside the square: no fold
+  EXPECT_TRUE(bounds(beside, {{0, 1, 2}, {0, 2, 3}, {1, 0, 4}}));
 }
 
 // On a TIN the rim is every edge of one triangle, whatever the footprint's shape (the
@@ -645,6 +672,7 @@ TEST(TinSurface, RimIsTheEdgesOfOneTriangleAndMatchesBruteForce) {
   EXPECT_GT(found, 100);
   EXPECT_FALSE(s.near_rim(Aabb{Vec3(15.5, 18.5, -1e3), Vec3(17.5, 20.5, 1e3)}));
   EXPECT_FALSE(s.nearest_rim_point(16.5, 19.5, 1.0));
+  EXPECT_FALSE(s.rim_bounds_footprint());  // the wall and the roof
 }
 
 }  // namespace

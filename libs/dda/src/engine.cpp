@@ -64,18 +64,21 @@ bool hangs_past_rim(const Model& model, const terrain::Surface& surf, const Stat
     const double depth = n.z() > 0.1 ? std::min(below, n.dot(rim->point - p)) : below;
     return depth > limit;
   };
-  if (scan || model.index == nullptr || !surf.is_height_field()) {
+  if (scan || model.index == nullptr || !surf.rim_bounds_footprint()) {
     const std::vector<Vec3> vertices = world_vertices(model, s);
     return std::any_of(vertices.begin(), vertices.end(), past);
   }
-  // A detailed block over a grid (Surface::is_height_field): only the vertices of the tree
-  // nodes whose plan box may meet the rim or lies off the ground are looked at. The rim
-  // of a grid is the whole border of the ground in plan, so a box it does not meet lies
-  // wholly on the ground or wholly off it, as its centre does; every vertex of a box
-  // wholly on the ground has ground under it and is passed over by the test above. (A
-  // block of 20 480 faces rolling along the edge of the bench slope spent a sixth of its
-  // run on the ground under each vertex.) The boxes are widened by far more than the
-  // round-off of the grid's own test of whether a point lies on it.
+  // A detailed block over a grid, or a TIN without walls, overhangs or folds
+  // (Surface::rim_bounds_footprint): only the vertices of the tree nodes whose plan box
+  // may meet the rim or lies off the ground are looked at. The rim of such ground is the
+  // whole border of the ground in plan, so a box it does not meet lies wholly on the
+  // ground or wholly off it, as its centre does; every vertex of a box wholly on the
+  // ground has ground under it and is passed over by the test above. (A block of 20 480
+  // faces rolling along the edge of the bench slope spent a sixth of its run on the ground
+  // under each vertex.) The boxes are widened by far more than the round-off of the
+  // grid's own test of whether a point lies on it. (On a TIN a point within round-off of
+  // an inner edge may find no ground in either triangle's test; the scan would then look
+  // for the rim there, this walk does not.)
   const Pose pose = pose_of(model, s);
   thread_local std::vector<Vec3> unused;
   const PlacedBlock at(model, pose, unused, false);

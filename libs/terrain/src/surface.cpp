@@ -51,6 +51,7 @@ struct Surface::Impl {
     std::vector<std::int32_t> triangle_of_edge;
     std::vector<Aabb> boxes;  // plan box of each edge (z = 0), the tree's items
     geometry::BoxTree tree;
+    bool bounds_footprint = false;  // Surface::rim_bounds_footprint
   };
   std::shared_ptr<SharedRim> rim;
 
@@ -65,10 +66,28 @@ struct Surface::Impl {
           all.push_back({std::min(tri[k], tri[(k + 1) % 3]), std::max(tri[k], tri[(k + 1) % 3]),
                          static_cast<std::int32_t>(t)});
       }
+      // The rim bounds the footprint when every triangle faces up (counter-clockwise in
+      // plan) and every edge has at most two triangles, which then run along it in
+      // opposite directions: they lie on the two sides of it in plan, so no inner edge is
+      // a border of the footprint.
+      bool simple = true;
+      for (const auto& tri : terrain->mesh.triangles) {
+        const Vec3& p0 = terrain->mesh.vertices[static_cast<std::size_t>(tri[0])];
+        const Vec3& p1 = terrain->mesh.vertices[static_cast<std::size_t>(tri[1])];
+        const Vec3& p2 = terrain->mesh.vertices[static_cast<std::size_t>(tri[2])];
+        simple = simple && (p1.x() - p0.x()) * (p2.y() - p0.y()) - (p2.x() - p0.x()) * (p1.y() - p0.y()) > 0.0;
+      }
+      const auto runs_up = [&](const std::array<std::int32_t, 3>& e) {  // the triangle's edge runs from low to high id
+        const auto& tri = terrain->mesh.triangles[static_cast<std::size_t>(e[2])];
+        for (int k = 0; k < 3; ++k)
+          if (tri[k] == e[0] && tri[(k + 1) % 3] == e[1]) return true;
+        return false;
+      };
       std::sort(all.begin(), all.end());
       for (std::size_t a = 0; a < all.size();) {
         std::size_t b = a + 1;
         while (b < all.size() && all[b][0] == all[a][0] && all[b][1] == all[a][1]) ++b;
+        simple = simple && (b - a == 1 || (b - a == 2 && runs_up(all[a]) != runs_up(all[a + 1])));
         if (b - a == 1) {
           rim->edges.push_back({all[a][0], all[a][1]});
           rim->triangle_of_edge.push_back(all[a][2]);
@@ -82,6 +101,7 @@ struct Surface::Impl {
         a = b;
       }
       rim->tree.build(rim->boxes);
+      rim->bounds_footprint = simple;
     });
     return *rim;
   }
@@ -532,6 +552,8 @@ bool Surface::near_rim(const Aabb& box) const {
                   [&](std::int32_t e) { found = found || rim.boxes[static_cast<std::size_t>(e)].overlaps(plan); });
   return found;
 }
+
+bool Surface::rim_bounds_footprint() const { return impl_->grid_mode || impl_->shared_rim().bounds_footprint; }
 
 std::optional<Surface::RimPoint> Surface::nearest_rim_point(double x, double y, double reach) const {
   if (!(reach >= 0.0) || !std::isfinite(x) || !std::isfinite(y)) return std::nullopt;

@@ -203,6 +203,11 @@ class Surface {
   /// realization). True when the rim may pass through the plan box (x and y of `box`;
   /// a grid: the box is not strictly inside the grid).
   bool near_rim(const Aabb& box) const;
+  /// True when the rim is the whole border of the ground in plan, so that a plan box
+  /// near_rim() rejects lies wholly on the ground or wholly off it: a grid, and a TIN
+  /// whose triangles all face up with each edge shared by at most two triangles in
+  /// opposite directions (no wall, overhang or fold; roughness moves vertices only in z).
+  bool rim_bounds_footprint() const;
   /// The rim's point nearest to (x, y) in plan, with its realized elevation (m), and the
   /// triangle it belongs to, when one lies within `reach` (m); ties go to the higher
   /// point, then the lower edge id.

@@ -16,9 +16,10 @@ double terrain_depth_in_block(const Model& model, const Pose& pose, const Terrai
 double block_depth_below_terrain(const std::vector<Vec3>& world, const TerrainPatch& patch, double radius);
 
 /// Whether part of the block (state `s`) has dropped past the terrain's rim (engine.cpp,
-/// where the rule is written out). A detailed block over a grid looks only at the
-/// vertices its tree finds near the rim or off the ground; `scan` looks at every vertex
-/// (the reference the tests compare with).
+/// where the rule is written out). A detailed block over ground whose rim bounds its
+/// footprint (Surface::rim_bounds_footprint: a grid, a TIN without walls, overhangs or
+/// folds) looks only at the vertices its tree finds near the rim or off the ground;
+/// `scan` looks at every vertex (the reference the tests compare with).
 bool hangs_past_rim(const Model& model, const terrain::Surface& surf, const State& s, bool scan = false);
 
 }  // namespace talus::dda::detail

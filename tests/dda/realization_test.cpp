@@ -237,6 +237,65 @@ TEST(DdaContacts, VertexBelowTheGroundInPlanIsHeld) {
   }
 }
 
+// A block edge that crosses a terrain ridge below it (gap < 0) is in contact only if the
+// crossing point is inside the ground: under both triangles' planes on a crest, under
+// either in a valley. Beside a crest, a block over the flat top lies under the slope's
+// plane continued; its edges there were taken as penetrated contacts, with a normal
+// pointing out of one side only. Poses of a scanned and a detailed block (the index's
+// gathering) around a crest and a valley, the lowest vertex 0–5 cm under the ground.
+TEST(DdaContacts, EdgeCrossingsBelowARidgeAreInsideTheGround) {
+  terrain::DemGrid dem;
+  dem.spec = {0.0, 0.0, 1.0, 1.0, 10, 9};
+  dem.z.resize(dem.spec.point_count());
+  // Flat top (x ≤ 3), a crest at x = 3, a 35° slope down to a valley at x = 6, flat below.
+  const double slope = std::tan(35.0 * M_PI / 180.0);
+  for (std::int32_t j = 0; j < 9; ++j)
+    for (std::int32_t i = 0; i < 10; ++i) dem.z[dem.spec.index(i, j)] = -slope * std::clamp(i - 3, 0, 3);
+  const terrain::Terrain t = terrain::build_grid_terrain(dem, terrain::Diagonal::alternating, 1, "crest");
+  const terrain::Surface surface = terrain::Surface::realize(t, std::nullopt);
+  const core::RandomStream rng(6, core::Stream::release, 0);
+  block::SolidSpec spec;
+  spec.kind = block::SolidKind::ellipsoid;
+  spec.volume = 1.0;
+  spec.dimensions = Vec3(1.4, 1.2, 1.1);
+  spec.resolution = 8;
+  std::size_t below = 0;
+  for (const geometry::Polyhedron& poly : {testing::cube(1.0), block::make_solid(spec, "detailed")}) {
+    const Model m = Model::build(Settings{}, poly);
+    for (std::uint64_t k = 0; k < 600; ++k) {
+      const Eigen::Quaterniond q = Eigen::Quaterniond(rng.normal(8 * k), rng.normal(8 * k + 1),
+                                                      rng.normal(8 * k + 2), rng.normal(8 * k + 3))
+                                       .normalized();
+      detail::Pose pose;
+      pose.rotation = q.toRotationMatrix();
+      pose.map = pose.rotation;
+      pose.inverse_map = pose.rotation.transpose();
+      std::size_t low = 0;
+      for (std::size_t v = 1; v < m.vertices.size(); ++v)
+        if ((pose.map * m.vertices[v]).z() < (pose.map * m.vertices[low]).z()) low = v;
+      // Half the poses about the crest, half about the valley.
+      const double x = (k % 2 == 0 ? 2.0 : 5.0) + 2.0 * rng.uniform(8 * k + 4);
+      const double y = 3.0 + 2.0 * rng.uniform(8 * k + 5);
+      pose.centre = Vec3(x, y, surface.height_at(x, y)->z - 0.05 * rng.uniform(8 * k + 6)) - pose.map * m.vertices[low];
+      std::vector<Vec3> world;
+      const detail::PlacedBlock at(m, pose, world);
+      TerrainPatch patch;
+      std::vector<Contact> found;
+      detail::detect_contacts(at, surface, 0.05, 0.1, patch, found);
+      for (const Contact& c : found) {
+        if (c.kind != ContactKind::edge_edge || !(c.gap < 0.0)) continue;
+        ++below;
+        const auto hit = surface.height_at(c.point.x(), c.point.y());
+        ASSERT_TRUE(hit.has_value());
+        EXPECT_GE(hit->z - c.point.z(), -1e-9) << "pose " << k << " (" << poly.vertices.size()
+                                               << " vertices): a crossing " << c.point.z() - hit->z
+                                               << " m above the ground, gap " << c.gap;
+      }
+    }
+  }
+  EXPECT_GT(below, 100u);  // the poses really cross ridges below them
+}
+
 // A terrain vertex inside a convex block deeper than the search distance is held by the
 // face it is least deep under, even where it is no spike (here a node of flat ground under
 // a cube sunk into it); within the search distance the block's own vertices carry it.

@@ -71,6 +71,36 @@ inline __attribute__((always_inline)) bool line_parameters(const Vec3& p0, const
   return true;
 }
 
+// The squared distance between segments p0-p1 and q0-q1 (Ericson, Real-Time Collision
+// Detection 5.1.9; degenerate segments included).
+double segment_distance2(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1) {
+  const Vec3 d1 = p1 - p0, d2 = q1 - q0, r = p0 - q0;
+  const double a = d1.squaredNorm(), e = d2.squaredNorm(), f = d2.dot(r);
+  double s = 0.0, t = 0.0;
+  if (a <= 0.0 && e <= 0.0) return r.squaredNorm();
+  if (a <= 0.0) {
+    t = std::clamp(f / e, 0.0, 1.0);
+  } else {
+    const double c = d1.dot(r);
+    if (e <= 0.0) {
+      s = std::clamp(-c / a, 0.0, 1.0);
+    } else {
+      const double b = d1.dot(d2);
+      const double denom = a * e - b * b;
+      s = denom > 0.0 ? std::clamp((b * f - c * e) / denom, 0.0, 1.0) : 0.0;
+      t = (b * s + f) / e;
+      if (t < 0.0) {
+        t = 0.0;
+        s = std::clamp(-c / a, 0.0, 1.0);
+      } else if (t > 1.0) {
+        t = 1.0;
+        s = std::clamp((b - c) / a, 0.0, 1.0);
+      }
+    }
+  }
+  return (p0 + s * d1 - (q0 + t * d2)).squaredNorm();
+}
+
 // Gathers the triangles `list` of `surface` into `patch`: corners, normals, the
 // distinct vertices, and the edges that are ridges (not between coplanar triangles).
 void fill_patch(const terrain::Surface& surface, const std::vector<std::int32_t>& list, TerrainPatch& patch) {
@@ -81,6 +111,9 @@ void fill_patch(const terrain::Surface& surface, const std::vector<std::int32_t>
   // (vertex id, direction to a neighbour) from every triangle corner.
   thread_local std::vector<std::pair<std::int32_t, Vec3>> spokes;
   spokes.clear();
+  // Every triangle edge with the triangle's third corner (for the crest test below).
+  thread_local std::vector<std::pair<TerrainPatch::Ridge, Vec3>> sides;
+  sides.clear();
   for (std::int32_t t : list) {
     TerrainPatch::Triangle d;
     d.index = t;
@@ -102,7 +135,7 @@ void fill_patch(const terrain::Surface& surface, const std::vector<std::int32_t>
       e.pb = d.p[j];
       e.normal_sum = d.normal;
       e.triangle = t;
-      patch.ridges.push_back(e);
+      sides.emplace_back(e, d.p[(k + 2) % 3]);
     }
   }
   std::sort(patch.vertices.begin(), patch.vertices.end(),
@@ -119,34 +152,35 @@ void fill_patch(const terrain::Surface& surface, const std::vector<std::int32_t>
       patch.neighbours.push_back(spokes[spoke].second);
     v.count = static_cast<std::int32_t>(patch.neighbours.size()) - v.first;
   }
-  auto& edges = patch.ridges;
-  std::sort(edges.begin(), edges.end(), [](const TerrainPatch::Ridge& x, const TerrainPatch::Ridge& y) {
-    return x.a != y.a ? x.a < y.a : x.b < y.b;
+  std::sort(sides.begin(), sides.end(), [](const auto& x, const auto& y) {
+    return x.first.a != y.first.a ? x.first.a < y.first.a : x.first.b < y.first.b;
   });
   // An edge between coplanar triangles is no ridge: the vertex contacts of both sides
   // carry it.
-  std::size_t kept = 0;
-  for (std::size_t k = 0; k < edges.size();) {
+  auto& edges = patch.ridges;
+  for (std::size_t k = 0; k < sides.size();) {
     std::size_t end = k + 1;
-    while (end < edges.size() && edges[end].a == edges[k].a && edges[end].b == edges[k].b) ++end;
-    TerrainPatch::Ridge e = edges[k];
+    while (end < sides.size() && sides[end].first.a == sides[k].first.a && sides[end].first.b == sides[k].first.b)
+      ++end;
+    TerrainPatch::Ridge e = sides[k].first;
     bool flat = false;
     e.normals[0] = e.normal_sum;
     e.normal_count = static_cast<std::int32_t>(end - k);
     for (std::size_t m = k + 1; m < end; ++m) {
-      flat = flat || e.normal_sum.dot(edges[m].normal_sum) > 1.0 - 1e-10;
-      if (m == k + 1) e.normals[1] = edges[m].normal_sum;
-      e.normal_sum += edges[m].normal_sum;
+      flat = flat || e.normal_sum.dot(sides[m].first.normal_sum) > 1.0 - 1e-10;
+      if (m == k + 1) e.normals[1] = sides[m].first.normal_sum;
+      e.normal_sum += sides[m].first.normal_sum;
     }
+    // A crest: the second triangle's third corner lies under the first one's plane.
+    e.convex = e.normal_count == 2 && e.normals[0].dot(sides[k + 1].second - e.pa) < 0.0;
     if (!flat) {
       e.box = geometry::Aabb{};
       e.box.add(e.pa);
       e.box.add(e.pb);
-      edges[kept++] = e;
+      edges.push_back(e);
     }
     k = end;
   }
-  edges.resize(kept);
 }
 
 // Relative round-off allowances of the index queries: the queries only select candidates
@@ -236,7 +270,10 @@ struct BodyPlane {
     // with gap ≥ 0 has its crossing within ds of the ridge. One with gap < 0 has it at
     // most `depth` from the ridge, below the plane of a triangle of the ridge: the normal
     // n, oriented along the triangles' normal sum, has n·nᵢ ≥ 0 for one of them, and
-    // (pc − qc)·nᵢ = gap·(n·nᵢ) ≤ 0 (unknown for an edge of more than two triangles).
+    // (pc − qc)·nᵢ = gap·(n·nᵢ) ≤ 0 (unknown for an edge of more than two triangles);
+    // on a crest below both planes (edge_meets_ridge). Near a crest a block resting on
+    // one side lies under the other side's plane continued: without the second plane its
+    // edges there were five in six of the pairs gathered, and none made a contact.
     const geometry::Aabb ridge_box = te.box.inflated(margin);
     edges.clear();
     const double tol = at.round_off() + kRound * magnitude(ridge_box) + kSlack * margin + 1e-9 * model.radius;
@@ -265,12 +302,34 @@ struct BodyPlane {
           if (distance2 <= (shallow + size) * (shallow + size)) return true;
           if (distance2 > (deep + size) * (deep + size)) return false;
           if (planes == 0) return true;
+          if (te.convex) return sides[0].min_over(c, h) <= 0.0 && sides[1].min_over(c, h) <= 0.0;
           for (int k = 0; k < planes; ++k)
             if (sides[static_cast<std::size_t>(k)].min_over(c, h) <= 0.0) return true;
           return false;
         },
         edges);
-    for (const std::int32_t e : edges) pairs.emplace_back(e, static_cast<std::int32_t>(j));
+    // The same tests on each edge's own segment: its distance to the ridge's instead of
+    // a box's, its ends' plane values instead of a box's extremes (a segment's extremes
+    // along a plane lie at its ends). An edge's box is as long as the edge, so the box
+    // tests let through about four times the pairs that pass these.
+    for (const std::int32_t e : edges) {
+      const BlockEdge& edge = model.edges[static_cast<std::size_t>(e)];
+      const Vec3& r0 = model.vertices[static_cast<std::size_t>(edge.a)];
+      const Vec3& r1 = model.vertices[static_cast<std::size_t>(edge.b)];
+      if (std::min(ceiling_plane.min_over(r0, Vec3::Zero()), ceiling_plane.min_over(r1, Vec3::Zero())) > 0.0) continue;
+      const double distance2 = segment_distance2(r0, r1, a, a + along);
+      if (distance2 > shallow * shallow) {
+        if (distance2 > deep * deep) continue;
+        if (planes > 0) {
+          const auto under = [&](int k) {
+            const BodyPlane& side = sides[static_cast<std::size_t>(k)];
+            return std::min(side.min_over(r0, Vec3::Zero()), side.min_over(r1, Vec3::Zero())) <= 0.0;
+          };
+          if (te.convex ? !(under(0) && under(1)) : !(under(0) || (planes == 2 && under(1)))) continue;
+        }
+      }
+      pairs.emplace_back(e, static_cast<std::int32_t>(j));
+    }
   }
 }
 
@@ -407,6 +466,12 @@ inline __attribute__((always_inline)) void edge_meets_ridge(const Pose& pose, st
   const Vec3 qc = te.pa + t * (te.pb - te.pa);
   const double gap = (pc - qc).dot(n);
   if (gap >= ds || gap <= -depth) return;
+  // A crossing below the ridge (gap < 0) is inside the ground only if it lies under the
+  // planes of both triangles on a crest (pc − qc = gap·n: n·nᵢ > 0 for both), under
+  // either in a valley (n·nᵢ ≥ 0 for one of them holds always). A block edge beside a
+  // crest, over one side and under the other side's plane continued, is out of the ground:
+  // it was taken as a penetrated contact with a normal that points out of one side only.
+  if (gap < 0.0 && te.convex && !(n.dot(te.normals[0]) > 0.0 && n.dot(te.normals[1]) > 0.0)) return;
   Contact c;
   c.kind = ContactKind::edge_edge;
   c.block_feature = be;
@@ -416,36 +481,6 @@ inline __attribute__((always_inline)) void edge_meets_ridge(const Pose& pose, st
   c.normal = n;
   c.gap = gap;
   out.push_back(c);
-}
-
-// The squared distance between segments p0-p1 and q0-q1 (Ericson, Real-Time Collision
-// Detection 5.1.9; degenerate segments included).
-double segment_distance2(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1) {
-  const Vec3 d1 = p1 - p0, d2 = q1 - q0, r = p0 - q0;
-  const double a = d1.squaredNorm(), e = d2.squaredNorm(), f = d2.dot(r);
-  double s = 0.0, t = 0.0;
-  if (a <= 0.0 && e <= 0.0) return r.squaredNorm();
-  if (a <= 0.0) {
-    t = std::clamp(f / e, 0.0, 1.0);
-  } else {
-    const double c = d1.dot(r);
-    if (e <= 0.0) {
-      s = std::clamp(-c / a, 0.0, 1.0);
-    } else {
-      const double b = d1.dot(d2);
-      const double denom = a * e - b * b;
-      s = denom > 0.0 ? std::clamp((b * f - c * e) / denom, 0.0, 1.0) : 0.0;
-      t = (b * s + f) / e;
-      if (t < 0.0) {
-        t = 0.0;
-        s = std::clamp(-c / a, 0.0, 1.0);
-      } else if (t > 1.0) {
-        t = 1.0;
-        s = std::clamp((b - c) / a, 0.0, 1.0);
-      }
-    }
-  }
-  return (p0 + s * d1 - (q0 + t * d2)).squaredNorm();
 }
 
 inline geometry::Aabb edge_box(const Vec3& p0, const Vec3& p1, double margin) {

@@ -165,6 +165,9 @@ struct TerrainPatch {
     Vec3 normal_sum = Vec3::Zero();  ///< sum of the adjacent triangles' normals
     std::array<Vec3, 2> normals{Vec3::Zero(), Vec3::Zero()};  ///< the first two of those normals
     std::int32_t normal_count = 0;   ///< the number of adjacent triangles (in the patch)
+    /// Two triangles that bend down from each other across the edge (a crest): the ground
+    /// there is under both planes, not under either as in a valley.
+    bool convex = false;
     std::int32_t triangle = -1;
     geometry::Aabb box;
   };

@@ -271,9 +271,7 @@ struct BodyPlane {
     // most `depth` from the ridge, below the plane of a triangle of the ridge: the normal
     // n, oriented along the triangles' normal sum, has n·nᵢ ≥ 0 for one of them, and
     // (pc − qc)·nᵢ = gap·(n·nᵢ) ≤ 0 (unknown for an edge of more than two triangles);
-    // on a crest below both planes (edge_meets_ridge). Near a crest a block resting on
-    // one side lies under the other side's plane continued: without the second plane its
-    // edges there were five in six of the pairs gathered, and none made a contact.
+    // on a crest below both planes (edge_meets_ridge).
     const geometry::Aabb ridge_box = te.box.inflated(margin);
     edges.clear();
     const double tol = at.round_off() + kRound * magnitude(ridge_box) + kSlack * margin + 1e-9 * model.radius;
@@ -310,8 +308,8 @@ struct BodyPlane {
         edges);
     // The same tests on each edge's own segment: its distance to the ridge's instead of
     // a box's, its ends' plane values instead of a box's extremes (a segment's extremes
-    // along a plane lie at its ends). An edge's box is as long as the edge, so the box
-    // tests let through about four times the pairs that pass these.
+    // along a plane lie at its ends). An edge's box is as long as the edge: the box
+    // tests let through 1.5–3 times the pairs that pass these.
     for (const std::int32_t e : edges) {
       const BlockEdge& edge = model.edges[static_cast<std::size_t>(e)];
       const Vec3& r0 = model.vertices[static_cast<std::size_t>(edge.a)];

@@ -25,6 +25,21 @@ terrain::Terrain bench_slope(double sigma) {
   return t;
 }
 
+// A rigid pose of `m` rotated by q whose lowest vertex lies `depth` (m) under the
+// ground at (x, y).
+detail::Pose sunk_pose(const Model& m, const terrain::Surface& surface, const Eigen::Quaterniond& q, double x, double y,
+                       double depth) {
+  detail::Pose pose;
+  pose.rotation = q.toRotationMatrix();
+  pose.map = pose.rotation;
+  pose.inverse_map = pose.rotation.transpose();
+  std::size_t low = 0;
+  for (std::size_t v = 1; v < m.vertices.size(); ++v)
+    if ((pose.map * m.vertices[v]).z() < (pose.map * m.vertices[low]).z()) low = v;
+  pose.centre = Vec3(x, y, surface.height_at(x, y)->z - depth) - pose.map * m.vertices[low];
+  return pose;
+}
+
 Release crest_release() {
   Release r;
   r.position = Vec3(1.0, 20.0, 29.0 + 2.5);
@@ -206,16 +221,8 @@ TEST(DdaContacts, VertexBelowTheGroundInPlanIsHeld) {
         const Eigen::Quaterniond q = Eigen::Quaterniond(rng.normal(8 * k), rng.normal(8 * k + 1),
                                                         rng.normal(8 * k + 2), rng.normal(8 * k + 3))
                                          .normalized();
-        detail::Pose pose;
-        pose.rotation = q.toRotationMatrix();
-        pose.map = pose.rotation;
-        pose.inverse_map = pose.rotation.transpose();
-        std::size_t low = 0;
-        for (std::size_t v = 1; v < m.vertices.size(); ++v)
-          if ((pose.map * m.vertices[v]).z() < (pose.map * m.vertices[low]).z()) low = v;
         const double x = 2.6 + 1.6 * rng.uniform(8 * k + 4), y = 3.2 + 1.6 * rng.uniform(8 * k + 5);
-        const Vec3 offset = pose.map * m.vertices[low];
-        pose.centre = Vec3(x, y, surface.height_at(x, y)->z - 0.05 * rng.uniform(8 * k + 6)) - offset;
+        const detail::Pose pose = sunk_pose(m, surface, q, x, y, 0.05 * rng.uniform(8 * k + 6));
         std::vector<Vec3> world;
         const detail::PlacedBlock at(m, pose, world);
         TerrainPatch patch;
@@ -266,17 +273,10 @@ TEST(DdaContacts, EdgeCrossingsBelowARidgeAreInsideTheGround) {
       const Eigen::Quaterniond q = Eigen::Quaterniond(rng.normal(8 * k), rng.normal(8 * k + 1),
                                                       rng.normal(8 * k + 2), rng.normal(8 * k + 3))
                                        .normalized();
-      detail::Pose pose;
-      pose.rotation = q.toRotationMatrix();
-      pose.map = pose.rotation;
-      pose.inverse_map = pose.rotation.transpose();
-      std::size_t low = 0;
-      for (std::size_t v = 1; v < m.vertices.size(); ++v)
-        if ((pose.map * m.vertices[v]).z() < (pose.map * m.vertices[low]).z()) low = v;
       // Half the poses about the crest, half about the valley.
       const double x = (k % 2 == 0 ? 2.0 : 5.0) + 2.0 * rng.uniform(8 * k + 4);
       const double y = 3.0 + 2.0 * rng.uniform(8 * k + 5);
-      pose.centre = Vec3(x, y, surface.height_at(x, y)->z - 0.05 * rng.uniform(8 * k + 6)) - pose.map * m.vertices[low];
+      const detail::Pose pose = sunk_pose(m, surface, q, x, y, 0.05 * rng.uniform(8 * k + 6));
       std::vector<Vec3> world;
       const detail::PlacedBlock at(m, pose, world);
       TerrainPatch patch;
@@ -324,14 +324,7 @@ TEST(DdaContacts, PenetratedCandidatesAreInsideTheGround) {
       const Eigen::Quaterniond q = Eigen::Quaterniond(rng.normal(8 * k + 3), rng.normal(8 * k + 4),
                                                       rng.normal(8 * k + 5), rng.normal(8 * k + 6))
                                        .normalized();
-      detail::Pose pose;
-      pose.rotation = q.toRotationMatrix();
-      pose.map = pose.rotation;
-      pose.inverse_map = pose.rotation.transpose();
-      std::size_t low = 0;
-      for (std::size_t v = 1; v < m.vertices.size(); ++v)
-        if ((pose.map * m.vertices[v]).z() < (pose.map * m.vertices[low]).z()) low = v;
-      pose.centre = Vec3(x, y, surface.height_at(x, y)->z - 0.06 * rng.uniform(8 * k + 2)) - pose.map * m.vertices[low];
+      const detail::Pose pose = sunk_pose(m, surface, q, x, y, 0.06 * rng.uniform(8 * k + 2));
       std::vector<Vec3> world;
       const detail::PlacedBlock at(m, pose, world);
       TerrainPatch patch;

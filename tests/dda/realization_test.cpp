@@ -25,6 +25,22 @@ terrain::Terrain bench_slope(double sigma) {
   return t;
 }
 
+// A uniformly random rotation from the normal draws first … first + 3 of `rng`.
+Eigen::Quaterniond random_rotation(const core::RandomStream& rng, std::uint64_t first) {
+  return Eigen::Quaterniond(rng.normal(first), rng.normal(first + 1), rng.normal(first + 2), rng.normal(first + 3))
+      .normalized();
+}
+
+// The contact search (distance ds, depth limit `depth`, m) of `m` at `pose`, the block's
+// world vertices left in `world` and the terrain near it in `patch`.
+std::vector<Contact> search_at(const Model& m, const terrain::Surface& surface, const detail::Pose& pose, double ds,
+                               double depth, std::vector<Vec3>& world, TerrainPatch& patch) {
+  const detail::PlacedBlock at(m, pose, world);
+  std::vector<Contact> found;
+  detail::detect_contacts(at, surface, ds, depth, patch, found);
+  return found;
+}
+
 // A rigid pose of `m` rotated by q whose lowest vertex lies `depth` (m) under the
 // ground at (x, y).
 detail::Pose sunk_pose(const Model& m, const terrain::Surface& surface, const Eigen::Quaterniond& q, double x, double y,
@@ -38,6 +54,18 @@ detail::Pose sunk_pose(const Model& m, const terrain::Surface& surface, const Ei
     if ((pose.map * m.vertices[v]).z() < (pose.map * m.vertices[low]).z()) low = v;
   pose.centre = Vec3(x, y, surface.height_at(x, y)->z - depth) - pose.map * m.vertices[low];
   return pose;
+}
+
+// bench_dda's detailed block: a 1 m³ ellipsoid of diameters 1.4 × 1.2 × 1.1 m, 20·n²
+// triangles, with block-gen's bumps and dents of relative height `roughness`.
+geometry::Polyhedron bench_ellipsoid(int n, double roughness = 0.0) {
+  block::SolidSpec spec;
+  spec.kind = block::SolidKind::ellipsoid;
+  spec.volume = 1.0;
+  spec.dimensions = Vec3(1.4, 1.2, 1.1);
+  spec.resolution = n;
+  spec.roughness = roughness;
+  return block::make_solid(spec, "ellipsoid");
 }
 
 Release crest_release() {
@@ -218,16 +246,12 @@ TEST(DdaContacts, VertexBelowTheGroundInPlanIsHeld) {
       const Model m = Model::build(Settings{}, poly);
       for (std::uint64_t k = 0; k < 400; ++k) {
         // Poses around the spike's foot, the block's lowest vertex 0–5 cm under the ground.
-        const Eigen::Quaterniond q = Eigen::Quaterniond(rng.normal(8 * k), rng.normal(8 * k + 1),
-                                                        rng.normal(8 * k + 2), rng.normal(8 * k + 3))
-                                         .normalized();
+        const Eigen::Quaterniond q = random_rotation(rng, 8 * k);
         const double x = 2.6 + 1.6 * rng.uniform(8 * k + 4), y = 3.2 + 1.6 * rng.uniform(8 * k + 5);
-        const detail::Pose pose = sunk_pose(m, surface, q, x, y, 0.05 * rng.uniform(8 * k + 6));
         std::vector<Vec3> world;
-        const detail::PlacedBlock at(m, pose, world);
         TerrainPatch patch;
-        std::vector<Contact> found;
-        detail::detect_contacts(at, surface, 0.05, 0.1, patch, found);
+        const std::vector<Contact> found = search_at(
+            m, surface, sunk_pose(m, surface, q, x, y, 0.05 * rng.uniform(8 * k + 6)), 0.05, 0.1, world, patch);
         for (std::size_t v = 0; v < world.size(); ++v) {
           const auto hit = surface.height_at(world[v].x(), world[v].y());
           const double depth = hit ? hit->z - world[v].z() : 0.0;
@@ -261,27 +285,18 @@ TEST(DdaContacts, EdgeCrossingsBelowARidgeAreInsideTheGround) {
   const terrain::Terrain t = terrain::build_grid_terrain(dem, terrain::Diagonal::alternating, 1, "crest");
   const terrain::Surface surface = terrain::Surface::realize(t, std::nullopt);
   const core::RandomStream rng(6, core::Stream::release, 0);
-  block::SolidSpec spec;
-  spec.kind = block::SolidKind::ellipsoid;
-  spec.volume = 1.0;
-  spec.dimensions = Vec3(1.4, 1.2, 1.1);
-  spec.resolution = 8;
   std::size_t below = 0;
-  for (const geometry::Polyhedron& poly : {testing::cube(1.0), block::make_solid(spec, "detailed")}) {
+  for (const geometry::Polyhedron& poly : {testing::cube(1.0), bench_ellipsoid(8)}) {
     const Model m = Model::build(Settings{}, poly);
     for (std::uint64_t k = 0; k < 600; ++k) {
-      const Eigen::Quaterniond q = Eigen::Quaterniond(rng.normal(8 * k), rng.normal(8 * k + 1),
-                                                      rng.normal(8 * k + 2), rng.normal(8 * k + 3))
-                                       .normalized();
+      const Eigen::Quaterniond q = random_rotation(rng, 8 * k);
       // Half the poses about the crest, half about the valley.
       const double x = (k % 2 == 0 ? 2.0 : 5.0) + 2.0 * rng.uniform(8 * k + 4);
       const double y = 3.0 + 2.0 * rng.uniform(8 * k + 5);
-      const detail::Pose pose = sunk_pose(m, surface, q, x, y, 0.05 * rng.uniform(8 * k + 6));
       std::vector<Vec3> world;
-      const detail::PlacedBlock at(m, pose, world);
       TerrainPatch patch;
-      std::vector<Contact> found;
-      detail::detect_contacts(at, surface, 0.05, 0.1, patch, found);
+      const std::vector<Contact> found = search_at(
+          m, surface, sunk_pose(m, surface, q, x, y, 0.05 * rng.uniform(8 * k + 6)), 0.05, 0.1, world, patch);
       for (const Contact& c : found) {
         if (c.kind != ContactKind::edge_edge || !(c.gap < 0.0)) continue;
         ++below;
@@ -307,29 +322,18 @@ TEST(DdaContacts, PenetratedCandidatesAreInsideTheGround) {
   const terrain::Terrain t = bench_slope(0.4);
   const terrain::Surface surface = terrain::Surface::realize(t, 3);
   const core::RandomStream rng(11, core::Stream::release, 0);
-  block::SolidSpec spec;
-  spec.kind = block::SolidKind::ellipsoid;
-  spec.volume = 1.0;
-  spec.dimensions = Vec3(1.4, 1.2, 1.1);
-  spec.resolution = 8;
-  block::SolidSpec rough = spec;
-  rough.roughness = 0.15;
   std::size_t vertices = 0, crossings = 0;
-  for (const geometry::Polyhedron& poly : {testing::tetrahedron(2.04), testing::cube(1.0), block::make_solid(spec, "smooth"),
-                                           block::make_solid(rough, "rough")}) {
+  for (const geometry::Polyhedron& poly :
+       {testing::tetrahedron(2.04), testing::cube(1.0), bench_ellipsoid(8), bench_ellipsoid(8, 0.15)}) {
     const Model m = Model::build(Settings{}, poly);
     for (std::uint64_t k = 0; k < 3000; ++k) {
       const double x = 2.0 + 50.0 * rng.uniform(8 * k);
       const double y = 4.0 + 32.0 * rng.uniform(8 * k + 1);
-      const Eigen::Quaterniond q = Eigen::Quaterniond(rng.normal(8 * k + 3), rng.normal(8 * k + 4),
-                                                      rng.normal(8 * k + 5), rng.normal(8 * k + 6))
-                                       .normalized();
-      const detail::Pose pose = sunk_pose(m, surface, q, x, y, 0.06 * rng.uniform(8 * k + 2));
+      const Eigen::Quaterniond q = random_rotation(rng, 8 * k + 3);
       std::vector<Vec3> world;
-      const detail::PlacedBlock at(m, pose, world);
       TerrainPatch patch;
-      std::vector<Contact> found;
-      detail::detect_contacts(at, surface, 0.03, m.penetration_limit(), patch, found);
+      const std::vector<Contact> found = search_at(m, surface, sunk_pose(m, surface, q, x, y, 0.06 * rng.uniform(8 * k + 2)),
+                                                   0.03, m.penetration_limit(), world, patch);
       for (const Contact& c : found) {
         if (!(c.gap < 0.0) || c.kind == ContactKind::face_vertex) continue;
         if (c.kind == ContactKind::edge_edge) {

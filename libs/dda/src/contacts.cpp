@@ -564,6 +564,29 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
   // Whether any vertex is that low (the lowest vertex is the box's floor).
   const bool any_low = at.box().lo.z() <= ceiling;
 
+  // World vertices, each computed once per search (`placed`, numbered by `search`;
+  // PlacedBlock::vertex gives the same bits each time): a vertex is tested against the
+  // triangles around it and is an end of the edges around it.
+  thread_local std::vector<Vec3> world;
+  thread_local std::vector<std::uint32_t> placed;
+  thread_local std::uint32_t search = 0;
+  if (placed.size() < model.vertices.size()) {
+    placed.resize(model.vertices.size(), 0);
+    world.resize(model.vertices.size());
+  }
+  if (++search == 0) {  // wrapped: forget every mark
+    std::fill(placed.begin(), placed.end(), 0);
+    search = 1;
+  }
+  const auto world_vertex = [&](std::int32_t v) -> const Vec3& {
+    const std::size_t i = static_cast<std::size_t>(v);
+    if (placed[i] != search) {
+      world[i] = at.vertex(i);
+      placed[i] = search;
+    }
+    return world[i];
+  };
+
   // Block vertex – terrain triangle. The vertex contacts found so far of each vertex, as
   // chains: latest[vertex] and then earlier[contact] (numbered from `first`), −1 ending
   // them; a vertex over a shared edge of two coplanar triangles is one contact, not two.
@@ -594,7 +617,7 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
     const std::size_t i = static_cast<std::size_t>(vi);
     const double body_gap = slab.s0 + slab.m.dot(model.vertices[i]);
     if (body_gap - slab.tol >= ds || body_gap + slab.tol <= -depth) continue;
-    const Vec3 p = at.vertex(i);
+    const Vec3& p = world_vertex(vi);
     if (p.z() > ceiling || !contains(tbox, p)) continue;
     double gap = 0.0;
     if (!vertex_meets_triangle(tri, p, ds, depth, gap)) continue;
@@ -636,8 +659,8 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
     if (be != edge) {
       edge = be;
       const BlockEdge& bedge = model.edges[static_cast<std::size_t>(be)];
-      p0 = at.vertex(static_cast<std::size_t>(bedge.a));
-      p1 = at.vertex(static_cast<std::size_t>(bedge.b));
+      p0 = world_vertex(bedge.a);
+      p1 = world_vertex(bedge.b);
       low_edge = std::min(p0.z(), p1.z()) <= ceiling;
       ebox = edge_box(p0, p1, margin);
     }

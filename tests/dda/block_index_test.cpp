@@ -390,6 +390,62 @@ TEST(DdaBlockIndex, ClimbFindsTheFarthestVertex) {
   }
 }
 
+// A convex block's walk over its vertex graph (VertexClimb::below, which the contact
+// search's gathering uses instead of a tree query) finds every vertex under a plane, each
+// once, and none above it by more than its slack: along 3 000 directions per block, with
+// planes from below the block to above it, and the lowest value the scan's. With a limit
+// it stops once it has found that many. A concave block does not walk.
+TEST(DdaBlockIndex, WalkFindsTheVerticesUnderAPlane) {
+  const core::RandomStream rng(6, core::Stream::release, 3);
+  for (const geometry::Polyhedron& poly :
+       {solid(block::SolidKind::ellipsoid, 16, 0.0), solid(block::SolidKind::ellipsoid, 32, 0.0),
+        solid(block::SolidKind::rock, 8, 0.0, 200)}) {
+    const Model m = Model::build(Settings{}, poly);
+    ASSERT_NE(m.index, nullptr);
+    const detail::VertexClimb& climb = m.index->climb;
+    ASSERT_TRUE(climb.fills());
+    std::vector<std::int32_t> under;
+    std::size_t found = 0, stopped = 0;
+    for (std::uint64_t k = 0; k < 3000; ++k) {
+      Vec3 u(rng.normal(4 * k), rng.normal(4 * k + 1), rng.normal(4 * k + 2));
+      if (k < 6) u = Vec3::Unit(static_cast<Eigen::Index>(k / 2)) * (k % 2 == 0 ? 1.0 : -1.0);
+      double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+      for (const Vec3& v : m.vertices) {
+        lo = std::min(lo, u.dot(v));
+        hi = std::max(hi, u.dot(v));
+      }
+      // From under the block (nothing) to over it (everything).
+      const double level = lo + (hi - lo) * (1.2 * rng.uniform(4 * k + 3) - 0.1);
+      const double slack = 1e-9 * m.radius * u.norm();
+      double lowest = 0.0;
+      ASSERT_TRUE(climb.below(m.vertices, u, level, slack, m.vertices.size(), under, lowest)) << k;
+      EXPECT_NEAR(lowest, lo, 1e-12 * m.radius * u.norm()) << k;
+      std::vector<std::uint8_t> seen(m.vertices.size(), 0);
+      for (const std::int32_t v : under) {
+        EXPECT_EQ(seen[static_cast<std::size_t>(v)], 0) << k;
+        seen[static_cast<std::size_t>(v)] = 1;
+        EXPECT_LE(u.dot(m.vertices[static_cast<std::size_t>(v)]), level + slack) << k;
+      }
+      for (std::size_t i = 0; i < m.vertices.size(); ++i) {
+        if (u.dot(m.vertices[i]) <= level) {
+          EXPECT_EQ(seen[i], 1) << k << " vertex " << i;
+        }
+      }
+      found += under.size();
+      // A limit below the count stops the walk.
+      if (under.size() > 2) {
+        const std::size_t limit = under.size() / 2;
+        EXPECT_FALSE(climb.below(m.vertices, u, level, slack, limit, under, lowest)) << k;
+        EXPECT_LE(under.size(), limit) << k;
+        ++stopped;
+      }
+    }
+    EXPECT_GT(found, 3000 * m.vertices.size() / 4);  // planes across the whole block
+    EXPECT_GT(stopped, 2000u);
+  }
+  EXPECT_FALSE(Model::build(Settings{}, solid(block::SolidKind::ellipsoid, 8, 0.15)).index->climb.fills());
+}
+
 // The feature tree finds what a scan of the boxes finds, and the branch-and-bound maximum
 // is the scan's maximum.
 TEST(DdaBlockIndex, FeatureTreeQueriesAndMaximaMatchAScan) {

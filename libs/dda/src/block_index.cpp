@@ -9,6 +9,9 @@ namespace talus::dda::detail {
 void VertexClimb::build(const Model& model) {
   offsets_.clear();
   neighbours_.clear();
+  edges_.clear();
+  longest_.clear();
+  fills_ = false;
   if (!model.convex) return;
   const std::size_t n = model.vertices.size();
   std::vector<std::int32_t> degree(n, 0);
@@ -19,11 +22,25 @@ void VertexClimb::build(const Model& model) {
   offsets_.assign(n + 1, 0);
   for (std::size_t i = 0; i < n; ++i) offsets_[i + 1] = offsets_[i] + degree[i];
   neighbours_.resize(static_cast<std::size_t>(offsets_[n]));
+  edges_.resize(neighbours_.size());
+  longest_.assign(n, 0.0);
   std::vector<std::int32_t> fill(offsets_.begin(), offsets_.end() - 1);
-  for (const BlockEdge& e : model.edges) {
-    neighbours_[static_cast<std::size_t>(fill[static_cast<std::size_t>(e.a)]++)] = e.b;
-    neighbours_[static_cast<std::size_t>(fill[static_cast<std::size_t>(e.b)]++)] = e.a;
+  for (std::size_t k = 0; k < model.edges.size(); ++k) {
+    const BlockEdge& e = model.edges[k];
+    const std::size_t at_a = static_cast<std::size_t>(fill[static_cast<std::size_t>(e.a)]++);
+    const std::size_t at_b = static_cast<std::size_t>(fill[static_cast<std::size_t>(e.b)]++);
+    neighbours_[at_a] = e.b;
+    neighbours_[at_b] = e.a;
+    edges_[at_a] = edges_[at_b] = static_cast<std::int32_t>(k);
+    const double length =
+        (model.vertices[static_cast<std::size_t>(e.a)] - model.vertices[static_cast<std::size_t>(e.b)]).norm();
+    longest_[static_cast<std::size_t>(e.a)] = std::max(longest_[static_cast<std::size_t>(e.a)], length);
+    longest_[static_cast<std::size_t>(e.b)] = std::max(longest_[static_cast<std::size_t>(e.b)], length);
   }
+  // Every edge is convex (Model::convex); with triangular faces the surface is exactly a
+  // convex polytope's, whose faces a polygon of more vertices need not be within round-off.
+  fills_ = std::all_of(model.faces.begin(), model.faces.end(),
+                       [](const BlockFace& f) { return f.vertices.size() == 3; });
   // Each cell's centre direction; its farthest vertex by climbing from the last cell's
   // (the graph is that of a convex polyhedron: the same vertex a scan finds).
   starts_.assign(6 * kCells * kCells, 0);
@@ -39,6 +56,40 @@ void VertexClimb::build(const Model& model) {
         from = farthest(model.vertices, d, from);
         starts_[static_cast<std::size_t>(cell(d))] = from;
       }
+}
+
+bool VertexClimb::below(const std::vector<Vec3>& vertices, const Vec3& m, double level, double slack,
+                        std::size_t limit, std::vector<std::int32_t>& out, double& lowest) const {
+  out.clear();
+  const std::int32_t start = farthest(vertices, -m);
+  lowest = m.dot(vertices[static_cast<std::size_t>(start)]);
+  const double top = level + slack;
+  if (!(lowest <= top)) return true;
+  // Marks of the vertices met in this walk (numbered by `walk`): each is tested once.
+  thread_local std::vector<std::uint32_t> met;
+  thread_local std::uint32_t walk = 0;
+  if (met.size() < vertices.size()) met.resize(vertices.size(), 0);
+  if (++walk == 0) {  // wrapped: forget every mark
+    std::fill(met.begin(), met.end(), 0);
+    walk = 1;
+  }
+  met[static_cast<std::size_t>(start)] = walk;
+  out.push_back(start);
+  // `out` is the walk's stack too: the vertices from `next` on are still to be expanded.
+  for (std::size_t next = 0; next < out.size(); ++next) {
+    const std::int32_t v = out[next];
+    const std::int32_t end = offsets_[static_cast<std::size_t>(v) + 1];
+    for (std::int32_t k = offsets_[static_cast<std::size_t>(v)]; k < end; ++k) {
+      const std::int32_t w = neighbours_[static_cast<std::size_t>(k)];
+      if (met[static_cast<std::size_t>(w)] == walk) continue;
+      met[static_cast<std::size_t>(w)] = walk;
+      if (m.dot(vertices[static_cast<std::size_t>(w)]) <= top) {
+        if (out.size() >= limit) return false;
+        out.push_back(w);
+      }
+    }
+  }
+  return true;
 }
 
 int VertexClimb::cell(const Vec3& m) {

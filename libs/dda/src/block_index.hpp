@@ -85,6 +85,27 @@ class VertexClimb {
       at = next;
     }
   }
+  /// Whether below() applies: the block is convex and every face a triangle, so that the
+  /// graph is exactly the edge graph of a convex polytope.
+  bool fills() const { return fills_; }
+  /// The vertices v with m·r_v ≤ level (body frame, m·r_v as computed here) into `out`,
+  /// and perhaps some up to `slack` above it, in no particular order; the least value of
+  /// m·r_v into `lowest`. On a convex polytope the vertices under a plane are connected
+  /// through the edges among them (from a vertex above the lowest, some edge leads down),
+  /// so a walk from the lowest vertex over the vertices under level + slack finds them
+  /// all: every vertex of a descending path from one of them lies that low, exactly, and
+  /// the slack (at least a few ulps of |m|·|r|) covers the round-off. Stops and returns
+  /// false, with `out` incomplete, once it has found more than `limit` vertices.
+  bool below(const std::vector<Vec3>& vertices, const Vec3& m, double level, double slack, std::size_t limit,
+             std::vector<std::int32_t>& out, double& lowest) const;
+  /// The neighbours of vertex v and the edges to them (ids into Model::edges): the
+  /// entries first(v) to first(v + 1) − 1 of neighbour() and edge().
+  std::int32_t first(std::int32_t v) const { return offsets_[static_cast<std::size_t>(v)]; }
+  std::int32_t neighbour(std::int32_t k) const { return neighbours_[static_cast<std::size_t>(k)]; }
+  std::int32_t edge(std::int32_t k) const { return edges_[static_cast<std::size_t>(k)]; }
+  /// The length of vertex v's longest edge (body frame, m): every point of its edges lies
+  /// within it of v.
+  double longest(std::int32_t v) const { return longest_[static_cast<std::size_t>(v)]; }
 
  private:
   static constexpr int kCells = 8;
@@ -94,6 +115,9 @@ class VertexClimb {
   std::int32_t start(const Vec3& m) const { return starts_[static_cast<std::size_t>(cell(m))]; }
 
   std::vector<std::int32_t> offsets_, neighbours_;  ///< the graph, compressed rows
+  std::vector<std::int32_t> edges_;                  ///< the edge to each neighbour
+  std::vector<double> longest_;                      ///< of each vertex (m)
+  bool fills_ = false;
   std::vector<std::int32_t> starts_;                ///< farthest vertex along each cell's centre
 };
 

@@ -196,6 +196,16 @@ constexpr double kIndexedWidening = 0.02;
 // computed afresh rather than widened from the last one (PlacedBlock).
 constexpr double kBoxReuse = 0.02;
 
+// How many vertices a walk over a convex block's vertex graph (VertexClimb::below) may
+// visit before a tree query is cheaper.
+constexpr std::size_t kWalkLimit = 256;
+
+// The slack of a walk for the plane m·r = level (VertexClimb::below): a few ulps of
+// |m|·|r| and of the level's terms would do.
+double walk_slack(const Model& model, const Vec3& m, double level) {
+  return 1e-9 * (model.radius * m.norm() + std::abs(level));
+}
+
 double magnitude(const geometry::Aabb& b) { return std::max(b.lo.cwiseAbs().maxCoeff(), b.hi.cwiseAbs().maxCoeff()); }
 
 // A world plane's signed value w·(x − a) over the block's body frame, x = centre + F·r:
@@ -235,22 +245,112 @@ struct BodyPlane {
     plan[static_cast<std::size_t>(k)] = BodyPlane(pose, Vec3(-e.y(), e.x(), 0.0), a, edge_tol);
   }
   const bool faces_up = tri.normal.z() > 0.0;
+  const auto passes = [&](const geometry::Aabb& b) {
+    if (!overlaps(b, body)) return false;
+    const Vec3 c = b.center();
+    const Vec3 h = 0.5 * b.extent();
+    if (ceiling_plane.min_over(c, h) > 0.0 || floor_plane.min_over(c, h) >= ds ||
+        floor_plane.max_over(c, h) <= -depth)
+      return false;
+    const auto reaches = [&](const std::array<BodyPlane, 3>& sides) {
+      return sides[0].max_over(c, h) >= 0.0 && sides[1].max_over(c, h) >= 0.0 && sides[2].max_over(c, h) >= 0.0;
+    };
+    return reaches(prism) || (faces_up && reaches(plan));
+  };
   out.clear();
-  at.index()->vertices.query(
-      [&](const geometry::Aabb& b) {
-        if (!overlaps(b, body)) return false;
-        const Vec3 c = b.center();
-        const Vec3 h = 0.5 * b.extent();
-        if (ceiling_plane.min_over(c, h) > 0.0 || floor_plane.min_over(c, h) >= ds ||
-            floor_plane.max_over(c, h) <= -depth)
-          return false;
-        const auto reaches = [&](const std::array<BodyPlane, 3>& sides) {
-          return sides[0].max_over(c, h) >= 0.0 && sides[1].max_over(c, h) >= 0.0 &&
-                 sides[2].max_over(c, h) >= 0.0;
-        };
-        return reaches(prism) || (faces_up && reaches(plan));
-      },
-      out);
+  const Model& model = at.model();
+  const VertexClimb& climb = at.index()->climb;
+  if (climb.fills()) {
+    // A vertex that passes has s0 + m·r − tol < ds, so lies under a plane of the body
+    // frame: those are found by a walk over the vertex graph (VertexClimb::below), and
+    // each is given the tree's test on its own box, unless they are more than a tree
+    // query costs.
+    thread_local std::vector<std::int32_t> under;
+    double lowest = 0.0;
+    const double level = ds + floor_plane.tol - floor_plane.s0;
+    if (climb.below(model.vertices, floor_plane.m, level, walk_slack(model, floor_plane.m, level), kWalkLimit, under,
+                    lowest)) {
+      for (const std::int32_t v : under) {
+        geometry::Aabb b;
+        b.add(model.vertices[static_cast<std::size_t>(v)]);
+        if (passes(b)) out.push_back(v);
+      }
+      return;
+    }
+    out.clear();
+  }
+  at.index()->vertices.query(passes, out);
+}
+
+// The edges of a convex block (VertexClimb::fills) that pass `passes`, the test of
+// edge_pairs_near's tree query, on their own box, into `edges` (in no particular order),
+// found by walks over the vertex graph: false when the walks would visit more vertices
+// than a tree query costs (`edges` then incomplete). In the body frame, with the ridge
+// from a to a + along: every edge that passes has a point within `deep` of the ridge, and
+// within `shallow` of it or an end under the ridge's planes `sides` (may_be_under of
+// edge_pairs_near: on a crest both, else either of `planes`; any when there are none). A
+// point within D of the ridge lies under the plane u·r = max over the ridge of u·r + D for
+// every unit u, and so does an end of its edge: with u the direction from the ridge's
+// point nearest the centre to the centre, the plane cuts off the block's side next to
+// the ridge. So every such edge has an end under one of: that plane for `shallow`, and
+// for `deep` either that plane again or the planes of the ridge's triangles.
+template <class Passes>
+bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, double shallow, double deep, int planes,
+                   bool crest, const std::array<BodyPlane, 2>& sides, const Passes& passes,
+                   std::vector<std::int32_t>& edges) {
+  const Model& model = at.model();
+  const VertexClimb& climb = at.index()->climb;
+  edges.clear();
+  // The ridge's point nearest the body frame's origin (the centre).
+  const double length2 = along.squaredNorm();
+  const double t = length2 > 0.0 ? std::clamp(-a.dot(along) / length2, 0.0, 1.0) : 0.0;
+  const Vec3 nearest = a + t * along;
+  const double distance = nearest.norm();
+  if (!(distance > 0.0)) return false;
+  const Vec3 u = -nearest / distance;
+  const double ridge_top = std::max(u.dot(a), u.dot(a + along));
+  // The edges at the vertices of each walk, each tested once (marked by `search`).
+  thread_local std::vector<std::uint32_t> marked;
+  thread_local std::uint32_t search = 0;
+  if (marked.size() < model.edges.size()) marked.resize(model.edges.size(), 0);
+  if (++search == 0) {
+    std::fill(marked.begin(), marked.end(), 0);
+    search = 1;
+  }
+  thread_local std::vector<std::int32_t> under;
+  double lowest = 0.0;
+  // The edges at the vertices under m·r = level that may come within `reach` of the ridge:
+  // a vertex further from it than that and its longest edge has none.
+  const auto walk = [&](const Vec3& m, double level, double reach) {
+    if (!climb.below(model.vertices, m, level, walk_slack(model, m, level), kWalkLimit, under, lowest)) return false;
+    for (const std::int32_t v : under) {
+      const Vec3& r = model.vertices[static_cast<std::size_t>(v)];
+      const double s = length2 > 0.0 ? std::clamp((r - a).dot(along) / length2, 0.0, 1.0) : 0.0;
+      const double within = (reach + climb.longest(v)) * (1.0 + 1e-9) + 1e-9 * model.radius;
+      if ((r - a - s * along).squaredNorm() > within * within) continue;
+      for (std::int32_t k = climb.first(v); k < climb.first(v + 1); ++k) {
+        const std::int32_t e = climb.edge(k);
+        if (marked[static_cast<std::size_t>(e)] == search) continue;
+        marked[static_cast<std::size_t>(e)] = search;
+        const BlockEdge& edge = model.edges[static_cast<std::size_t>(e)];
+        if (!edge.convex) continue;
+        geometry::Aabb b;
+        b.add(model.vertices[static_cast<std::size_t>(edge.a)]);
+        b.add(model.vertices[static_cast<std::size_t>(edge.b)]);
+        if (passes(b)) edges.push_back(e);
+      }
+    }
+    return true;
+  };
+  if (!walk(u, ridge_top + shallow, shallow)) return false;
+  // The deep ones: under the planes of the ridge's triangles (an end with s0 + m·r − tol
+  // ≤ 0; on a crest under both, so under the first), else within `deep` along u.
+  const auto under_plane = [&](int k) {
+    const BodyPlane& side = sides[static_cast<std::size_t>(k)];
+    return walk(side.m, side.tol - side.s0, deep);
+  };
+  if (planes > 0 && under_plane(0) && (crest || planes < 2 || under_plane(1))) return true;
+  return walk(u, ridge_top + deep, deep);
 }
 
 // The (edge, ridge in `near`) pairs of a detailed block that can pass the edge–ridge tests
@@ -263,7 +363,12 @@ struct BodyPlane {
   const Pose& pose = at.pose();
   const Model& model = at.model();
   thread_local std::vector<std::int32_t> edges;
+  const VertexClimb& climb = at.index()->climb;
   pairs.clear();
+  // ‖F‖₂ (1 for a rigid pose), generously: the square root of FᵀF's largest eigenvalue.
+  Eigen::SelfAdjointEigenSolver<Mat3> eigen;
+  eigen.computeDirect(pose.map.transpose() * pose.map, Eigen::EigenvaluesOnly);
+  const double stretch = std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff())) * (1.0 + 1e-6);
   for (std::size_t j = 0; j < near.size(); ++j) {
     const TerrainPatch::Ridge& te = *near[j];
     // In the body frame: the ridge's segment, and the distances lengthened by F⁻¹. A pair
@@ -275,6 +380,15 @@ struct BodyPlane {
     const geometry::Aabb ridge_box = te.box.inflated(margin);
     edges.clear();
     const double tol = at.round_off() + kRound * magnitude(ridge_box) + kSlack * margin + 1e-9 * model.radius;
+    // Every pair passes the distance tests below: its edge lies within `deep` of the
+    // ridge in the body frame, so within stretch·deep in the world. A ridge the block lies
+    // farther from has none, and most in the block's box do (those beside a round block's
+    // box corners): skipped by their separation, a lower bound of the distance between
+    // the ridge and the hull of the world vertices, which lie within twice their
+    // round-off of the exact images of the body points.
+    if (!climb.empty() && separation(at, {te.pa, te.pb, te.pb}) - 4.0 * at.round_off() >
+        stretch * at.inverse_stretch() * (margin + 2.0 * tol) * (1.0 + 1e-9) + 1e-9 * model.radius)
+      continue;
     const geometry::Aabb body = at.body_box(ridge_box.inflated(tol));
     const Vec3 a = pose.inverse_map * (te.pa - pose.centre);
     const Vec3 along = pose.inverse_map * (te.pb - pose.centre) - a;
@@ -295,20 +409,22 @@ struct BodyPlane {
       if (te.convex) return under(0) && under(1);
       return under(0) || (planes == 2 && under(1));
     };
-    at.index()->convex_edges.query(
-        [&](const geometry::Aabb& b) {
-          if (!overlaps(b, body)) return false;
-          const Vec3 c = b.center();
-          const Vec3 h = 0.5 * b.extent();
-          if (ceiling_plane.min_over(c, h) > 0.0) return false;
-          const double t = std::clamp((c - a).dot(along) * inverse_length2, 0.0, 1.0);
-          const double distance2 = (c - a - t * along).squaredNorm();
-          const double size = h.norm();
-          if (distance2 <= (shallow + size) * (shallow + size)) return true;
-          if (distance2 > (deep + size) * (deep + size)) return false;
-          return may_be_under([&](int k) { return sides[static_cast<std::size_t>(k)].min_over(c, h) <= 0.0; });
-        },
-        edges);
+    const auto passes = [&](const geometry::Aabb& b) {
+      if (!overlaps(b, body)) return false;
+      const Vec3 c = b.center();
+      const Vec3 h = 0.5 * b.extent();
+      if (ceiling_plane.min_over(c, h) > 0.0) return false;
+      const double t = std::clamp((c - a).dot(along) * inverse_length2, 0.0, 1.0);
+      const double distance2 = (c - a - t * along).squaredNorm();
+      const double size = h.norm();
+      if (distance2 <= (shallow + size) * (shallow + size)) return true;
+      if (distance2 > (deep + size) * (deep + size)) return false;
+      return may_be_under([&](int k) { return sides[static_cast<std::size_t>(k)].min_over(c, h) <= 0.0; });
+    };
+    if (!climb.fills() || !edges_by_walk(at, a, along, shallow, deep, planes, te.convex, sides, passes, edges)) {
+      edges.clear();
+      at.index()->convex_edges.query(passes, edges);
+    }
     // The same tests on each edge's own segment: its distance to the ridge's instead of
     // a box's, its ends' plane values instead of a box's extremes (a segment's extremes
     // along a plane lie at its ends). An edge's box is as long as the edge: the box
@@ -543,9 +659,20 @@ void gather_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
   const double ceiling = top + margin;
   thread_local std::vector<std::int32_t> candidates;
   if (at.box().lo.z() <= ceiling) {
+    const Vec3& centre = at.pose().centre;
     for (const std::int32_t t : c.triangles) {
       const TerrainPatch::Triangle& tri = patch.triangles[static_cast<std::size_t>(t)];
-      vertices_near(at, tri, tri.box.inflated(margin), ceiling, ds, depth, motion, candidates);
+      const geometry::Aabb tbox = tri.box.inflated(margin);
+      // A plane the whole block lies above by more than ds has none of its vertices in
+      // the slab of vertices_near's floor test: the block's least value along the normal
+      // is bounded below by its support (round-off included), and the test's own
+      // round-off is within tol of it. Most triangles of the box lie so (the ground
+      // beside and below a round block's box corners), and this costs one support query.
+      const double tol = at.round_off() + kRound * magnitude(tbox);
+      if (!at.index()->climb.empty() &&
+          tri.normal.dot(centre - tri.p[0]) - at.support(-tri.normal) > ds + 4.0 * tol + 1e-9 * at.model().radius)
+        continue;
+      vertices_near(at, tri, tbox, ceiling, ds, depth, motion, candidates);
       std::sort(candidates.begin(), candidates.end());
       for (const std::int32_t vi : candidates) c.vertex_triangle.emplace_back(t, vi);
     }

@@ -43,6 +43,7 @@ inline Pose pose_of(const Model& model, const State& s) {
   if (model.dof == DofPath::rigid6) {
     p.map = p.rotation;
     p.inverse_map = p.rotation.transpose();
+    p.rigid = true;
   } else {
     p.map = p.rotation * s.stretch;
     p.inverse_map = s.stretch.inverse() * p.rotation.transpose();

@@ -206,6 +206,20 @@ double walk_slack(const Model& model, const Vec3& m, double level) {
   return 1e-9 * (model.radius * m.norm() + std::abs(level));
 }
 
+// A bound of ‖F − F₀‖₂ for the map F of `pose` and an earlier map F₀ of the same block
+// (`rigid0`: a rotation too): every block point r has moved by at most that times |r|
+// besides the centre's motion. Between rotations ‖F − F₀‖₂ = ‖F·F₀ᵀ − I‖₂ = 2 sin(θ/2) =
+// √(3 − tr(F·F₀ᵀ)) for the angle θ between them; 1e-14 under the root covers the trace's
+// round-off and the maps' departure from orthonormality (a few ulps of a normalized
+// quaternion's). For a rolling block this is 1/√2 of the Frobenius norm, which the
+// 12-DOF path keeps.
+double map_change(const Pose& pose, const Mat3& map0, bool rigid0) {
+  if (!pose.rigid || !rigid0) return (pose.map - map0).norm();
+  const double trace = pose.map.row(0).dot(map0.row(0)) + pose.map.row(1).dot(map0.row(1)) +
+                       pose.map.row(2).dot(map0.row(2));
+  return std::sqrt(std::max(0.0, 3.0 - trace) + 1e-14);
+}
+
 double magnitude(const geometry::Aabb& b) { return std::max(b.lo.cwiseAbs().maxCoeff(), b.hi.cwiseAbs().maxCoeff()); }
 
 // A world plane's signed value w·(x − a) over the block's body frame, x = centre + F·r:
@@ -626,6 +640,7 @@ void start_gathering(const PlacedBlock& at, double ds, double depth, double moti
   c.model = &at.model();
   c.centre = at.pose().centre;
   c.map = at.pose().map;
+  c.rigid = at.pose().rigid;
   c.ds = ds;
   c.depth = depth;
   c.motion = motion;
@@ -953,9 +968,10 @@ PlacedBlock::PlacedBlock(const Model& model, const Pose& pose, std::vector<Vec3>
   eigen.computeDirect(pose.inverse_map.transpose() * pose.inverse_map, Eigen::EigenvaluesOnly);
   inverse_stretch_ = std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff())) * (1.0 + 1e-6);
   if (reuse != nullptr && reuse->model == &model) {
-    // A vertex has moved by at most |Δcentre| + ‖ΔF‖·|r| since (the Frobenius norm bounds
-    // the spectral one), plus the round-off of its two world positions.
-    const double moved = (pose.centre - reuse->centre).norm() + (pose.map - reuse->map).norm() * model.radius;
+    // A vertex has moved by at most |Δcentre| + ‖ΔF‖·|r| since (map_change bounds the
+    // spectral norm), plus the round-off of its two world positions.
+    const double moved =
+        (pose.centre - reuse->centre).norm() + map_change(pose, reuse->map, reuse->rigid) * model.radius;
     const double slack = 2.0 * round_off_ + 1e-9 * (pose.centre.cwiseAbs().maxCoeff() + model.radius);
     if (moved <= kBoxReuse * model.radius) {
       box_ = reuse->box.inflated(moved + slack);
@@ -976,7 +992,7 @@ PlacedBlock::PlacedBlock(const Model& model, const Pose& pose, std::vector<Vec3>
       box_.hi[k] = world_point(pose, model.vertices[static_cast<std::size_t>(hi)])[k] + slack;
       box_.lo[k] = world_point(pose, model.vertices[static_cast<std::size_t>(lo)])[k] - slack;
     }
-    if (reuse != nullptr) *reuse = BlockBox{&model, pose.centre, pose.map, box_};
+    if (reuse != nullptr) *reuse = BlockBox{&model, pose.centre, pose.map, box_, pose.rigid};
     return;
   }
   for (int k = 0; k < 3; ++k) {
@@ -997,7 +1013,7 @@ PlacedBlock::PlacedBlock(const Model& model, const Pose& pose, std::vector<Vec3>
         },
         [&](std::int32_t i) { return -coordinate(i); });
   }
-  if (reuse != nullptr) *reuse = BlockBox{&model, pose.centre, pose.map, box_};
+  if (reuse != nullptr) *reuse = BlockBox{&model, pose.centre, pose.map, box_, pose.rigid};
 }
 
 double PlacedBlock::support(const Vec3& u) const {
@@ -1069,13 +1085,14 @@ void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, dou
   }
   // The candidate pairs are gathered afresh when the block has moved, since they were
   // gathered, by more than their wider distances allow: a block point moves by at most
-  // |Δcentre| + ‖ΔF‖·radius (the Frobenius norm bounds the spectral one), and a gap, a
+  // |Δcentre| + ‖ΔF‖·radius (map_change bounds the spectral norm), and a gap, a
   // box or a point's distance to a box by no more than that. A detailed block's were
   // gathered with its prism and plane tests widened by a motion, which bounds it too.
   const Model& model = at.model();
   const Pose& pose = at.pose();
   TerrainPatch::Candidates& c = patch.candidates;
-  const double moved = c.model == &model ? (pose.centre - c.centre).norm() + (pose.map - c.map).norm() * model.radius +
+  const double moved = c.model == &model ? (pose.centre - c.centre).norm() +
+                                               map_change(pose, c.map, c.rigid) * model.radius +
                                                1e-9 * (pose.centre.cwiseAbs().maxCoeff() + model.radius)
                                          : std::numeric_limits<double>::infinity();
   if (at.index() != nullptr) {

@@ -16,6 +16,9 @@ struct Pose {
   Mat3 rotation = Mat3::Identity();     ///< R
   Mat3 map = Mat3::Identity();          ///< F = R·U
   Mat3 inverse_map = Mat3::Identity();  ///< F⁻¹
+  /// F is the rotation R (the 6-DOF path, pose_of): the search then bounds a point's
+  /// motion by the rotation's angle rather than by F's Frobenius norm (map_change).
+  bool rigid = false;
 };
 
 /// The world position (m) of the body point r at `pose`. Every world vertex is computed

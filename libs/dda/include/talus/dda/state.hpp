@@ -135,6 +135,7 @@ struct BlockBox {
   Vec3 centre = Vec3::Zero();   ///< the pose: x = centre + map·r
   Mat3 map = Mat3::Identity();
   geometry::Aabb box;           ///< m
+  bool rigid = false;           ///< map is a rotation (the 6-DOF path)
 };
 
 /// The terrain features near the block, gathered once and reused by the contact search
@@ -185,6 +186,7 @@ struct TerrainPatch {
     const void* model = nullptr;       ///< the Model they were gathered for; null: none
     Vec3 centre = Vec3::Zero();        ///< the pose they were gathered at: x = centre + map·r
     Mat3 map = Mat3::Identity();
+    bool rigid = false;                ///< map is a rotation (the 6-DOF path)
     double ds = 0.0, depth = 0.0;      ///< search distance and depth limit gathered with (m)
     /// A detailed block's: how far its points may move from that pose (m) while the
     /// pairs serve (their prism and plane tests were widened by it); ∞ for a scanned one.

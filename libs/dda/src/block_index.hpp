@@ -98,10 +98,9 @@ class VertexClimb {
   /// false, with `out` incomplete, once it has found more than `limit` vertices.
   bool below(const std::vector<Vec3>& vertices, const Vec3& m, double level, double slack, std::size_t limit,
              std::vector<std::int32_t>& out, double& lowest) const;
-  /// The neighbours of vertex v and the edges to them (ids into Model::edges): the
-  /// entries first(v) to first(v + 1) − 1 of neighbour() and edge().
+  /// The edges at vertex v (ids into Model::edges): edge(k) for k from first(v) to
+  /// first(v + 1) − 1.
   std::int32_t first(std::int32_t v) const { return offsets_[static_cast<std::size_t>(v)]; }
-  std::int32_t neighbour(std::int32_t k) const { return neighbours_[static_cast<std::size_t>(k)]; }
   std::int32_t edge(std::int32_t k) const { return edges_[static_cast<std::size_t>(k)]; }
   /// The length of vertex v's longest edge (body frame, m): every point of its edges lies
   /// within it of v.

@@ -198,7 +198,7 @@ constexpr double kBoxReuse = 0.02;
 
 // How many vertices a walk over a convex block's vertex graph (VertexClimb::below) may
 // visit before a tree query is cheaper.
-constexpr std::size_t kWalkLimit = 256;
+constexpr std::size_t kWalkLimit = 64;
 
 // The slack of a walk for the plane m·r = level (VertexClimb::below): a few ulps of
 // |m|·|r| and of the level's terms would do.

@@ -57,8 +57,11 @@ geometry::Polyhedron convex_hull(const std::vector<Vec3>& points, const std::str
   const std::vector<Point> p = to_points(points);
   cgal::SurfaceMesh hull;
   CGAL::convex_hull_3(p.begin(), p.end(), hull);
-  const geometry::Polyhedron poly = geometry::to_polyhedron(cgal::from_surface_mesh(hull));
-  // CGAL's output order follows memory addresses: make it a function of the points.
+  geometry::Polyhedron poly = geometry::to_polyhedron(cgal::from_surface_mesh(hull));
+  // CGAL's output order follows memory addresses and the points' order: make it a
+  // function of the points before the merge too, whose seeds (taken in face order)
+  // decide which of several near-coplanar faces join (Hull.SameFacesWhateverThePointOrder).
+  geometry::canonicalize(poly);
   geometry::Polyhedron merged = geometry::merge_coplanar_faces(poly, 1e-9 * diagonal(points));
   geometry::canonicalize(merged);
   return merged;

@@ -65,15 +65,10 @@ bool VertexClimb::below(const std::vector<Vec3>& vertices, const Vec3& m, double
   lowest = m.dot(vertices[static_cast<std::size_t>(start)]);
   const double top = level + slack;
   if (!(lowest <= top)) return true;
-  // Marks of the vertices met in this walk (numbered by `walk`): each is tested once.
-  thread_local std::vector<std::uint32_t> met;
-  thread_local std::uint32_t walk = 0;
-  if (met.size() < vertices.size()) met.resize(vertices.size(), 0);
-  if (++walk == 0) {  // wrapped: forget every mark
-    std::fill(met.begin(), met.end(), 0);
-    walk = 1;
-  }
-  met[static_cast<std::size_t>(start)] = walk;
+  // The vertices met in this walk: each is tested once.
+  thread_local RoundMarks met;
+  met.start(vertices.size());
+  met.mark(start);
   out.push_back(start);
   // `out` is the walk's stack too: the vertices from `next` on are still to be expanded.
   for (std::size_t next = 0; next < out.size(); ++next) {
@@ -81,8 +76,7 @@ bool VertexClimb::below(const std::vector<Vec3>& vertices, const Vec3& m, double
     const std::int32_t end = offsets_[static_cast<std::size_t>(v) + 1];
     for (std::int32_t k = offsets_[static_cast<std::size_t>(v)]; k < end; ++k) {
       const std::int32_t w = neighbours_[static_cast<std::size_t>(k)];
-      if (met[static_cast<std::size_t>(w)] == walk) continue;
-      met[static_cast<std::size_t>(w)] = walk;
+      if (!met.mark(w)) continue;
       if (m.dot(vertices[static_cast<std::size_t>(w)]) <= top) {
         if (out.size() >= limit) return false;
         out.push_back(w);

@@ -3,6 +3,7 @@
 // Box trees over a block's features in its body frame, so that contact detection and the
 // step control cost what the block touches, not what it has: a scanned rock of 10⁴ faces
 // near a few terrain triangles is queried in logarithmic time instead of scanned.
+#include <algorithm>
 #include <cstdint>
 #include <limits>
 #include <utility>
@@ -51,6 +52,32 @@ class FeatureTree {
   geometry::BoxTree tree_;
   std::vector<geometry::Aabb> boxes_;  ///< of item i
   std::vector<std::int32_t> ids_;      ///< feature id of item i
+};
+
+/// Marks over items 0 … n − 1, all cleared at once in constant time: each round has its
+/// own number, and an item is marked when it holds the round's. For the searches that
+/// visit each of a block's vertices or edges once (thread_local: one set per thread).
+class RoundMarks {
+ public:
+  /// Starts a round over at least n items, none of them marked.
+  void start(std::size_t n) {
+    if (marks_.size() < n) marks_.resize(n, 0);
+    if (++round_ == 0) {  // wrapped: forget every mark
+      std::fill(marks_.begin(), marks_.end(), 0);
+      round_ = 1;
+    }
+  }
+  /// Marks item i; whether it was not marked yet.
+  bool mark(std::int32_t i) {
+    std::uint32_t& m = marks_[static_cast<std::size_t>(i)];
+    if (m == round_) return false;
+    m = round_;
+    return true;
+  }
+
+ private:
+  std::vector<std::uint32_t> marks_;
+  std::uint32_t round_ = 0;
 };
 
 /// Steepest ascent over the vertex graph of a convex block (Model::convex): the vertex

@@ -323,14 +323,9 @@ bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, doub
   if (!(distance > 0.0)) return false;
   const Vec3 u = -nearest / distance;
   const double ridge_top = std::max(u.dot(a), u.dot(a + along));
-  // The edges at the vertices of each walk, each tested once (marked by `search`).
-  thread_local std::vector<std::uint32_t> marked;
-  thread_local std::uint32_t search = 0;
-  if (marked.size() < model.edges.size()) marked.resize(model.edges.size(), 0);
-  if (++search == 0) {
-    std::fill(marked.begin(), marked.end(), 0);
-    search = 1;
-  }
+  // The edges at the vertices of each walk, each tested once.
+  thread_local RoundMarks tested;
+  tested.start(model.edges.size());
   thread_local std::vector<std::int32_t> under;
   double lowest = 0.0;
   // The edges at the vertices under m·r = level that may come within `reach` of the ridge:
@@ -344,8 +339,7 @@ bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, doub
       if ((r - a - s * along).squaredNorm() > within * within) continue;
       for (std::int32_t k = climb.first(v); k < climb.first(v + 1); ++k) {
         const std::int32_t e = climb.edge(k);
-        if (marked[static_cast<std::size_t>(e)] == search) continue;
-        marked[static_cast<std::size_t>(e)] = search;
+        if (!tested.mark(e)) continue;
         const BlockEdge& edge = model.edges[static_cast<std::size_t>(e)];
         if (!edge.convex) continue;
         geometry::Aabb b;
@@ -726,26 +720,16 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
   // Whether any vertex is that low (the lowest vertex is the box's floor).
   const bool any_low = at.box().lo.z() <= ceiling;
 
-  // World vertices, each computed once per search (`placed`, numbered by `search`;
-  // PlacedBlock::vertex gives the same bits each time): a vertex is tested against the
-  // triangles around it and is an end of the edges around it.
+  // World vertices, each computed once per search (those `placed`; PlacedBlock::vertex
+  // gives the same bits each time): a vertex is tested against the triangles around it
+  // and is an end of the edges around it.
   thread_local std::vector<Vec3> world;
-  thread_local std::vector<std::uint32_t> placed;
-  thread_local std::uint32_t search = 0;
-  if (placed.size() < model.vertices.size()) {
-    placed.resize(model.vertices.size(), 0);
-    world.resize(model.vertices.size());
-  }
-  if (++search == 0) {  // wrapped: forget every mark
-    std::fill(placed.begin(), placed.end(), 0);
-    search = 1;
-  }
+  thread_local RoundMarks placed;
+  if (world.size() < model.vertices.size()) world.resize(model.vertices.size());
+  placed.start(model.vertices.size());
   const auto world_vertex = [&](std::int32_t v) -> const Vec3& {
     const std::size_t i = static_cast<std::size_t>(v);
-    if (placed[i] != search) {
-      world[i] = at.vertex(i);
-      placed[i] = search;
-    }
+    if (placed.mark(v)) world[i] = at.vertex(i);
     return world[i];
   };
 

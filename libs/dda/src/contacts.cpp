@@ -177,6 +177,12 @@ void fill_patch(const terrain::Surface& surface, const std::vector<std::int32_t>
       e.box = geometry::Aabb{};
       e.box.add(e.pa);
       e.box.add(e.pb);
+      const Vec3 along = (e.pb - e.pa).normalized();
+      const Vec3 out = e.normal_sum - e.normal_sum.dot(along) * along;
+      if (out.norm() > 1e-6 * e.normal_sum.norm()) {
+        e.out = out.normalized();
+        e.out_allowance = 1e-9 * std::max(e.box.lo.cwiseAbs().maxCoeff(), e.box.hi.cwiseAbs().maxCoeff());
+      }
       edges.push_back(e);
     }
     k = end;
@@ -310,8 +316,8 @@ struct BodyPlane {
 // for `deep` either that plane again or the planes of the ridge's triangles.
 template <class Passes>
 bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, double shallow, double deep, int planes,
-                   bool crest, const std::array<BodyPlane, 2>& sides, const Passes& passes,
-                   std::vector<std::int32_t>& edges) {
+                   bool crest, const std::array<BodyPlane, 2>& sides, const BodyPlane& out, double out_limit,
+                   const Passes& passes, std::vector<std::int32_t>& edges) {
   const Model& model = at.model();
   const VertexClimb& climb = at.index()->climb;
   edges.clear();
@@ -350,6 +356,11 @@ bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, doub
     }
     return true;
   };
+  // Every edge that can pass has an end under the plane along the ridge's `out` (its
+  // callers pass over the others): one walk there, when it is short, else the three.
+  if (out.m != Vec3::Zero() && walk(out.m, out_limit - out.s0, deep)) return true;
+  tested.start(model.edges.size());
+  edges.clear();
   if (!walk(u, ridge_top + shallow, shallow)) return false;
   // The deep ones: under the planes of the ridge's triangles (an end with s0 + m·r − tol
   // ≤ 0; on a crest under both, so under the first), else within `deep` along u.
@@ -410,6 +421,12 @@ bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, doub
       sides[static_cast<std::size_t>(k)] = BodyPlane(pose, normal, te.pa, 4.0 * tol + normal.norm() * motion);
     }
     const BodyPlane ceiling_plane(pose, Vec3::UnitZ(), Vec3(0.0, 0.0, ceiling), tol);
+    // detect_indexed passes over an edge with both ends more than its ds above the ridge
+    // along `out`; a point moves by at most `motion` before the pairs are gathered again,
+    // so an edge with both ends more than ds (which holds that motion) above it here
+    // never reaches the test. Allowances as there, doubled for the two poses.
+    const BodyPlane out_plane(pose, te.out, te.pa, 0.0);
+    const double out_limit = ds + 4.0 * te.out_allowance + 1e-9 * margin + 8.0 * at.round_off();
     // Whether a deep pair may lie under the ridge's planes, `under(k)` telling whether
     // the edge (or a box of edges) reaches under plane k: on a crest both, else either.
     const auto may_be_under = [&](const auto& under) {
@@ -429,7 +446,8 @@ bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, doub
       if (distance2 > (deep + size) * (deep + size)) return false;
       return may_be_under([&](int k) { return sides[static_cast<std::size_t>(k)].min_over(c, h) <= 0.0; });
     };
-    if (!climb.fills() || !edges_by_walk(at, a, along, shallow, deep, planes, te.convex, sides, passes, edges)) {
+    if (!climb.fills() ||
+        !edges_by_walk(at, a, along, shallow, deep, planes, te.convex, sides, out_plane, out_limit, passes, edges)) {
       edges.clear();
       at.index()->convex_edges.query(passes, edges);
     }
@@ -444,7 +462,7 @@ bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, doub
       const auto lowest = [&](const BodyPlane& plane) {
         return std::min(plane.min_over(r0, Vec3::Zero()), plane.min_over(r1, Vec3::Zero()));
       };
-      if (lowest(ceiling_plane) > 0.0) continue;
+      if (lowest(ceiling_plane) > 0.0 || lowest(out_plane) >= out_limit) continue;
       const double distance2 = segment_distance2(r0, r1, a, a + along);
       if (distance2 > shallow * shallow &&
           (distance2 > deep * deep ||
@@ -794,17 +812,45 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
     terrain_vertex_contact(at, patch, tv, qb, &faces, vertex_ds, depth, face_tol, out);
   }
 
-  // Block edge – terrain ridge crossings, in the order of the scan.
+  // Block edge – terrain ridge crossings, in the order of the scan. A crossing's gap g is
+  // along n, ⟂ both lines and oriented so that n·out = n·normal_sum ≥ 0 (`out` is the
+  // ridge's normal sum with its part along the ridge taken out). So g·(n·out) =
+  // (pc − qc)·out ≥ min(out·(p0 − pa), out·(p1 − pa)): an edge with both ends more than
+  // ds above the ridge along `out` has its gap beyond ds, and is passed over. Tested in
+  // the body frame before the ends' world positions are computed; the allowance covers
+  // the round-off of those values (a world vertex's, per coordinate) and of the exact
+  // test's own gap. Most gathered pairs are passed over so (edge_meets_ridge solves
+  // for each crossing).
+  struct RidgeView {
+    bool in_reach = false;
+    BodyPlane level;
+    double limit = 0.0;
+  };
+  thread_local std::vector<RidgeView> views;
+  if (views.size() < patch.ridges.size()) views.resize(patch.ridges.size());
+  for (const std::int32_t r : c.ridges) {
+    const TerrainPatch::Ridge& te = patch.ridges[static_cast<std::size_t>(r)];
+    RidgeView& view = views[static_cast<std::size_t>(r)];
+    view.in_reach = overlaps(te.box, reach);
+    view.level = BodyPlane(pose, te.out, te.pa, 0.0);
+    view.limit = ds + 2.0 * te.out_allowance + 1e-9 * margin + 4.0 * at.round_off();
+  }
   std::int32_t edge = -1;
   Vec3 p0, p1;
   geometry::Aabb ebox;
   bool low_edge = false;
   for (const auto& [be, r] : c.edge_ridge) {
+    const RidgeView& view = views[static_cast<std::size_t>(r)];
+    if (!view.in_reach) continue;
+    const BlockEdge& bedge = model.edges[static_cast<std::size_t>(be)];
+    if (std::min(view.level.m.dot(model.vertices[static_cast<std::size_t>(bedge.a)]),
+                 view.level.m.dot(model.vertices[static_cast<std::size_t>(bedge.b)])) +
+            view.level.s0 >=
+        view.limit)
+      continue;
     const TerrainPatch::Ridge& te = patch.ridges[static_cast<std::size_t>(r)];
-    if (!overlaps(te.box, reach)) continue;
     if (be != edge) {
       edge = be;
-      const BlockEdge& bedge = model.edges[static_cast<std::size_t>(be)];
       p0 = world_vertex(bedge.a);
       p1 = world_vertex(bedge.b);
       low_edge = std::min(p0.z(), p1.z()) <= ceiling;

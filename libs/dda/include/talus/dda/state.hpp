@@ -171,6 +171,12 @@ struct TerrainPatch {
     bool convex = false;
     std::int32_t triangle = -1;
     geometry::Aabb box;
+    /// The unit direction of normal_sum across the edge (its part along the edge taken
+    /// out; zero where it has none): a block edge with both ends more than a distance
+    /// above the edge along it crosses the edge's line no nearer (contacts.cpp,
+    /// detect_indexed).
+    Vec3 out = Vec3::Zero();
+    double out_allowance = 0.0;  ///< round-off of values along `out` (m): 1e-9 of the coordinates
   };
   std::vector<Triangle> triangles;
   std::vector<Vertex> vertices;

@@ -4,8 +4,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
+#include <vector>
 
 #include "../../tests/dda/dda_fixtures.hpp"
+#include "talus/core/random.hpp"
 #include "talus/mc/clearance.hpp"
 #include "talus/terrain/build.hpp"
 #include "talus/terrain/synthetic.hpp"
@@ -69,6 +72,40 @@ void run_batches(benchmark::State& bm, const Model& m, const Ground& g, const St
   }
   bm.SetItemsProcessed(static_cast<std::int64_t>(steps));
 }
+
+// The release clearance (mc::vertical_clearance) of the benchmark's ellipsoid at 20·n²
+// faces (Arg 0 n, Arg 1: 1 pruned, 0 every candidate tested), in 64 random orientations at
+// points along the rough 1:1 face, 5 cm over the ground: what placing a realization's
+// block costs.
+void BM_ReleaseClearance(benchmark::State& bm) {
+  const terrain::Terrain t = rough_bench_slope();
+  const terrain::Surface surface = terrain::Surface::realize(t, 0);
+  block::SolidSpec spec;
+  spec.kind = block::SolidKind::ellipsoid;
+  spec.volume = 1.0;
+  spec.dimensions = Vec3(1.4, 1.2, 1.1);
+  spec.resolution = static_cast<int>(bm.range(0));
+  const Model m = Model::build(Settings{}, block::make_solid(spec, "bench"));
+  const bool prune = bm.range(1) != 0;
+  const core::RandomStream rs(7, core::Stream::release, 0);
+  std::vector<std::pair<Vec3, Eigen::Quaterniond>> placements;
+  for (std::uint64_t k = 0; k < 64; ++k) {
+    const double u1 = rs.uniform(4 * k), u2 = 2.0 * M_PI * rs.uniform(4 * k + 1), u3 = 2.0 * M_PI * rs.uniform(4 * k + 2);
+    const Eigen::Quaterniond q(std::sqrt(u1) * std::cos(u3), std::sqrt(1.0 - u1) * std::sin(u2),
+                               std::sqrt(1.0 - u1) * std::cos(u2), std::sqrt(u1) * std::sin(u3));
+    const double x = 8.0 + 4.0 * rs.uniform(4 * k + 3);
+    Vec3 p(x, 20.0, surface.height_at(x, 20.0)->z + 2.0 * m.radius);
+    p.z() += 0.05 - mc::vertical_clearance(m, p, q, surface).gap;
+    placements.emplace_back(p, q);
+  }
+  double sum = 0.0;
+  for (auto _ : bm)
+    for (const auto& [p, q] : placements) sum += mc::vertical_clearance(m, p, q, surface, prune).gap;
+  benchmark::DoNotOptimize(sum);
+  bm.SetItemsProcessed(static_cast<std::int64_t>(bm.iterations()) * 64);
+  bm.counters["faces"] = static_cast<double>(m.faces.size());
+}
+BENCHMARK(BM_ReleaseClearance)->ArgsProduct({{1, 5, 16, 32}, {0, 1}});
 
 // A 1 m³ dodecahedron (6-DOF) settled on the first bench of the rough slope: the cost
 // of a contact step at rest. Arg 1 turns the per-phase timers on.

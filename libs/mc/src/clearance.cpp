@@ -46,7 +46,7 @@ struct TerrainEdge {
 }  // namespace
 
 Clearance vertical_clearance(const dda::Model& model, const Vec3& position, const Eigen::Quaterniond& orientation,
-                             const terrain::Surface& ground) {
+                             const terrain::Surface& ground, bool prune) {
   const geometry::Mat3 rotation = orientation.normalized().toRotationMatrix();
   std::vector<Vec3> world;
   world.reserve(model.vertices.size());
@@ -72,20 +72,19 @@ Clearance vertical_clearance(const dda::Model& model, const Vec3& position, cons
     return hit ? std::max(feature_z, hit->z) : feature_z;
   };
 
-  // Block vertices over terrain triangles.
-  for (const Vec3& p : world)
-    if (const auto hit = ground.height_at(p.x(), p.y())) consider(p.z() - hit->z, p);
-
-  // The terrain vertices and edges under the block's plan box.
+  // The terrain vertices and edges under the block's plan box (every triangle a vertical
+  // through the box can hit is among those found).
   const Aabb& bounds = ground.bounds();
   const Aabb query{Vec3(box.lo.x(), box.lo.y(), bounds.lo.z()), Vec3(box.hi.x(), box.hi.y(), bounds.hi.z())};
   std::vector<std::int32_t> triangles;
   ground.triangles_in_box(query, triangles);
   std::vector<TerrainVertex> vertices;
   std::vector<TerrainEdge> edges;
+  Vec3 normal_sum = Vec3::Zero();
   for (const std::int32_t t : triangles) {
     const auto ids = ground.triangle(static_cast<std::size_t>(t));
     const auto p = ground.triangle_vertices(static_cast<std::size_t>(t));
+    normal_sum += (p[1] - p[0]).cross(p[2] - p[0]);
     for (int k = 0; k < 3; ++k) {
       vertices.push_back({ids[k], p[k]});
       const int m = (k + 1) % 3;
@@ -102,8 +101,54 @@ Clearance vertical_clearance(const dda::Model& model, const Vec3& position, cons
   edges.erase(std::unique(edges.begin(), edges.end(), [](const auto& x, const auto& y) { return x.a == y.a && x.b == y.b; }),
               edges.end());
 
-  // Terrain vertices under block faces. Vertical faces are left to their edges.
+  // Pruning, which never changes the result. Every ground height the tests below read
+  // lies on a triangle found, so under the plane z = a·x + b·y + top, a slope (a, b)
+  // from the triangles' mean normal and `top` the largest z − a·x − b·y of their
+  // vertices. A block point p then has a gap of at least its height over the slope,
+  // p_z − a·p_x − b·p_y, less `top`, and a candidate whose bound (less an allowance for
+  // round-off) exceeds the gap of the vertex lowest over the slope (`upper`, one of the
+  // candidates, so no less than the smallest gap), or is no less than the smallest gap
+  // found so far, can be neither the smallest gap nor the first to reach it.
+  double slope_x = 0.0, slope_y = 0.0, top = -std::numeric_limits<double>::infinity();
+  if (normal_sum.z() > 1e-3 * normal_sum.norm()) {
+    slope_x = -normal_sum.x() / normal_sum.z();
+    slope_y = -normal_sum.y() / normal_sum.z();
+  }
+  double magnitude = std::max(box.lo.cwiseAbs().maxCoeff(), box.hi.cwiseAbs().maxCoeff());
+  for (const TerrainVertex& q : vertices) {
+    top = std::max(top, q.p.z() - slope_x * q.p.x() - slope_y * q.p.y());
+    magnitude = std::max(magnitude, q.p.cwiseAbs().maxCoeff());
+  }
+  prune = prune && !vertices.empty();
+  const double allowance = 1e-9 * (1.0 + magnitude * (1.0 + std::abs(slope_x) + std::abs(slope_y)));
+  const auto over_slope = [&](const Vec3& p) { return p.z() - slope_x * p.x() - slope_y * p.y(); };
+  std::vector<double> height(world.size());
+  std::size_t lowest = 0;
+  for (std::size_t i = 0; i < world.size(); ++i) {
+    height[i] = over_slope(world[i]);
+    if (height[i] < height[lowest]) lowest = i;
+  }
+  double upper = std::numeric_limits<double>::infinity();
+  if (prune && !world.empty())
+    if (const auto hit = ground.height_at(world[lowest].x(), world[lowest].y())) upper = world[lowest].z() - hit->z;
+  const auto beaten = [&](double bound) {
+    if (!prune) return false;
+    const double gap_bound = bound - top - allowance;
+    return gap_bound > upper || gap_bound >= best.gap;
+  };
+
+  // Block vertices over terrain triangles.
+  for (std::size_t i = 0; i < world.size(); ++i) {
+    const Vec3& p = world[i];
+    if (beaten(height[i])) continue;
+    if (const auto hit = ground.height_at(p.x(), p.y())) consider(p.z() - hit->z, p);
+  }
+
+  // Terrain vertices under block faces. Vertical faces are left to their edges. A face's
+  // points lie no lower than its lowest vertex, and over its plan box no higher along
+  // the slope than that box's highest corner.
   std::vector<PlanFace> faces;
+  std::vector<double> face_bound;
   for (const dda::BlockFace& f : model.faces) {
     PlanFace pf;
     pf.normal = rotation * f.normal;
@@ -113,21 +158,26 @@ Clearance vertical_clearance(const dda::Model& model, const Vec3& position, cons
     pf.z_lo = pf.z_hi = world[static_cast<std::size_t>(f.vertices.front())].z();
     for (const std::int32_t v : f.vertices) {
       const Vec3& p = world[static_cast<std::size_t>(v)];
-      pf.polygon.push_back(p.head<2>());
       pf.lo = pf.lo.cwiseMin(p.head<2>());
       pf.hi = pf.hi.cwiseMax(p.head<2>());
       pf.z_lo = std::min(pf.z_lo, p.z());
       pf.z_hi = std::max(pf.z_hi, p.z());
     }
+    const double bound = pf.z_lo - std::max(slope_x * pf.lo.x(), slope_x * pf.hi.x()) -
+                         std::max(slope_y * pf.lo.y(), slope_y * pf.hi.y());
+    if (beaten(bound)) continue;
+    for (const std::int32_t v : f.vertices) pf.polygon.push_back(world[static_cast<std::size_t>(v)].head<2>());
     faces.push_back(std::move(pf));
+    face_bound.push_back(bound);
   }
   for (const TerrainVertex& q : vertices) {
     const Vec2 xy = q.p.head<2>();
     if (xy.x() < box.lo.x() || xy.x() > box.hi.x() || xy.y() < box.lo.y() || xy.y() > box.hi.y()) continue;
     double zg = 0.0;
     bool known = false;
-    for (const PlanFace& f : faces) {
-      if (!f.covers(xy)) continue;
+    for (std::size_t k = 0; k < faces.size(); ++k) {
+      const PlanFace& f = faces[k];
+      if (beaten(face_bound[k]) || !f.covers(xy)) continue;
       if (!known) {
         zg = ground_z(xy.x(), xy.y(), q.p.z());
         known = true;
@@ -141,6 +191,7 @@ Clearance vertical_clearance(const dda::Model& model, const Vec3& position, cons
   // a little slack so a crossing at an endpoint is never lost to rounding).
   constexpr double slack = 1e-12;
   for (const dda::BlockEdge& e : model.edges) {
+    if (beaten(std::min(height[static_cast<std::size_t>(e.a)], height[static_cast<std::size_t>(e.b)]))) continue;
     const Vec3& a = world[static_cast<std::size_t>(e.a)];
     const Vec3& b = world[static_cast<std::size_t>(e.b)];
     const Vec2 d = (b - a).head<2>();

@@ -25,8 +25,11 @@ struct Clearance {
 /// piecewise linear over the block's surface, so its minimum lies at a block vertex over a
 /// terrain triangle, a terrain vertex under a block face, or where a block edge crosses a
 /// terrain edge in plan; all three are tested. Lowering the block by `gap` makes it touch
-/// the ground without entering it (to round-off).
+/// the ground without entering it (to round-off). Candidates that cannot be the smallest
+/// are passed over by a bound (their height over the ground's mean slope); `prune` off
+/// tests every one (the reference), with the same result to the bit.
 Clearance vertical_clearance(const dda::Model& model, const geometry::Vec3& position,
-                             const Eigen::Quaterniond& orientation, const terrain::Surface& ground);
+                             const Eigen::Quaterniond& orientation, const terrain::Surface& ground,
+                             bool prune = true);
 
 }  // namespace talus::mc

@@ -384,10 +384,14 @@ bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, doub
   thread_local std::vector<std::int32_t> edges;
   const VertexClimb& climb = at.index()->climb;
   pairs.clear();
-  // ‖F‖₂ (1 for a rigid pose), generously: the square root of FᵀF's largest eigenvalue.
-  Eigen::SelfAdjointEigenSolver<Mat3> eigen;
-  eigen.computeDirect(pose.map.transpose() * pose.map, Eigen::EigenvaluesOnly);
-  const double stretch = std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff())) * (1.0 + 1e-6);
+  // ‖F‖₂, generously: 1 for a rigid pose (a rotation, to round-off), else the square
+  // root of FᵀF's largest eigenvalue.
+  double stretch = 1.0 + 1e-6;
+  if (!pose.rigid) {
+    Eigen::SelfAdjointEigenSolver<Mat3> eigen;
+    eigen.computeDirect(pose.map.transpose() * pose.map, Eigen::EigenvaluesOnly);
+    stretch = std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff())) * (1.0 + 1e-6);
+  }
   for (std::size_t j = 0; j < near.size(); ++j) {
     const TerrainPatch::Ridge& te = *near[j];
     // In the body frame: the ridge's segment, and the distances lengthened by F⁻¹. A pair
@@ -993,10 +997,14 @@ PlacedBlock::PlacedBlock(const Model& model, const Pose& pose, std::vector<Vec3>
   const Mat3 abs_map = pose.map.cwiseAbs();
   // centre + F·r rounds by a few ulps of |centre| + |F|·|r|, |r| ≤ radius.
   round_off_ = kRound * (pose.centre.cwiseAbs().maxCoeff() + model.radius * abs_map.rowwise().sum().maxCoeff());
-  // ‖F⁻¹‖₂ = 1/σ_min(F): the square root of the largest eigenvalue of F⁻ᵀF⁻¹, generously.
-  Eigen::SelfAdjointEigenSolver<Mat3> eigen;
-  eigen.computeDirect(pose.inverse_map.transpose() * pose.inverse_map, Eigen::EigenvaluesOnly);
-  inverse_stretch_ = std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff())) * (1.0 + 1e-6);
+  // ‖F⁻¹‖₂ = 1/σ_min(F), generously: 1 for a rigid pose (a rotation, to round-off), else
+  // the square root of the largest eigenvalue of F⁻ᵀF⁻¹.
+  inverse_stretch_ = 1.0 + 1e-6;
+  if (!pose.rigid) {
+    Eigen::SelfAdjointEigenSolver<Mat3> eigen;
+    eigen.computeDirect(pose.inverse_map.transpose() * pose.inverse_map, Eigen::EigenvaluesOnly);
+    inverse_stretch_ = std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff())) * (1.0 + 1e-6);
+  }
   if (reuse != nullptr && reuse->model == &model) {
     // A vertex has moved by at most |Δcentre| + ‖ΔF‖·|r| since (map_change bounds the
     // spectral norm), plus the round-off of its two world positions.

@@ -497,8 +497,9 @@ inline bool vertex_meets_triangle(const TerrainPatch::Triangle& tri, const Vec3&
   return in_prism || (tri.normal.z() > 0.0 && inside_plan(tri, p));
 }
 
-Contact vertex_contact(const TerrainPatch::Triangle& tri, std::int32_t vertex, const Vec3& p, double gap) {
-  Contact c;
+void add_vertex_contact(const TerrainPatch::Triangle& tri, std::int32_t vertex, const Vec3& p, double gap,
+                        std::vector<Contact>& out) {
+  Contact& c = out.emplace_back();  // built in place: a contact is some 200 bytes
   c.kind = ContactKind::vertex_face;
   c.block_feature = vertex;
   c.terrain_feature = tri.index;
@@ -506,7 +507,6 @@ Contact vertex_contact(const TerrainPatch::Triangle& tri, std::int32_t vertex, c
   c.point = p;
   c.normal = tri.normal;
   c.gap = gap;
-  return c;
 }
 
 // Terrain vertex tv (qb: in the body frame) – block face: a spike of rough ground piercing
@@ -795,7 +795,7 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
     if (duplicate) continue;
     earlier.push_back(latest[i]);
     latest[i] = static_cast<std::int32_t>(out.size() - first);
-    out.push_back(vertex_contact(tri, vi, p, gap));
+    add_vertex_contact(tri, vi, p, gap, out);
   }
   for (std::size_t k = first; k < out.size(); ++k) latest[static_cast<std::size_t>(out[k].block_feature)] = -1;
 
@@ -947,7 +947,7 @@ void detect_scanned(const PlacedBlock& at, const TerrainPatch& patch, double ds,
       for (std::size_t k = first; k < out.size(); ++k)
         if (out[k].block_feature == vi && out[k].normal.dot(tri.normal) > 1.0 - 1e-9) duplicate = true;
       if (duplicate) continue;
-      out.push_back(vertex_contact(tri, vi, p, gap));
+      add_vertex_contact(tri, vi, p, gap, out);
     }
   }
 

@@ -778,7 +778,13 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   // candidate found is in a consistent state. A fine mesh near the ground has most of
   // its candidates out of such reach: a rolling sphere of 5 120 triangles solves with a
   // third of them.
-  thread_local std::vector<Contact> set_aside;
+  // What the check after the solve reads of a candidate set aside (a contact is some 200
+  // bytes, and most candidates of a fine mesh are set aside).
+  struct Aside {
+    Vec3 point, normal;
+    double gap, gap_offset;
+  };
+  thread_local std::vector<Aside> set_aside;
   thread_local std::vector<std::uint8_t> carried;
   double aside_scale = set_aside_scale;
   std::size_t found = 0;
@@ -830,7 +836,7 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
         for (std::size_t i = 0; i < contacts.size(); ++i) {
           Contact& c = contacts[i];
           if (goes_aside(c, carried[i] != 0)) {
-            set_aside.push_back(std::move(c));
+            set_aside.push_back({c.point, c.normal, c.gap, c.gap_offset});
           } else {
             if (kept != i) contacts[kept] = std::move(c);
             ++kept;
@@ -855,7 +861,7 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
     // most candidates set aside are passed over so, without the test.
     const double shift = d.template head<3>().norm();
     const double turn2 = N == 6 ? d.template segment<3>(3).squaredNorm() : 0.0;
-    const auto closes = [&](const Contact& c) {
+    const auto closes = [&](const auto& c) {
       const Vec3 r = c.point - pose.centre;
       if constexpr (N == 6) {
         const double room = (c.gap - c.gap_offset) * (1.0 - 1e-9) - shift;

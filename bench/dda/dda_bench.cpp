@@ -10,6 +10,7 @@
 #include "../../tests/dda/dda_fixtures.hpp"
 #include "talus/core/random.hpp"
 #include "talus/mc/clearance.hpp"
+#include "talus/mc/realization.hpp"
 #include "talus/terrain/build.hpp"
 #include "talus/terrain/synthetic.hpp"
 
@@ -90,9 +91,7 @@ void BM_ReleaseClearance(benchmark::State& bm) {
   const core::RandomStream rs(7, core::Stream::release, 0);
   std::vector<std::pair<Vec3, Eigen::Quaterniond>> placements;
   for (std::uint64_t k = 0; k < 64; ++k) {
-    const double u1 = rs.uniform(4 * k), u2 = 2.0 * M_PI * rs.uniform(4 * k + 1), u3 = 2.0 * M_PI * rs.uniform(4 * k + 2);
-    const Eigen::Quaterniond q(std::sqrt(u1) * std::cos(u3), std::sqrt(1.0 - u1) * std::sin(u2),
-                               std::sqrt(1.0 - u1) * std::cos(u2), std::sqrt(u1) * std::sin(u3));
+    const Eigen::Quaterniond q = mc::uniform_rotation(rs.uniform(4 * k), rs.uniform(4 * k + 1), rs.uniform(4 * k + 2));
     const double x = 8.0 + 4.0 * rs.uniform(4 * k + 3);
     Vec3 p(x, 20.0, surface.height_at(x, 20.0)->z + 2.0 * m.radius);
     p.z() += 0.05 - mc::vertical_clearance(m, p, q, surface).gap;

@@ -241,6 +241,15 @@ struct BodyPlane {
   double s0 = 0.0, tol = 0.0;
 };
 
+// An edge whose two ends both have a value s₀ + m·r of at least this along a ridge's
+// `out` (BodyPlane(pose, te.out, te.pa, 0)) cannot cross the ridge within ds (docs/dda.md,
+// "The ridge's level"; detect_indexed). The allowances cover the round-off of those values
+// (a world vertex's, per coordinate) and of the exact test's own gap, for each pose the
+// values are compared across: 1 for a step's test, 2 for the gathering that serves it.
+double ridge_level_limit(const TerrainPatch::Ridge& te, const PlacedBlock& at, double ds, double margin, int poses) {
+  return ds + poses * (2.0 * te.out_allowance + 4.0 * at.round_off()) + 1e-9 * margin;
+}
+
 // The vertices of a detailed block that can pass the vertex–triangle tests of detect_in
 // with `tri`: in tbox, under the ceiling, in the slab of the triangle's plane from −depth
 // to ds, and inside the triangle's normal prism or (ground that faces up) its vertical
@@ -313,7 +322,9 @@ struct BodyPlane {
 // every unit u, and so does an end of its edge: with u the direction from the ridge's
 // point nearest the centre to the centre, the plane cuts off the block's side next to
 // the ridge. So every such edge has an end under one of: that plane for `shallow`, and
-// for `deep` either that plane again or the planes of the ridge's triangles.
+// for `deep` either that plane again or the planes of the ridge's triangles. Before
+// those, one walk under the plane `out` at `out_limit` (edge_pairs_near keeps no edge
+// with both ends above it), which alone finds every edge that can pass when it is short.
 template <class Passes>
 bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, double shallow, double deep, int planes,
                    bool crest, const std::array<BodyPlane, 2>& sides, const BodyPlane& out, double out_limit,
@@ -428,9 +439,9 @@ bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, doub
     // detect_indexed passes over an edge with both ends more than its ds above the ridge
     // along `out`; a point moves by at most `motion` before the pairs are gathered again,
     // so an edge with both ends more than ds (which holds that motion) above it here
-    // never reaches the test. Allowances as there, doubled for the two poses.
+    // never reaches the test.
     const BodyPlane out_plane(pose, te.out, te.pa, 0.0);
-    const double out_limit = ds + 4.0 * te.out_allowance + 1e-9 * margin + 8.0 * at.round_off();
+    const double out_limit = ridge_level_limit(te, at, ds, margin, 2);
     // Whether a deep pair may lie under the ridge's planes, `under(k)` telling whether
     // the edge (or a box of edges) reaches under plane k: on a crest both, else either.
     const auto may_be_under = [&](const auto& under) {
@@ -820,11 +831,10 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
   // along n, ⟂ both lines and oriented so that n·out = n·normal_sum ≥ 0 (`out` is the
   // ridge's normal sum with its part along the ridge taken out). So g·(n·out) =
   // (pc − qc)·out ≥ min(out·(p0 − pa), out·(p1 − pa)): an edge with both ends more than
-  // ds above the ridge along `out` has its gap beyond ds, and is passed over. Tested in
-  // the body frame before the ends' world positions are computed; the allowance covers
-  // the round-off of those values (a world vertex's, per coordinate) and of the exact
-  // test's own gap. Most gathered pairs are passed over so (edge_meets_ridge solves
-  // for each crossing).
+  // ds above the ridge along `out` has its gap beyond ds, and is passed over
+  // (ridge_level_limit). Tested in the body frame before the ends' world positions are
+  // computed. Most gathered pairs are passed over so (edge_meets_ridge solves for each
+  // crossing).
   struct RidgeView {
     bool in_reach = false;
     BodyPlane level;
@@ -837,7 +847,7 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
     RidgeView& view = views[static_cast<std::size_t>(r)];
     view.in_reach = overlaps(te.box, reach);
     view.level = BodyPlane(pose, te.out, te.pa, 0.0);
-    view.limit = ds + 2.0 * te.out_allowance + 1e-9 * margin + 4.0 * at.round_off();
+    view.limit = ridge_level_limit(te, at, ds, margin, 1);
   }
   std::int32_t edge = -1;
   Vec3 p0, p1;

@@ -878,7 +878,7 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
       // them, and those it sets aside are checked as above (the kept ones are those of
       // the near search), exactly as if it had been searched in the first place.
       PhaseTimer timer(timing, s.times.detect);
-      const double moved = d.template head<3>().norm() + d.template segment<3>(3).norm() * model.radius;
+      const double moved = shift + d.template segment<3>(3).norm() * model.radius;
       if (!(moved < near)) {
         ++s.counters.far_searches;
         search_in_full(far, far_carried);

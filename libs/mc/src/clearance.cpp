@@ -114,14 +114,14 @@ Clearance vertical_clearance(const dda::Model& model, const Vec3& position, cons
     slope_x = -normal_sum.x() / normal_sum.z();
     slope_y = -normal_sum.y() / normal_sum.z();
   }
+  const auto over_slope = [&](const Vec3& p) { return p.z() - slope_x * p.x() - slope_y * p.y(); };
   double magnitude = std::max(box.lo.cwiseAbs().maxCoeff(), box.hi.cwiseAbs().maxCoeff());
   for (const TerrainVertex& q : vertices) {
-    top = std::max(top, q.p.z() - slope_x * q.p.x() - slope_y * q.p.y());
+    top = std::max(top, over_slope(q.p));
     magnitude = std::max(magnitude, q.p.cwiseAbs().maxCoeff());
   }
   prune = prune && !vertices.empty();
   const double allowance = 1e-9 * (1.0 + magnitude * (1.0 + std::abs(slope_x) + std::abs(slope_y)));
-  const auto over_slope = [&](const Vec3& p) { return p.z() - slope_x * p.x() - slope_y * p.y(); };
   std::vector<double> height(world.size());
   std::size_t lowest = 0;
   for (std::size_t i = 0; i < world.size(); ++i) {

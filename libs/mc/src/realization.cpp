@@ -306,6 +306,14 @@ void place_block(const Scene& scene, const SceneBlock& block, const terrain::Sur
 
 }  // namespace
 
+Eigen::Quaterniond uniform_rotation(double u1, double u2, double u3) {
+  double s2 = 0.0, c2 = 0.0, s3 = 0.0, c3 = 0.0;
+  core::detmath::sincos_2pi(u2, s2, c2);
+  core::detmath::sincos_2pi(u3, s3, c3);
+  const double a = std::sqrt(1.0 - u1), b = std::sqrt(u1);
+  return Eigen::Quaterniond(b * c3, a * s2, a * c2, b * s3).normalized();
+}
+
 ReleaseDraw draw_release(const Scene& scene, const terrain::Surface& ground, std::uint32_t index) {
   const SceneSettings& s = scene.settings();
   const ReleaseSettings& r = s.release;
@@ -327,14 +335,7 @@ ReleaseDraw draw_release(const Scene& scene, const terrain::Surface& ground, std
                                                std::to_string(index) + " is outside the realized terrain");
   dda::Release& rel = draw.release;
   if (r.orientation == "random") {
-    // Uniform random rotation (Shoemake 1992) from three uniforms, with the
-    // platform-independent sine and cosine of the random streams.
-    const double u1 = rs.uniform(3), u2 = rs.uniform(4), u3 = rs.uniform(5);
-    double s2 = 0.0, c2 = 0.0, s3 = 0.0, c3 = 0.0;
-    core::detmath::sincos_2pi(u2, s2, c2);
-    core::detmath::sincos_2pi(u3, s3, c3);
-    const double a = std::sqrt(1.0 - u1), b = std::sqrt(u1);
-    rel.orientation = Eigen::Quaterniond(b * c3, a * s2, a * c2, b * s3).normalized();
+    rel.orientation = uniform_rotation(rs.uniform(3), rs.uniform(4), rs.uniform(5));
   } else {
     const double k = M_PI / 180.0;
     rel.orientation = Eigen::AngleAxisd(r.orientation_deg[0] * k, Vec3::UnitZ()) *

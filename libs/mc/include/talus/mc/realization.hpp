@@ -96,6 +96,11 @@ struct ReleaseDraw {
 };
 ReleaseDraw draw_release(const Scene& scene, const terrain::Surface& ground, std::uint32_t index);
 
+/// The uniformly random rotation (Shoemake 1992) of three uniforms in [0, 1), with the
+/// platform-independent sine and cosine of the random streams: the release's random
+/// orientation.
+Eigen::Quaterniond uniform_rotation(double u1, double u2, double u3);
+
 /// Per-cell hazard accumulators: how many realizations reached each cell, sketches of
 /// their energies and passing heights there (P95/P99 without storing trajectories), and
 /// the largest speed and passing height of any of them.

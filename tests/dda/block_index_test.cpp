@@ -247,11 +247,11 @@ TEST(DdaBlockIndex, ReusedBoxAndPairsFindWhatTheScanFinds) {
         EXPECT_TRUE(with_reuse.box().contains(exact.box().lo) && with_reuse.box().contains(exact.box().hi))
             << "path " << path << " step " << k;
         const double ds = 0.01 + 0.03 * rng.uniform(8 * k + 7);
-        const Vec3 gathered_at = patch_reused.candidates.centre;
+        const Vec3 gathered_at = patch_reused.candidates.gathering.centre;
         std::vector<Contact> a, b;
         detail::detect_contacts(with_reuse, surface, ds, 0.1, patch_reused, a);
         detail::detect_contacts(scanned, surface, ds, 0.1, patch_scanned, b);
-        gathered += patch_reused.candidates.centre != gathered_at ? 1 : 0;
+        gathered += patch_reused.candidates.gathering.centre != gathered_at ? 1 : 0;
         expect_same(a, b, 1000 * path + k);
         contacts += a.size();
       }
@@ -418,7 +418,7 @@ TEST(DdaBlockIndex, WalkFindsTheVerticesUnderAPlane) {
         hi = std::max(hi, u.dot(v));
       }
       // From under the block (nothing) to over it (everything).
-      const double level = lo + (hi - lo) * (1.2 * rng.uniform(4 * k + 3) - 0.1);
+      double level = lo + (hi - lo) * (1.2 * rng.uniform(4 * k + 3) - 0.1);
       const double slack = 1e-9 * m.radius * u.norm();
       double lowest = 0.0;
       ASSERT_TRUE(climb.below(m.vertices, u, level, slack, m.vertices.size(), under, lowest)) << k;

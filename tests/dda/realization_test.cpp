@@ -202,7 +202,7 @@ TEST(DdaContacts, ReusedCandidatesFindWhatAFreshSearchFinds) {
         const detail::PlacedBlock a(m, pose, world_a), b(m, pose, world_b);
         const double ds = 0.02 + 0.02 * std::abs(std::sin(0.1 * k));
         std::vector<Contact> kept, fresh;
-        if (reusing.candidates.model == &m) ++reused;
+        if (reusing.candidates.gathering.model == &m) ++reused;
         detail::detect_contacts(a, surface, ds, 0.1, reusing, kept);
         TerrainPatch anew;
         detail::detect_contacts(b, surface, ds, 0.1, anew, fresh);

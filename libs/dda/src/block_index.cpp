@@ -58,11 +58,12 @@ void VertexClimb::build(const Model& model) {
       }
 }
 
-bool VertexClimb::below(const std::vector<Vec3>& vertices, const Vec3& m, double level, double slack,
-                        std::size_t limit, std::vector<std::int32_t>& out, double& lowest) const {
+bool VertexClimb::below(const std::vector<Vec3>& vertices, const Vec3& m, double& level, double slack,
+                        std::size_t limit, std::vector<std::int32_t>& out, double& lowest, double rise) const {
   out.clear();
   const std::int32_t start = farthest(vertices, -m);
   lowest = m.dot(vertices[static_cast<std::size_t>(start)]);
+  if (rise > 0.0) level = std::max(level, lowest + rise);
   const double top = level + slack;
   if (!(lowest <= top)) return true;
   // The vertices met in this walk: each is tested once.

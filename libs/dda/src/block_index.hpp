@@ -122,9 +122,11 @@ class VertexClimb {
   /// so a walk from the lowest vertex over the vertices under level + slack finds them
   /// all: every vertex of a descending path from one of them lies that low, exactly, and
   /// the slack (at least a few ulps of |m|·|r|) covers the round-off. Stops and returns
-  /// false, with `out` incomplete, once it has found more than `limit` vertices.
-  bool below(const std::vector<Vec3>& vertices, const Vec3& m, double level, double slack, std::size_t limit,
-             std::vector<std::int32_t>& out, double& lowest) const;
+  /// false, with `out` incomplete, once it has found more than `limit` vertices. With
+  /// `rise`, the level is raised to at least lowest + rise first (set in `level`); the
+  /// lowest vertex is then out's first.
+  bool below(const std::vector<Vec3>& vertices, const Vec3& m, double& level, double slack, std::size_t limit,
+             std::vector<std::int32_t>& out, double& lowest, double rise = 0.0) const;
   /// The edges at vertex v (ids into Model::edges): edge(k) for k from first(v) to
   /// first(v + 1) − 1.
   std::int32_t first(std::int32_t v) const { return offsets_[static_cast<std::size_t>(v)]; }

@@ -198,6 +198,10 @@ constexpr double kSlack = 1e-6;    // of the search margin
 constexpr double kCandidateWidening = 0.05;
 // The same for a detailed block, whose pairs are many more per unit of widening.
 constexpr double kIndexedWidening = 0.02;
+// How much farther than the search's margin (m, times the block's radius) a detailed
+// block's triangles and ridges are taken by their boxes: they serve until it has moved by
+// that (its pairs by their caps, usually sooner).
+constexpr double kIndexedBoxWidening = 0.25;
 // How far (m, times the block's radius) a detailed block may move before its box is
 // computed afresh rather than widened from the last one (PlacedBlock).
 constexpr double kBoxReuse = 0.02;
@@ -210,6 +214,22 @@ constexpr std::size_t kWalkLimit = 64;
 // |m|·|r| and of the level's terms would do.
 double walk_slack(const Model& model, const Vec3& m, double level) {
   return 1e-9 * (model.radius * m.norm() + std::abs(level));
+}
+
+// The cap of a walk under a plane (VertexClimb::below into `under`, its lowest value and
+// the level it walked to): the lowest vertex, and how far from it the vertices walked and
+// their edges reach. The plane's polytope cap under the level has for its corners the
+// vertices walked and points on their edges, so every block point above the level lies
+// above it by at least (level − lowest)·|r − pivot| / reach (docs/dda.md, "Reusing the
+// pairs").
+TerrainPatch::Candidates::Cap walked_cap(const Model& model, const VertexClimb& climb,
+                                         const std::vector<std::int32_t>& under, double lowest, double level) {
+  TerrainPatch::Candidates::Cap cap;
+  cap.pivot = model.vertices[static_cast<std::size_t>(under.front())];
+  for (const std::int32_t v : under)
+    cap.reach = std::max(cap.reach, (model.vertices[static_cast<std::size_t>(v)] - cap.pivot).norm() + climb.longest(v));
+  cap.rise = level - lowest;
+  return cap;
 }
 
 // A bound of ‖F − F₀‖₂ for the map F of `pose` and an earlier map F₀ of the same block
@@ -255,9 +275,11 @@ double ridge_level_limit(const TerrainPatch::Ridge& te, const PlacedBlock& at, d
 // to ds, and inside the triangle's normal prism or (ground that faces up) its vertical
 // prism, the prisms widened by `motion` (m). Tested on the body-frame boxes of the vertex
 // tree, where a world plane's signed value is linear in r. Replaces `out`, in tree order.
-[[gnu::noinline]] void vertices_near(const PlacedBlock& at, const TerrainPatch::Triangle& tri, const geometry::Aabb& tbox,
-                                     double ceiling, double ds, double depth, double motion,
-                                     std::vector<std::int32_t>& out) {
+// Returns whether they were found by a walk under the triangle's plane, raised to at
+// least `rise` (m) over the block's lowest vertex, and then that walk's cap into `cap`.
+[[gnu::noinline]] bool vertices_near(const PlacedBlock& at, const TerrainPatch::Triangle& tri, const geometry::Aabb& tbox,
+                                     double ceiling, double ds, double depth, double motion, double rise,
+                                     std::vector<std::int32_t>& out, TerrainPatch::Candidates::Cap& cap) {
   const Pose& pose = at.pose();
   const double tol = at.round_off() + kRound * magnitude(tbox);
   const geometry::Aabb body = at.body_box(tbox);
@@ -296,19 +318,21 @@ double ridge_level_limit(const TerrainPatch::Ridge& te, const PlacedBlock& at, d
     // query costs.
     thread_local std::vector<std::int32_t> under;
     double lowest = 0.0;
-    const double level = ds + floor_plane.tol - floor_plane.s0;
+    double level = ds + floor_plane.tol - floor_plane.s0;
     if (climb.below(model.vertices, floor_plane.m, level, walk_slack(model, floor_plane.m, level), kWalkLimit, under,
-                    lowest)) {
+                    lowest, rise)) {
       for (const std::int32_t v : under) {
         geometry::Aabb b;
         b.add(model.vertices[static_cast<std::size_t>(v)]);
         if (passes(b)) out.push_back(v);
       }
-      return;
+      cap = walked_cap(model, climb, under, lowest, level);
+      return true;
     }
     out.clear();
   }
   at.index()->vertices.query(passes, out);
+  return false;
 }
 
 // The edges of a convex block (VertexClimb::fills) that pass `passes`, the test of
@@ -325,10 +349,14 @@ double ridge_level_limit(const TerrainPatch::Ridge& te, const PlacedBlock& at, d
 // for `deep` either that plane again or the planes of the ridge's triangles. Before
 // those, one walk under the plane `out` at `out_limit` (edge_pairs_near keeps no edge
 // with both ends above it), which alone finds every edge that can pass when it is short.
+//
+// When that walk alone served, its cap is set in `cap` and `capped` (walked_cap); its
+// level is raised to at least `rise` (m) over the block's lowest vertex along `out`.
 template <class Passes>
 bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, double shallow, double deep, int planes,
                    bool crest, const std::array<BodyPlane, 2>& sides, const BodyPlane& out, double out_limit,
-                   const Passes& passes, std::vector<std::int32_t>& edges) {
+                   double rise, const Passes& passes, std::vector<std::int32_t>& edges,
+                   TerrainPatch::Candidates::Cap& cap, bool& capped) {
   const Model& model = at.model();
   const VertexClimb& climb = at.index()->climb;
   edges.clear();
@@ -347,8 +375,9 @@ bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, doub
   double lowest = 0.0;
   // The edges at the vertices under m·r = level that may come within `reach` of the ridge:
   // a vertex further from it than that and its longest edge has none.
-  const auto walk = [&](const Vec3& m, double level, double reach) {
-    if (!climb.below(model.vertices, m, level, walk_slack(model, m, level), kWalkLimit, under, lowest)) return false;
+  const auto walk = [&](const Vec3& m, double level, double reach, double raise = 0.0) {
+    if (!climb.below(model.vertices, m, level, walk_slack(model, m, level), kWalkLimit, under, lowest, raise))
+      return false;
     for (const std::int32_t v : under) {
       const Vec3& r = model.vertices[static_cast<std::size_t>(v)];
       const double s = length2 > 0.0 ? std::clamp((r - a).dot(along) / length2, 0.0, 1.0) : 0.0;
@@ -365,11 +394,16 @@ bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, doub
         if (passes(b)) edges.push_back(e);
       }
     }
+    if (raise > 0.0) cap = walked_cap(model, climb, under, lowest, level);
     return true;
   };
   // Every edge that can pass has an end under the plane along the ridge's `out` (its
   // callers pass over the others): one walk there, when it is short, else the three.
-  if (out.m != Vec3::Zero() && walk(out.m, out_limit - out.s0, deep)) return true;
+  capped = false;
+  if (out.m != Vec3::Zero() && walk(out.m, out_limit - out.s0, deep, rise)) {
+    capped = true;
+    return true;
+  }
   tested.start(model.edges.size());
   edges.clear();
   if (!walk(u, ridge_top + shallow, shallow)) return false;
@@ -383,18 +417,30 @@ bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, doub
   return walk(u, ridge_top + deep, deep);
 }
 
-// The (edge, ridge in `near`) pairs of a detailed block that can pass the edge–ridge tests
-// of detect_in: the edge near the ridge's box and segment, under the ceiling, the planes
-// of the ridge's triangles widened by `motion` (m). Replaces `pairs`, in no particular
-// order.
-[[gnu::noinline]] void edge_pairs_near(const PlacedBlock& at, const std::vector<const TerrainPatch::Ridge*>& near,
-                                       double ceiling, double ds, double margin, double motion,
-                                       std::vector<std::pair<std::int32_t, std::int32_t>>& pairs) {
+// The convex edges of a detailed block that can pass the edge–ridge tests of
+// detect_indexed with ridge te within search distance ds and depth limit `depth` at this
+// pose or any pose whose points lie within `motion` (m) of theirs (ds and depth must
+// include that motion): the edge near the ridge's box and segment, under the ceiling, the
+// planes of the ridge's triangles widened by the motion. Into p, ascending, with what
+// their reuse rests on (pairs_serve): the block's separation from a ridge it lies apart
+// from, the cap of the walk under the ridge's `out` plane (its level raised by the
+// motion), else a tree query's.
+[[gnu::noinline]] void gather_ridge_pairs(const PlacedBlock& at, const TerrainPatch::Ridge& te, double ds,
+                                          double depth, double motion, TerrainPatch::Candidates::Pairs& p) {
+  using Basis = TerrainPatch::Candidates::Pairs::Basis;
   const Pose& pose = at.pose();
   const Model& model = at.model();
-  thread_local std::vector<std::int32_t> edges;
   const VertexClimb& climb = at.index()->climb;
-  pairs.clear();
+  const double margin = std::max(ds, depth);
+  p.model = &model;
+  p.centre = pose.centre;
+  p.map = pose.map;
+  p.rigid = pose.rigid;
+  p.ds = ds;
+  p.depth = depth;
+  p.motion = motion;
+  std::vector<std::int32_t>& edges = p.features;
+  edges.clear();
   // ‖F‖₂, generously: 1 for a rigid pose (a rotation, to round-off), else the square
   // root of FᵀF's largest eigenvalue.
   double stretch = 1.0 + 1e-6;
@@ -403,8 +449,7 @@ bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, doub
     eigen.computeDirect(pose.map.transpose() * pose.map, Eigen::EigenvaluesOnly);
     stretch = std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff())) * (1.0 + 1e-6);
   }
-  for (std::size_t j = 0; j < near.size(); ++j) {
-    const TerrainPatch::Ridge& te = *near[j];
+  {
     // In the body frame: the ridge's segment, and the distances lengthened by F⁻¹. A pair
     // with gap ≥ 0 has its crossing within ds of the ridge. One with gap < 0 has it at
     // most `depth` from the ridge, below the plane of a triangle of the ridge: the normal
@@ -412,7 +457,6 @@ bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, doub
     // (pc − qc)·nᵢ = gap·(n·nᵢ) ≤ 0 (unknown for an edge of more than two triangles);
     // on a crest below both planes (edge_meets_ridge).
     const geometry::Aabb ridge_box = te.box.inflated(margin);
-    edges.clear();
     const double tol = at.round_off() + kRound * magnitude(ridge_box) + kSlack * margin + 1e-9 * model.radius;
     // Every pair passes the distance tests below: its edge lies within `deep` of the
     // ridge in the body frame, so within stretch·deep in the world. A ridge the block lies
@@ -420,9 +464,18 @@ bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, doub
     // box corners): skipped by their separation, a lower bound of the distance between
     // the ridge and the hull of the world vertices, which lie within twice their
     // round-off of the exact images of the body points.
-    if (!climb.empty() && separation(at, {te.pa, te.pb, te.pb}) - 4.0 * at.round_off() >
-        stretch * at.inverse_stretch() * (margin + 2.0 * tol) * (1.0 + 1e-9) + 1e-9 * model.radius)
-      continue;
+    if (!climb.empty()) {
+      const double apart = separation(at, {te.pa, te.pb, te.pb}) - 4.0 * at.round_off() - 1e-9 * model.radius;
+      const double lengthened = stretch * at.inverse_stretch() * (1.0 + 1e-9);
+      if (apart > lengthened * (margin + 2.0 * tol)) {
+        // Still apart at a pose where the block has moved by d while the search's margin
+        // is m, if m + d ≤ apart / lengthened − 2·tol (lengthened ≥ 1 on a rigid pose;
+        // a stretched one's pairs serve only while every point moves by the motion).
+        p.basis = pose.rigid ? Basis::apart : Basis::queried;
+        p.room = apart / lengthened - 2.0 * tol;
+        return;
+      }
+    }
     const geometry::Aabb body = at.body_box(ridge_box.inflated(tol));
     const Vec3 a = pose.inverse_map * (te.pa - pose.centre);
     const Vec3 along = pose.inverse_map * (te.pb - pose.centre) - a;
@@ -435,7 +488,9 @@ bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, doub
       const Vec3& normal = te.normals[static_cast<std::size_t>(k)];
       sides[static_cast<std::size_t>(k)] = BodyPlane(pose, normal, te.pa, 4.0 * tol + normal.norm() * motion);
     }
-    const BodyPlane ceiling_plane(pose, Vec3::UnitZ(), Vec3(0.0, 0.0, ceiling), tol);
+    // Only edges at most `margin` above the ridge's highest point can pass (a crossing
+    // lies in the ridge's box inflated by the margin).
+    const BodyPlane ceiling_plane(pose, Vec3::UnitZ(), Vec3(0.0, 0.0, te.box.hi.z() + margin), tol);
     // detect_indexed passes over an edge with both ends more than its ds above the ridge
     // along `out`; a point moves by at most `motion` before the pairs are gathered again,
     // so an edge with both ends more than ds (which holds that motion) above it here
@@ -461,16 +516,19 @@ bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, doub
       if (distance2 > (deep + size) * (deep + size)) return false;
       return may_be_under([&](int k) { return sides[static_cast<std::size_t>(k)].min_over(c, h) <= 0.0; });
     };
-    if (!climb.fills() ||
-        !edges_by_walk(at, a, along, shallow, deep, planes, te.convex, sides, out_plane, out_limit, passes, edges)) {
-      edges.clear();
-      at.index()->convex_edges.query(passes, edges);
+    thread_local std::vector<std::int32_t> found;
+    bool capped = false;
+    if (!climb.fills() || !edges_by_walk(at, a, along, shallow, deep, planes, te.convex, sides, out_plane, out_limit,
+                                         motion, passes, found, p.cap, capped)) {
+      found.clear();
+      at.index()->convex_edges.query(passes, found);
     }
+    p.basis = capped ? Basis::walked : Basis::queried;
     // The same tests on each edge's own segment: its distance to the ridge's instead of
     // a box's, its ends' plane values instead of a box's extremes (a segment's extremes
     // along a plane lie at its ends). An edge's box is as long as the edge: the box
     // tests let through 1.5–3 times the pairs that pass these.
-    for (const std::int32_t e : edges) {
+    for (const std::int32_t e : found) {
       const BlockEdge& edge = model.edges[static_cast<std::size_t>(e)];
       const Vec3& r0 = model.vertices[static_cast<std::size_t>(edge.a)];
       const Vec3& r1 = model.vertices[static_cast<std::size_t>(edge.b)];
@@ -483,8 +541,9 @@ bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, doub
           (distance2 > deep * deep ||
            !may_be_under([&](int k) { return lowest(sides[static_cast<std::size_t>(k)]) <= 0.0; })))
         continue;
-      pairs.emplace_back(e, static_cast<std::int32_t>(j));
+      edges.push_back(e);
     }
+    std::sort(edges.begin(), edges.end());
   }
 }
 
@@ -662,75 +721,121 @@ inline geometry::Aabb edge_box(const Vec3& p0, const Vec3& p1, double margin) {
   return geometry::Aabb{p0.cwiseMin(p1), p0.cwiseMax(p1)}.inflated(margin);
 }
 
-// Empties `c` for pairs gathered at the pose of `at` with these distances and motion (m).
-void start_gathering(const PlacedBlock& at, double ds, double depth, double motion, TerrainPatch::Candidates& c) {
-  c.model = &at.model();
-  c.centre = at.pose().centre;
-  c.map = at.pose().map;
-  c.rigid = at.pose().rigid;
-  c.ds = ds;
-  c.depth = depth;
-  c.motion = motion;
-  c.triangles.clear();
-  c.vertex_triangle.clear();
-  c.vertices.clear();
-  c.ridges.clear();
-  c.edge_ridge.clear();
+// Starts `g` for pairs gathered at the pose of `at` with these distances and motion (m).
+void start_gathering(const PlacedBlock& at, double ds, double depth, double motion,
+                     TerrainPatch::Candidates::Gathering& g) {
+  g.model = &at.model();
+  g.centre = at.pose().centre;
+  g.map = at.pose().map;
+  g.rigid = at.pose().rigid;
+  g.ds = ds;
+  g.depth = depth;
+  g.motion = motion;
+  g.box_margin = std::max(ds, depth);
 }
 
-// The pairs a detailed block may form contacts with in `patch`, through its index, within
-// search distance ds and depth limit `depth` at this pose or any pose whose points lie
-// within `motion` (m) of theirs (ds and depth must include that motion): the triangles
-// that may meet the block's box, and for each (in patch order) the vertices that can
-// pass the vertex–triangle tests (ascending); the (convex edge, ridge) pairs that can
-// pass the edge–ridge tests, ascending. Boxes are inflated by the larger of the two
-// distances: a feature may be found up to `depth` below a surface.
-void gather_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds, double depth, double motion,
-                    TerrainPatch::Candidates& c) {
-  start_gathering(at, ds, depth, motion, c);
-  const double margin = std::max(ds, depth);
-  const geometry::Aabb reach = at.box().inflated(margin);
-  // Only block features at most `margin` above the highest terrain point under the
-  // block can touch it (a bounding-box argument, valid for any surface).
-  double top = -std::numeric_limits<double>::infinity();
-  for (std::size_t t = 0; t < patch.triangles.size(); ++t) {
-    if (!overlaps(patch.triangles[t].box, reach)) continue;
-    top = std::max(top, patch.triangles[t].box.hi.z());
-    c.triangles.push_back(static_cast<std::int32_t>(t));
+// How far (m) the block lies wholly outside the prisms of `tri` that vertex_meets_triangle
+// tests a vertex against: its normal prism and, for ground that faces up, its prism over
+// the triangle in plan; ≤ 0 when not. Outside a prism means beyond the plane of one of
+// its sides, with w the side's inward normal (n × e over an edge e, or e turned left in
+// plan): w·(x − a) is at most w·(centre − a) plus the block's support along w (round-off
+// included), and the test's own round-off is within 4·|w|·tol of it (vertices_near).
+double outside_prisms(const PlacedBlock& at, const TerrainPatch::Triangle& tri, double tol) {
+  const Vec3& centre = at.pose().centre;
+  const auto beyond = [&](bool plan) {
+    double most = -std::numeric_limits<double>::infinity();
+    for (int k = 0; k < 3; ++k) {
+      const Vec3& a = tri.p[static_cast<std::size_t>(k)];
+      const Vec3 e = tri.p[static_cast<std::size_t>((k + 1) % 3)] - a;
+      const Vec3 w = plan ? Vec3(-e.y(), e.x(), 0.0) : Vec3(tri.normal.cross(e));
+      const double length = w.norm();
+      if (!(length > 0.0)) continue;
+      most = std::max(most, -(w.dot(centre - a) + at.support(w) + 4.0 * length * tol) / length);
+    }
+    return most;
+  };
+  double outside = beyond(false);
+  if (outside > 0.0 && tri.normal.z() > 0.0) outside = std::min(outside, beyond(true));
+  return outside;
+}
+
+// The features of `patch` (of `count`; `box(k)` the box of feature k) whose boxes come
+// within `margin` and `box_widening` (m) of a detailed block's box, into `ids` (in patch
+// order), with their pairs in `pairs`, gathered in g. A feature that was among them
+// before, from the same patch and block, keeps its pairs (they have their own reuse
+// test, pairs_serve); the others are to be gathered.
+template <class Box>
+void gather_by_boxes(const PlacedBlock& at, std::size_t count, const Box& box, double margin, double box_widening,
+                     TerrainPatch::Candidates::Gathering& g, std::vector<std::int32_t>& ids,
+                     std::vector<TerrainPatch::Candidates::Pairs>& pairs) {
+  const bool same = g.model == &at.model();
+  start_gathering(at, margin, margin, margin, g);
+  g.box_margin = margin + box_widening;
+  const geometry::Aabb reach = at.box().inflated(g.box_margin);
+  thread_local std::vector<std::int32_t> before;
+  thread_local std::vector<TerrainPatch::Candidates::Pairs> kept;
+  before.swap(ids);
+  kept.swap(pairs);
+  ids.clear();
+  for (std::size_t k = 0; k < count; ++k)
+    if (overlaps(box(k), reach)) ids.push_back(static_cast<std::int32_t>(k));
+  pairs.resize(ids.size());
+  std::size_t k = 0;
+  for (std::size_t j = 0; j < ids.size(); ++j) {
+    while (same && k < before.size() && before[k] < ids[j]) ++k;
+    if (same && k < before.size() && before[k] == ids[j]) std::swap(pairs[j], kept[k]);
+    else pairs[j].basis = TerrainPatch::Candidates::Pairs::Basis::none;
   }
-  const double ceiling = top + margin;
-  thread_local std::vector<std::int32_t> candidates;
-  if (at.box().lo.z() <= ceiling) {
-    const Vec3& centre = at.pose().centre;
-    for (const std::int32_t t : c.triangles) {
-      const TerrainPatch::Triangle& tri = patch.triangles[static_cast<std::size_t>(t)];
-      const geometry::Aabb tbox = tri.box.inflated(margin);
-      // A plane the whole block lies above by more than ds has none of its vertices in
-      // the slab of vertices_near's floor test: the block's least value along the normal
-      // is bounded below by its support (round-off included), and the test's own
-      // round-off is within tol of it. Most triangles of the box lie so (the ground
-      // beside and below a round block's box corners), and this costs one support query.
-      const double tol = at.round_off() + kRound * magnitude(tbox);
-      if (!at.index()->climb.empty() &&
-          tri.normal.dot(centre - tri.p[0]) - at.support(-tri.normal) > ds + 4.0 * tol + 1e-9 * at.model().radius)
-        continue;
-      vertices_near(at, tri, tbox, ceiling, ds, depth, motion, candidates);
-      std::sort(candidates.begin(), candidates.end());
-      for (const std::int32_t vi : candidates) c.vertex_triangle.emplace_back(t, vi);
+}
+
+// The vertices of a detailed block that can pass the vertex–triangle tests with `tri`
+// within search distance ds and depth limit `depth` at this pose or any pose whose points
+// lie within `motion` (m) of theirs (ds and depth must include that motion), ascending,
+// into p with what their reuse rests on (pairs_serve).
+void gather_triangle_pairs(const PlacedBlock& at, const TerrainPatch::Triangle& tri, double ds, double depth,
+                           double motion, TerrainPatch::Candidates::Pairs& p) {
+  using Basis = TerrainPatch::Candidates::Pairs::Basis;
+  const Pose& pose = at.pose();
+  p.model = &at.model();
+  p.centre = pose.centre;
+  p.map = pose.map;
+  p.rigid = pose.rigid;
+  p.ds = ds;
+  p.depth = depth;
+  p.motion = motion;
+  p.features.clear();
+  const double margin = std::max(ds, depth);
+  const geometry::Aabb tbox = tri.box.inflated(margin);
+  // A plane the whole block lies above by more than ds has none of its vertices in the
+  // slab of vertices_near's floor test: the block's least value along the normal is
+  // bounded below by its support (round-off included), and the test's own round-off is
+  // within tol of it. Most triangles of the box lie so (the ground beside and below a
+  // round block's box corners), and this costs one support query.
+  const double tol = at.round_off() + kRound * magnitude(tbox);
+  if (!at.index()->climb.empty()) {
+    const double above =
+        tri.normal.dot(pose.centre - tri.p[0]) - at.support(-tri.normal) - 4.0 * tol - 1e-9 * at.model().radius;
+    if (above > ds) {
+      p.basis = Basis::above;
+      p.room = above;
+      return;
+    }
+    // Nor has a triangle whose prisms the whole block lies beside, farther than the
+    // motion the prism tests are widened by. Many of those near the block cut through it
+    // (the ground rising beside it), and walks under their planes are long.
+    const double beside = outside_prisms(at, tri, tol);
+    if (beside > motion) {
+      p.basis = Basis::beside;
+      p.room = beside;
+      return;
     }
   }
-  thread_local std::vector<const TerrainPatch::Ridge*> near;
-  near.clear();
-  for (std::size_t k = 0; k < patch.ridges.size(); ++k) {
-    if (!overlaps(patch.ridges[k].box, reach)) continue;
-    near.push_back(&patch.ridges[k]);
-    c.ridges.push_back(static_cast<std::int32_t>(k));
-  }
-  if (near.empty()) return;
-  thread_local std::vector<std::pair<std::int32_t, std::int32_t>> pairs;
-  edge_pairs_near(at, near, ceiling, ds, margin, motion, pairs);
-  for (const auto& [be, j] : pairs) c.edge_ridge.emplace_back(be, c.ridges[static_cast<std::size_t>(j)]);
-  std::sort(c.edge_ridge.begin(), c.edge_ridge.end());
+  // Only vertices at most `margin` above the triangle's highest point can pass (its box
+  // inflated by the margin holds every vertex that does).
+  p.basis = vertices_near(at, tri, tbox, tri.box.hi.z() + margin, ds, depth, motion, motion, p.features, p.cap)
+                ? Basis::walked
+                : Basis::queried;
+  std::sort(p.features.begin(), p.features.end());
 }
 
 // The search of detect_contacts in `patch` for a detailed block, over the pairs of `c`
@@ -775,38 +880,32 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
   thread_local std::vector<std::int32_t> latest, earlier;
   if (latest.size() < model.vertices.size()) latest.resize(model.vertices.size(), -1);
   earlier.clear();
-  std::int32_t current = -1;
-  bool in_reach = false;
-  geometry::Aabb tbox;
   // The triangle's plane over the body frame: a vertex whose gap there lies outside
   // (−depth, ds) by more than the round-off of either computation fails the exact test
   // below, so it is passed over before its world position is computed (the pairs were
   // gathered for a wider distance).
-  BodyPlane slab;
-  for (const auto& [t, vi] : c.vertex_triangle) {
-    if (!any_low) break;
-    const TerrainPatch::Triangle& tri = patch.triangles[static_cast<std::size_t>(t)];
-    if (t != current) {
-      current = t;
-      in_reach = overlaps(tri.box, reach);
-      tbox = tri.box.inflated(margin);
-      slab = BodyPlane(pose, tri.normal, tri.p[0], at.round_off() + kRound * magnitude(tbox));
+  for (std::size_t j = 0; j < c.triangles.size() && any_low; ++j) {
+    const TerrainPatch::Triangle& tri = patch.triangles[static_cast<std::size_t>(c.triangles[j])];
+    const std::vector<std::int32_t>& vertices = c.triangle_pairs[j].features;
+    if (vertices.empty() || !overlaps(tri.box, reach)) continue;
+    const geometry::Aabb tbox = tri.box.inflated(margin);
+    const BodyPlane slab(pose, tri.normal, tri.p[0], at.round_off() + kRound * magnitude(tbox));
+    for (const std::int32_t vi : vertices) {
+      const std::size_t i = static_cast<std::size_t>(vi);
+      const double body_gap = slab.s0 + slab.m.dot(model.vertices[i]);
+      if (body_gap - slab.tol >= ds || body_gap + slab.tol <= -depth) continue;
+      const Vec3& p = world_vertex(vi);
+      if (p.z() > ceiling || !contains(tbox, p)) continue;
+      double gap = 0.0;
+      if (!vertex_meets_triangle(tri, p, ds, depth, gap)) continue;
+      bool duplicate = false;
+      for (std::int32_t k = latest[i]; k >= 0 && !duplicate; k = earlier[static_cast<std::size_t>(k)])
+        duplicate = out[first + static_cast<std::size_t>(k)].normal.dot(tri.normal) > 1.0 - 1e-9;
+      if (duplicate) continue;
+      earlier.push_back(latest[i]);
+      latest[i] = static_cast<std::int32_t>(out.size() - first);
+      add_vertex_contact(tri, vi, p, gap, out);
     }
-    if (!in_reach) continue;
-    const std::size_t i = static_cast<std::size_t>(vi);
-    const double body_gap = slab.s0 + slab.m.dot(model.vertices[i]);
-    if (body_gap - slab.tol >= ds || body_gap + slab.tol <= -depth) continue;
-    const Vec3& p = world_vertex(vi);
-    if (p.z() > ceiling || !contains(tbox, p)) continue;
-    double gap = 0.0;
-    if (!vertex_meets_triangle(tri, p, ds, depth, gap)) continue;
-    bool duplicate = false;
-    for (std::int32_t k = latest[i]; k >= 0 && !duplicate; k = earlier[static_cast<std::size_t>(k)])
-      duplicate = out[first + static_cast<std::size_t>(k)].normal.dot(tri.normal) > 1.0 - 1e-9;
-    if (duplicate) continue;
-    earlier.push_back(latest[i]);
-    latest[i] = static_cast<std::int32_t>(out.size() - first);
-    add_vertex_contact(tri, vi, p, gap, out);
   }
   for (std::size_t k = first; k < out.size(); ++k) latest[static_cast<std::size_t>(out[k].block_feature)] = -1;
 
@@ -827,51 +926,45 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
     terrain_vertex_contact(at, patch, tv, qb, &faces, vertex_ds, depth, face_tol, out);
   }
 
-  // Block edge – terrain ridge crossings, in the order of the scan. A crossing's gap g is
-  // along n, ⟂ both lines and oriented so that n·out = n·normal_sum ≥ 0 (`out` is the
-  // ridge's normal sum with its part along the ridge taken out). So g·(n·out) =
-  // (pc − qc)·out ≥ min(out·(p0 − pa), out·(p1 − pa)): an edge with both ends more than
-  // ds above the ridge along `out` has its gap beyond ds, and is passed over
-  // (ridge_level_limit). Tested in the body frame before the ends' world positions are
-  // computed. Most gathered pairs are passed over so (edge_meets_ridge solves for each
-  // crossing).
-  struct RidgeView {
-    bool in_reach = false;
-    BodyPlane level;
-    double limit = 0.0;
-  };
-  thread_local std::vector<RidgeView> views;
-  if (views.size() < patch.ridges.size()) views.resize(patch.ridges.size());
-  for (const std::int32_t r : c.ridges) {
+  // Block edge – terrain ridge crossings, ridge by ridge and then put in the order of the
+  // scan (by edge, then ridge). A crossing's gap g is along n, ⟂ both lines and oriented
+  // so that n·out = n·normal_sum ≥ 0 (`out` is the ridge's normal sum with its part along
+  // the ridge taken out). So g·(n·out) = (pc − qc)·out ≥ min(out·(p0 − pa), out·(p1 −
+  // pa)): an edge with both ends more than ds above the ridge along `out` has its gap
+  // beyond ds, and is passed over (ridge_level_limit). Tested in the body frame before
+  // the ends' world positions are computed. Most gathered pairs are passed over so
+  // (edge_meets_ridge solves for each crossing).
+  const std::size_t first_crossing = out.size();
+  thread_local std::vector<std::pair<std::int32_t, std::int32_t>> order;  // (edge, ridge) of each crossing
+  order.clear();
+  for (std::size_t j = 0; j < c.ridges.size(); ++j) {
+    const std::int32_t r = c.ridges[j];
     const TerrainPatch::Ridge& te = patch.ridges[static_cast<std::size_t>(r)];
-    RidgeView& view = views[static_cast<std::size_t>(r)];
-    view.in_reach = overlaps(te.box, reach);
-    view.level = BodyPlane(pose, te.out, te.pa, 0.0);
-    view.limit = ridge_level_limit(te, at, ds, margin, 1);
-  }
-  std::int32_t edge = -1;
-  Vec3 p0, p1;
-  geometry::Aabb ebox;
-  bool low_edge = false;
-  for (const auto& [be, r] : c.edge_ridge) {
-    const RidgeView& view = views[static_cast<std::size_t>(r)];
-    if (!view.in_reach) continue;
-    const BlockEdge& bedge = model.edges[static_cast<std::size_t>(be)];
-    if (std::min(view.level.m.dot(model.vertices[static_cast<std::size_t>(bedge.a)]),
-                 view.level.m.dot(model.vertices[static_cast<std::size_t>(bedge.b)])) +
-            view.level.s0 >=
-        view.limit)
-      continue;
-    const TerrainPatch::Ridge& te = patch.ridges[static_cast<std::size_t>(r)];
-    if (be != edge) {
-      edge = be;
-      p0 = world_vertex(bedge.a);
-      p1 = world_vertex(bedge.b);
-      low_edge = std::min(p0.z(), p1.z()) <= ceiling;
-      ebox = edge_box(p0, p1, margin);
+    const std::vector<std::int32_t>& edges = c.ridge_pairs[j].features;
+    if (edges.empty() || !overlaps(te.box, reach)) continue;
+    const BodyPlane level(pose, te.out, te.pa, 0.0);
+    const double limit = ridge_level_limit(te, at, ds, margin, 1);
+    for (const std::int32_t be : edges) {
+      const BlockEdge& bedge = model.edges[static_cast<std::size_t>(be)];
+      if (std::min(level.m.dot(model.vertices[static_cast<std::size_t>(bedge.a)]),
+                   level.m.dot(model.vertices[static_cast<std::size_t>(bedge.b)])) +
+              level.s0 >=
+          limit)
+        continue;
+      const Vec3& p0 = world_vertex(bedge.a);
+      const Vec3& p1 = world_vertex(bedge.b);
+      if (std::min(p0.z(), p1.z()) > ceiling || !overlaps(te.box, edge_box(p0, p1, margin))) continue;
+      const std::size_t before = out.size();
+      edge_meets_ridge(pose, be, p0, p1, patch, te, ds, depth, out);
+      if (out.size() > before) order.emplace_back(be, r);
     }
-    if (low_edge && overlaps(te.box, ebox)) edge_meets_ridge(pose, be, p0, p1, patch, te, ds, depth, out);
   }
+  // Few crossings: an insertion sort.
+  for (std::size_t i = 1; i < order.size(); ++i)
+    for (std::size_t k = i; k > 0 && order[k] < order[k - 1]; --k) {
+      std::swap(order[k], order[k - 1]);
+      std::swap(out[first_crossing + k], out[first_crossing + k - 1]);
+    }
 }
 
 // The feature pairs of a scanned block (few vertices) that can form a contact within
@@ -884,7 +977,12 @@ void gather_candidates(const PlacedBlock& at, const TerrainPatch& patch, double 
   const std::vector<Vec3>& world = at.vertices();
   const double margin = std::max(ds, depth);
   const geometry::Aabb reach = at.box().inflated(margin);
-  start_gathering(at, ds, depth, std::numeric_limits<double>::infinity(), c);
+  start_gathering(at, ds, depth, std::numeric_limits<double>::infinity(), c.gathering);
+  c.triangles.clear();
+  c.vertex_triangle.clear();
+  c.vertices.clear();
+  c.ridges.clear();
+  c.edge_ridge.clear();
   for (std::size_t t = 0; t < patch.triangles.size(); ++t) {
     const TerrainPatch::Triangle& tri = patch.triangles[t];
     if (prune && !overlaps(tri.box, reach)) continue;
@@ -1119,6 +1217,57 @@ geometry::Aabb PlacedBlock::world_box(const geometry::Aabb& body) const {
   return geometry::Aabb{c - h - Vec3::Constant(slack), c + h + Vec3::Constant(slack)};
 }
 
+namespace {
+
+// How far the points of a block at `pose` have moved at most (m) since the pose of
+// gathering g (∞ when g holds no pairs of `model`): |Δcentre| + ‖ΔF‖·radius (map_change
+// bounds the spectral norm).
+double moved_since(const TerrainPatch::Candidates::Gathering& g, const Model& model, const Pose& pose) {
+  if (g.model != &model) return std::numeric_limits<double>::infinity();
+  return (pose.centre - g.centre).norm() + map_change(pose, g.map, g.rigid) * model.radius +
+         1e-9 * (pose.centre.cwiseAbs().maxCoeff() + model.radius);
+}
+
+// Whether a detailed block's pairs p with one triangle or ridge serve a search at `pose`
+// with distances ds and depth (m) (docs/dda.md, "Reusing the pairs"). Every point has
+// moved by at most `moved` = |Δcentre| + ‖ΔF‖·radius since they were gathered. Those of
+// a tree query serve while that is within the motion their tests were widened by, with
+// ds + moved and depth + moved within their distances. Those of a walk serve too while
+// the points within its cap's reach of its pivot move by at most that, μ = |Δ(pivot)| +
+// ‖ΔF‖·reach, and ‖ΔF‖·reach ≤ rise: every point the walk left out then stays out of
+// reach. None serve while the block stays above the triangle's plane, beside its prisms
+// or apart from the ridge.
+bool pairs_serve(const TerrainPatch::Candidates::Pairs& p, const Model& model, const Pose& pose, double ds,
+                 double depth) {
+  using Basis = TerrainPatch::Candidates::Pairs::Basis;
+  if (p.basis == Basis::none || p.model != &model) return false;
+  const double turn = map_change(pose, p.map, p.rigid);
+  const Vec3 shift = pose.centre - p.centre;
+  const double slack = 1e-9 * (pose.centre.cwiseAbs().maxCoeff() + model.radius);
+  const double moved = shift.norm() + turn * model.radius + slack;
+  const auto within = [&](double motion) { return ds + motion <= p.ds && depth + motion <= p.depth && motion <= p.motion; };
+  switch (p.basis) {
+    case Basis::above:
+      return ds + moved <= p.room;
+    case Basis::beside:
+      return moved <= p.room;
+    case Basis::apart:
+      return std::max(ds, depth) + moved <= p.room;
+    case Basis::queried:
+      return within(moved);
+    case Basis::walked: {
+      if (within(moved)) return true;
+      const double swing = turn * p.cap.reach * (1.0 + 1e-9);
+      return swing + slack <= p.cap.rise && within((shift + (pose.map - p.map) * p.cap.pivot).norm() + swing + slack);
+    }
+    case Basis::none:
+      break;
+  }
+  return false;
+}
+
+}  // namespace
+
 void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, double search_distance,
                      double depth_limit, TerrainPatch& patch, std::vector<Contact>& out, double near_distance) {
   const geometry::Aabb box = at.box().inflated(std::max(search_distance, depth_limit));
@@ -1129,32 +1278,52 @@ void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, dou
     patch.query.clear();
     surface.triangles_in_box(patch.box, patch.query);
     fill_patch(surface, patch.query, patch);
-    patch.candidates.model = nullptr;
+    patch.candidates.gathering.model = nullptr;
+    patch.candidates.ridge_gathering.model = nullptr;
   }
   // The candidate pairs are gathered afresh when the block has moved, since they were
   // gathered, by more than their wider distances allow: a block point moves by at most
-  // |Δcentre| + ‖ΔF‖·radius (map_change bounds the spectral norm), and a gap, a
-  // box or a point's distance to a box by no more than that. A detailed block's were
-  // gathered with its prism and plane tests widened by a motion, which bounds it too.
+  // |Δcentre| + ‖ΔF‖·radius, and a gap, a box or a point's distance to a box by no more
+  // than that. A detailed block's were gathered with its prism and plane tests widened by
+  // a motion, which bounds it too, or that of the points near its walks' pivots.
   const Model& model = at.model();
   const Pose& pose = at.pose();
   TerrainPatch::Candidates& c = patch.candidates;
-  const double moved = c.model == &model ? (pose.centre - c.centre).norm() +
-                                               map_change(pose, c.map, c.rigid) * model.radius +
-                                               1e-9 * (pose.centre.cwiseAbs().maxCoeff() + model.radius)
-                                         : std::numeric_limits<double>::infinity();
   if (at.index() != nullptr) {
     // The pairs serve the vertex–triangle and edge–ridge tests, at the near distance.
     const double ds = near_distance > 0.0 && near_distance < search_distance ? near_distance : search_distance;
-    const bool reusable = ds + moved <= c.ds && depth_limit + moved <= c.depth && moved <= c.motion;
-    if (!reusable) {
-      const double widening = kIndexedWidening * model.radius;
-      gather_indexed(at, patch, ds + widening, depth_limit + widening, widening, c);
+    const double widening = kIndexedWidening * model.radius;
+    const double box_widening = kIndexedBoxWidening * model.radius;
+    // The triangles and ridges by their boxes, then the pairs of each (those the search
+    // tests: of the features whose boxes meet its reach).
+    const double margin = std::max(ds, depth_limit);
+    if (!(margin + moved_since(c.gathering, model, pose) <= c.gathering.box_margin))
+      gather_by_boxes(
+          at, patch.triangles.size(), [&](std::size_t k) -> const geometry::Aabb& { return patch.triangles[k].box; },
+          margin + widening, box_widening, c.gathering, c.triangles, c.triangle_pairs);
+    if (!(margin + moved_since(c.ridge_gathering, model, pose) <= c.ridge_gathering.box_margin))
+      gather_by_boxes(
+          at, patch.ridges.size(), [&](std::size_t k) -> const geometry::Aabb& { return patch.ridges[k].box; },
+          margin + widening, box_widening, c.ridge_gathering, c.ridges, c.ridge_pairs);
+    const geometry::Aabb reach = at.box().inflated(margin);
+    for (std::size_t j = 0; j < c.triangles.size(); ++j) {
+      const TerrainPatch::Triangle& tri = patch.triangles[static_cast<std::size_t>(c.triangles[j])];
+      TerrainPatch::Candidates::Pairs& pairs = c.triangle_pairs[j];
+      if (overlaps(tri.box, reach) && !pairs_serve(pairs, model, pose, ds, depth_limit))
+        gather_triangle_pairs(at, tri, ds + widening, depth_limit + widening, widening, pairs);
+    }
+    for (std::size_t j = 0; j < c.ridges.size(); ++j) {
+      const TerrainPatch::Ridge& te = patch.ridges[static_cast<std::size_t>(c.ridges[j])];
+      TerrainPatch::Candidates::Pairs& pairs = c.ridge_pairs[j];
+      if (overlaps(te.box, reach) && !pairs_serve(pairs, model, pose, ds, depth_limit))
+        gather_ridge_pairs(at, te, ds + widening, depth_limit + widening, widening, pairs);
     }
     detect_indexed(at, patch, ds, search_distance, depth_limit, c, out);
     return;
   }
-  const bool reusable = search_distance + moved <= c.ds && depth_limit + moved <= c.depth && moved <= c.motion;
+  const double moved = moved_since(c.gathering, model, pose);
+  const TerrainPatch::Candidates::Gathering& g = c.gathering;
+  const bool reusable = search_distance + moved <= g.ds && depth_limit + moved <= g.depth && moved <= g.motion;
   if (!reusable) {
     const double widening = kCandidateWidening * model.radius;
     gather_candidates(at, patch, search_distance + widening, depth_limit + widening, true, c);

@@ -189,19 +189,57 @@ struct TerrainPatch {
   /// is among them, in the order it would find them (docs/dda.md, Detection). Indices
   /// into the lists above and into the block's features.
   struct Candidates {
-    const void* model = nullptr;       ///< the Model they were gathered for; null: none
-    Vec3 centre = Vec3::Zero();        ///< the pose they were gathered at: x = centre + map·r
-    Mat3 map = Mat3::Identity();
-    bool rigid = false;                ///< map is a rotation (the 6-DOF path)
-    double ds = 0.0, depth = 0.0;      ///< search distance and depth limit gathered with (m)
-    /// A detailed block's: how far its points may move from that pose (m) while the
-    /// pairs serve (their prism and plane tests were widened by it); ∞ for a scanned one.
-    double motion = std::numeric_limits<double>::infinity();
+    /// The pose and distances pairs were gathered at.
+    struct Gathering {
+      const void* model = nullptr;       ///< the Model they were gathered for; null: none
+      Vec3 centre = Vec3::Zero();        ///< the pose they were gathered at: x = centre + map·r
+      Mat3 map = Mat3::Identity();
+      bool rigid = false;                ///< map is a rotation (the 6-DOF path)
+      double ds = 0.0, depth = 0.0;      ///< search distance and depth limit gathered with (m)
+      /// A detailed block's: how far its points may move from that pose (m) while the
+      /// pairs serve (their prism and plane tests were widened by it); ∞ for a scanned one.
+      double motion = std::numeric_limits<double>::infinity();
+      /// A detailed block's triangles or ridges were taken by their boxes within this of
+      /// its box (m): they serve while that distance, less its motion, holds the search's.
+      double box_margin = 0.0;
+    };
+    /// A detailed convex block's vertex walk that pairs came from (docs/dda.md, "Reusing
+    /// the pairs"). Every vertex the walk under a plane left out lies above that plane by
+    /// at least `rise` times its body-frame distance from `pivot` over `reach`, so while
+    /// the block turns by less than rise/reach the walk's pairs serve as long as the
+    /// points within `reach` of `pivot` move by no more than the gathering's motion.
+    struct Cap {
+      Vec3 pivot = Vec3::Zero();  ///< the walk's lowest vertex (body frame, m)
+      double reach = 0.0;         ///< every vertex walked and its edges lie within it of pivot (m)
+      double rise = 0.0;          ///< the plane's level over the pivot (m)
+    };
+    /// A detailed block's pairs with one triangle (its vertices) or one ridge (its convex
+    /// edges), gathered on their own, and what their reuse rests on.
+    struct Pairs : Gathering {
+      enum class Basis : std::uint8_t {
+        none,     ///< not gathered yet
+        above,    ///< the block lies wholly above the triangle's plane, by `room` (m)
+        beside,   ///< the block lies wholly beside the triangle's prisms, by `room` (m)
+        apart,    ///< the block lies apart from the ridge, `room` (m) for margin and motion
+        walked,   ///< found by the walk of `cap`
+        queried,  ///< found by a tree query: every point's motion counts
+      };
+      Basis basis = Basis::none;
+      double room = 0.0;
+      Cap cap;
+      std::vector<std::int32_t> features;  ///< block vertices or edges, ascending
+    };
+    /// Of all the pairs of a scanned block; of a detailed block's triangles, by their boxes.
+    Gathering gathering;
+    /// Of a detailed block's ridges, by their boxes.
+    Gathering ridge_gathering;
     std::vector<std::int32_t> triangles;                          ///< may meet the block's box
     std::vector<std::pair<std::int32_t, std::int32_t>> vertex_triangle;  ///< (triangle, block vertex)
     std::vector<std::int32_t> vertices;                           ///< terrain vertices
     std::vector<std::int32_t> ridges;                             ///< may meet the block's box
     std::vector<std::pair<std::int32_t, std::int32_t>> edge_ridge;  ///< (block edge, ridge)
+    /// A detailed block's pairs with each of `triangles` and of `ridges` (at the same place).
+    std::vector<Pairs> triangle_pairs, ridge_pairs;
   };
   Candidates candidates;
 };

@@ -218,18 +218,32 @@ double walk_slack(const Model& model, const Vec3& m, double level) {
 
 // The cap of a walk under a plane (VertexClimb::below into `under`, its lowest value and
 // the level it walked to): the lowest vertex, and how far from it the vertices walked and
-// their edges reach. The plane's polytope cap under the level has for its corners the
-// vertices walked and points on their edges, so every block point above the level lies
-// above it by at least (level − lowest)·|r − pivot| / reach (docs/dda.md, "Reusing the
-// pairs").
+// their edges reach. The polytope's part under the plane has for its corners the
+// vertices under it (all walked) and points on their edges, so every block point above
+// the level lies above it by at least (level − lowest)·|r − pivot| / reach (docs/dda.md,
+// "Reusing the pairs").
 TerrainPatch::Candidates::Cap walked_cap(const Model& model, const VertexClimb& climb,
                                          const std::vector<std::int32_t>& under, double lowest, double level) {
   TerrainPatch::Candidates::Cap cap;
   cap.pivot = model.vertices[static_cast<std::size_t>(under.front())];
   for (const std::int32_t v : under)
     cap.reach = std::max(cap.reach, (model.vertices[static_cast<std::size_t>(v)] - cap.pivot).norm() + climb.longest(v));
+  cap.reach = cap.reach * (1.0 + 1e-9) + 1e-9 * model.radius;  // the sums' round-off, generously
   cap.rise = level - lowest;
   return cap;
+}
+
+// Starts `g` for pairs gathered at the pose of `at` with these distances and motion (m).
+void start_gathering(const PlacedBlock& at, double ds, double depth, double motion,
+                     TerrainPatch::Candidates::Gathering& g) {
+  g.model = &at.model();
+  g.centre = at.pose().centre;
+  g.map = at.pose().map;
+  g.rigid = at.pose().rigid;
+  g.ds = ds;
+  g.depth = depth;
+  g.motion = motion;
+  g.box_margin = std::max(ds, depth);
 }
 
 // A bound of ‖F − F₀‖₂ for the map F of `pose` and an earlier map F₀ of the same block
@@ -432,13 +446,7 @@ bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, doub
   const Model& model = at.model();
   const VertexClimb& climb = at.index()->climb;
   const double margin = std::max(ds, depth);
-  p.model = &model;
-  p.centre = pose.centre;
-  p.map = pose.map;
-  p.rigid = pose.rigid;
-  p.ds = ds;
-  p.depth = depth;
-  p.motion = motion;
+  start_gathering(at, ds, depth, motion, p);
   std::vector<std::int32_t>& edges = p.features;
   edges.clear();
   // ‖F‖₂, generously: 1 for a rigid pose (a rotation, to round-off), else the square
@@ -721,19 +729,6 @@ inline geometry::Aabb edge_box(const Vec3& p0, const Vec3& p1, double margin) {
   return geometry::Aabb{p0.cwiseMin(p1), p0.cwiseMax(p1)}.inflated(margin);
 }
 
-// Starts `g` for pairs gathered at the pose of `at` with these distances and motion (m).
-void start_gathering(const PlacedBlock& at, double ds, double depth, double motion,
-                     TerrainPatch::Candidates::Gathering& g) {
-  g.model = &at.model();
-  g.centre = at.pose().centre;
-  g.map = at.pose().map;
-  g.rigid = at.pose().rigid;
-  g.ds = ds;
-  g.depth = depth;
-  g.motion = motion;
-  g.box_margin = std::max(ds, depth);
-}
-
 // How far (m) the block lies wholly outside the prisms of `tri` that vertex_meets_triangle
 // tests a vertex against: its normal prism and, for ground that faces up, its prism over
 // the triangle in plan; ≤ 0 when not. Outside a prism means beyond the plane of one of
@@ -796,13 +791,7 @@ void gather_triangle_pairs(const PlacedBlock& at, const TerrainPatch::Triangle& 
                            double motion, TerrainPatch::Candidates::Pairs& p) {
   using Basis = TerrainPatch::Candidates::Pairs::Basis;
   const Pose& pose = at.pose();
-  p.model = &at.model();
-  p.centre = pose.centre;
-  p.map = pose.map;
-  p.rigid = pose.rigid;
-  p.ds = ds;
-  p.depth = depth;
-  p.motion = motion;
+  start_gathering(at, ds, depth, motion, p);
   p.features.clear();
   const double margin = std::max(ds, depth);
   const geometry::Aabb tbox = tri.box.inflated(margin);

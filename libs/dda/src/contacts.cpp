@@ -207,8 +207,10 @@ constexpr double kIndexedBoxWidening = 0.25;
 constexpr double kBoxReuse = 0.02;
 
 // How many vertices a walk over a convex block's vertex graph (VertexClimb::below) may
-// visit before a tree query is cheaper.
-constexpr std::size_t kWalkLimit = 64;
+// visit before a tree query is cheaper: 64, or a share of the block's vertices (a walk's
+// pairs serve longer than a query's, *Reusing the pairs*, and a finer mesh has more
+// vertices in the same cap).
+std::size_t walk_limit(const Model& model) { return std::max<std::size_t>(64, model.vertices.size() / 20); }
 
 // The slack of a walk for the plane m·r = level (VertexClimb::below): a few ulps of
 // |m|·|r| and of the level's terms would do.
@@ -333,7 +335,7 @@ double ridge_level_limit(const TerrainPatch::Ridge& te, const PlacedBlock& at, d
     thread_local std::vector<std::int32_t> under;
     double lowest = 0.0;
     double level = ds + floor_plane.tol - floor_plane.s0;
-    if (climb.below(model.vertices, floor_plane.m, level, walk_slack(model, floor_plane.m, level), kWalkLimit, under,
+    if (climb.below(model.vertices, floor_plane.m, level, walk_slack(model, floor_plane.m, level), walk_limit(model), under,
                     lowest, rise)) {
       for (const std::int32_t v : under) {
         geometry::Aabb b;
@@ -390,7 +392,7 @@ bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, doub
   // The edges at the vertices under m·r = level that may come within `reach` of the ridge:
   // a vertex further from it than that and its longest edge has none.
   const auto walk = [&](const Vec3& m, double level, double reach, double raise = 0.0) {
-    if (!climb.below(model.vertices, m, level, walk_slack(model, m, level), kWalkLimit, under, lowest, raise))
+    if (!climb.below(model.vertices, m, level, walk_slack(model, m, level), walk_limit(model), under, lowest, raise))
       return false;
     for (const std::int32_t v : under) {
       const Vec3& r = model.vertices[static_cast<std::size_t>(v)];
@@ -1226,14 +1228,29 @@ double moved_since(const TerrainPatch::Candidates::Gathering& g, const Model& mo
 // ‖ΔF‖·reach, and ‖ΔF‖·reach ≤ rise: every point the walk left out then stays out of
 // reach. None serve while the block stays above the triangle's plane, beside its prisms
 // or apart from the ridge.
-bool pairs_serve(const TerrainPatch::Candidates::Pairs& p, const Model& model, const Pose& pose, double ds,
-                 double depth) {
+// How far a block at `pose` has moved since an earlier pose (centre, map, rigid): the
+// map's change and its bound, the centre's shift, and every point's motion at most
+// (|Δcentre| + ‖ΔF‖₂·radius, plus round-off), with the round-off allowance of each.
+struct Motion {
+  std::uint64_t search = 0;
+  Mat3 change;
+  Vec3 shift;
+  double turn = 0.0, moved = 0.0, slack = 0.0;
+};
+
+Motion motion_since(const Model& model, const Pose& pose, const TerrainPatch::Candidates::Gathering& g) {
+  Motion m;
+  m.change = pose.map - g.map;
+  m.shift = pose.centre - g.centre;
+  m.turn = map_change(pose, g.map, g.rigid);
+  m.slack = 1e-9 * (pose.centre.cwiseAbs().maxCoeff() + model.radius);
+  m.moved = m.shift.norm() + m.turn * model.radius + m.slack;
+  return m;
+}
+
+bool pairs_serve(const TerrainPatch::Candidates::Pairs& p, const Motion& since, double ds, double depth) {
   using Basis = TerrainPatch::Candidates::Pairs::Basis;
-  if (p.basis == Basis::none || p.model != &model) return false;
-  const double turn = map_change(pose, p.map, p.rigid);
-  const Vec3 shift = pose.centre - p.centre;
-  const double slack = 1e-9 * (pose.centre.cwiseAbs().maxCoeff() + model.radius);
-  const double moved = shift.norm() + turn * model.radius + slack;
+  const double moved = since.moved;
   const auto within = [&](double motion) { return ds + motion <= p.ds && depth + motion <= p.depth && motion <= p.motion; };
   switch (p.basis) {
     case Basis::above:
@@ -1246,8 +1263,9 @@ bool pairs_serve(const TerrainPatch::Candidates::Pairs& p, const Model& model, c
       return within(moved);
     case Basis::walked: {
       if (within(moved)) return true;
-      const double swing = turn * p.cap.reach * (1.0 + 1e-9);
-      return swing + slack <= p.cap.rise && within((shift + (pose.map - p.map) * p.cap.pivot).norm() + swing + slack);
+      const double swing = since.turn * p.cap.reach * (1.0 + 1e-9);
+      return swing + since.slack <= p.cap.rise &&
+             within((since.shift + since.change * p.cap.pivot).norm() + swing + since.slack);
     }
     case Basis::none:
       break;
@@ -1295,17 +1313,36 @@ void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, dou
           at, patch.ridges.size(), [&](std::size_t k) -> const geometry::Aabb& { return patch.ridges[k].box; },
           margin + widening, box_widening, c.ridge_gathering, c.ridges, c.ridge_pairs);
     const geometry::Aabb reach = at.box().inflated(margin);
+    // The pairs gathered in one search share its pose, and how far the block has moved
+    // since (a few searches' at most).
+    const std::uint64_t search = ++c.searches;
+    thread_local std::vector<Motion> since;
+    since.clear();
+    const auto serves = [&](const TerrainPatch::Candidates::Pairs& p) {
+      if (p.basis == TerrainPatch::Candidates::Pairs::Basis::none || p.model != &model) return false;
+      auto known = std::find_if(since.begin(), since.end(), [&](const Motion& m) { return m.search == p.search; });
+      if (known == since.end()) {
+        since.push_back(motion_since(model, pose, p));
+        since.back().search = p.search;
+        known = since.end() - 1;
+      }
+      return pairs_serve(p, *known, ds, depth_limit);
+    };
     for (std::size_t j = 0; j < c.triangles.size(); ++j) {
       const TerrainPatch::Triangle& tri = patch.triangles[static_cast<std::size_t>(c.triangles[j])];
       TerrainPatch::Candidates::Pairs& pairs = c.triangle_pairs[j];
-      if (overlaps(tri.box, reach) && !pairs_serve(pairs, model, pose, ds, depth_limit))
+      if (overlaps(tri.box, reach) && !serves(pairs)) {
         gather_triangle_pairs(at, tri, ds + widening, depth_limit + widening, widening, pairs);
+        pairs.search = search;
+      }
     }
     for (std::size_t j = 0; j < c.ridges.size(); ++j) {
       const TerrainPatch::Ridge& te = patch.ridges[static_cast<std::size_t>(c.ridges[j])];
       TerrainPatch::Candidates::Pairs& pairs = c.ridge_pairs[j];
-      if (overlaps(te.box, reach) && !pairs_serve(pairs, model, pose, ds, depth_limit))
+      if (overlaps(te.box, reach) && !serves(pairs)) {
         gather_ridge_pairs(at, te, ds + widening, depth_limit + widening, widening, pairs);
+        pairs.search = search;
+      }
     }
     detect_indexed(at, patch, ds, search_distance, depth_limit, c, out);
     return;

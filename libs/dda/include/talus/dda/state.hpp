@@ -225,6 +225,7 @@ struct TerrainPatch {
         queried,  ///< found by a tree query: every point's motion counts
       };
       Basis basis = Basis::none;
+      std::uint64_t search = 0;  ///< the search that gathered them (Candidates::searches)
       double room = 0.0;
       Cap cap;
       std::vector<std::int32_t> features;  ///< block vertices or edges, ascending
@@ -240,6 +241,8 @@ struct TerrainPatch {
     std::vector<std::pair<std::int32_t, std::int32_t>> edge_ridge;  ///< (block edge, ridge)
     /// A detailed block's pairs with each of `triangles` and of `ridges` (at the same place).
     std::vector<Pairs> triangle_pairs, ridge_pairs;
+    /// A detailed block's searches so far: pairs gathered in one search share its pose.
+    std::uint64_t searches = 0;
   };
   Candidates candidates;
 };

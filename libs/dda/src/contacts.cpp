@@ -1263,6 +1263,7 @@ bool pairs_serve(const TerrainPatch::Candidates::Pairs& p, const Motion& since, 
       return within(moved);
     case Basis::walked: {
       if (within(moved)) return true;
+      if (since.search == 0) return false;  // a bound of the motion only, not the poses
       const double swing = since.turn * p.cap.reach * (1.0 + 1e-9);
       return swing + since.slack <= p.cap.rise &&
              within((since.shift + since.change * p.cap.pivot).norm() + swing + since.slack);
@@ -1318,8 +1319,17 @@ void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, dou
     const std::uint64_t search = ++c.searches;
     thread_local std::vector<Motion> since;
     since.clear();
+    // Every point's motion since pairs were gathered is bounded first by the sum of the
+    // motions between the searches since (one bound per search), and computed from the
+    // two poses only when that sum does not show them to serve.
+    const double step = moved_since(c.last_search, model, pose);
+    c.travelled = std::isfinite(step) ? c.travelled + step : 0.0;
+    start_gathering(at, 0.0, 0.0, 0.0, c.last_search);
     const auto serves = [&](const TerrainPatch::Candidates::Pairs& p) {
       if (p.basis == TerrainPatch::Candidates::Pairs::Basis::none || p.model != &model) return false;
+      Motion bound;
+      bound.moved = c.travelled - p.travelled;
+      if (bound.moved >= 0.0 && pairs_serve(p, bound, ds, depth_limit)) return true;
       auto known = std::find_if(since.begin(), since.end(), [&](const Motion& m) { return m.search == p.search; });
       if (known == since.end()) {
         since.push_back(motion_since(model, pose, p));
@@ -1334,6 +1344,7 @@ void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, dou
       if (overlaps(tri.box, reach) && !serves(pairs)) {
         gather_triangle_pairs(at, tri, ds + widening, depth_limit + widening, widening, pairs);
         pairs.search = search;
+        pairs.travelled = c.travelled;
       }
     }
     for (std::size_t j = 0; j < c.ridges.size(); ++j) {
@@ -1342,6 +1353,7 @@ void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, dou
       if (overlaps(te.box, reach) && !serves(pairs)) {
         gather_ridge_pairs(at, te, ds + widening, depth_limit + widening, widening, pairs);
         pairs.search = search;
+        pairs.travelled = c.travelled;
       }
     }
     detect_indexed(at, patch, ds, search_distance, depth_limit, c, out);

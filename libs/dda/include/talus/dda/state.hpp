@@ -226,6 +226,7 @@ struct TerrainPatch {
       };
       Basis basis = Basis::none;
       std::uint64_t search = 0;  ///< the search that gathered them (Candidates::searches)
+      double travelled = 0.0;    ///< Candidates::travelled then (m)
       double room = 0.0;
       Cap cap;
       std::vector<std::int32_t> features;  ///< block vertices or edges, ascending
@@ -243,6 +244,11 @@ struct TerrainPatch {
     std::vector<Pairs> triangle_pairs, ridge_pairs;
     /// A detailed block's searches so far: pairs gathered in one search share its pose.
     std::uint64_t searches = 0;
+    /// The sum, over a detailed block's searches, of how far its points moved at most
+    /// since the search before (m), and the pose of the last search: the difference of
+    /// two sums bounds every point's motion between those searches.
+    double travelled = 0.0;
+    Gathering last_search;
   };
   Candidates candidates;
 };

@@ -1338,24 +1338,26 @@ void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, dou
       }
       return pairs_serve(p, *known, ds, depth_limit);
     };
-    for (std::size_t j = 0; j < c.triangles.size(); ++j) {
-      const TerrainPatch::Triangle& tri = patch.triangles[static_cast<std::size_t>(c.triangles[j])];
-      TerrainPatch::Candidates::Pairs& pairs = c.triangle_pairs[j];
-      if (overlaps(tri.box, reach) && !serves(pairs)) {
-        gather_triangle_pairs(at, tri, ds + widening, depth_limit + widening, widening, pairs);
-        pairs.search = search;
-        pairs.travelled = c.travelled;
+    // The pairs of the features (`ids`, of `features`) whose boxes meet the reach, gathered
+    // again by `gather(feature, pairs)` where they no longer serve.
+    const auto refresh = [&](const std::vector<std::int32_t>& ids, const auto& features,
+                             std::vector<TerrainPatch::Candidates::Pairs>& pairs, const auto& gather) {
+      for (std::size_t j = 0; j < ids.size(); ++j) {
+        const auto& feature = features[static_cast<std::size_t>(ids[j])];
+        if (!overlaps(feature.box, reach) || serves(pairs[j])) continue;
+        gather(feature, pairs[j]);
+        pairs[j].search = search;
+        pairs[j].travelled = c.travelled;
       }
-    }
-    for (std::size_t j = 0; j < c.ridges.size(); ++j) {
-      const TerrainPatch::Ridge& te = patch.ridges[static_cast<std::size_t>(c.ridges[j])];
-      TerrainPatch::Candidates::Pairs& pairs = c.ridge_pairs[j];
-      if (overlaps(te.box, reach) && !serves(pairs)) {
-        gather_ridge_pairs(at, te, ds + widening, depth_limit + widening, widening, pairs);
-        pairs.search = search;
-        pairs.travelled = c.travelled;
-      }
-    }
+    };
+    refresh(c.triangles, patch.triangles, c.triangle_pairs,
+            [&](const TerrainPatch::Triangle& tri, TerrainPatch::Candidates::Pairs& pairs) {
+              gather_triangle_pairs(at, tri, ds + widening, depth_limit + widening, widening, pairs);
+            });
+    refresh(c.ridges, patch.ridges, c.ridge_pairs,
+            [&](const TerrainPatch::Ridge& te, TerrainPatch::Candidates::Pairs& pairs) {
+              gather_ridge_pairs(at, te, ds + widening, depth_limit + widening, widening, pairs);
+            });
     detect_indexed(at, patch, ds, search_distance, depth_limit, c, out);
     return;
   }

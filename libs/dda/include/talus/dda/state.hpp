@@ -186,8 +186,9 @@ struct TerrainPatch {
   /// The feature pairs a block of few vertices may form contacts with, gathered at one
   /// pose with wider distances than a step asks, and tested afresh at every step while the
   /// block has moved less than the difference: every pair the step's search would find
-  /// is among them, in the order it would find them (docs/dda.md, Detection). Indices
-  /// into the lists above and into the block's features.
+  /// is among them, in the order it would find them (docs/dda.md, Detection). A detailed
+  /// block's are gathered per terrain triangle and ridge (Pairs; docs/dda.md, "Reusing the
+  /// pairs"). Indices into the lists above and into the block's features.
   struct Candidates {
     /// The pose and distances pairs were gathered at.
     struct Gathering {
@@ -236,10 +237,11 @@ struct TerrainPatch {
     /// Of a detailed block's ridges, by their boxes.
     Gathering ridge_gathering;
     std::vector<std::int32_t> triangles;                          ///< may meet the block's box
-    std::vector<std::pair<std::int32_t, std::int32_t>> vertex_triangle;  ///< (triangle, block vertex)
-    std::vector<std::int32_t> vertices;                           ///< terrain vertices
+    /// A scanned block's (triangle, block vertex) pairs.
+    std::vector<std::pair<std::int32_t, std::int32_t>> vertex_triangle;
+    std::vector<std::int32_t> vertices;                           ///< a scanned block's terrain vertices
     std::vector<std::int32_t> ridges;                             ///< may meet the block's box
-    std::vector<std::pair<std::int32_t, std::int32_t>> edge_ridge;  ///< (block edge, ridge)
+    std::vector<std::pair<std::int32_t, std::int32_t>> edge_ridge;  ///< a scanned block's (block edge, ridge)
     /// A detailed block's pairs with each of `triangles` and of `ridges` (at the same place).
     std::vector<Pairs> triangle_pairs, ridge_pairs;
     /// A detailed block's searches so far: pairs gathered in one search share its pose.

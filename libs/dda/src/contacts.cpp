@@ -352,18 +352,18 @@ double ridge_level_limit(const TerrainPatch::Ridge& te, const PlacedBlock& at, d
 }
 
 // The edges of a convex block (VertexClimb::fills) that pass `passes`, the test of
-// edge_pairs_near's tree query, on their own box, into `edges` (in no particular order),
+// gather_ridge_pairs's tree query, on their own box, into `edges` (in no particular order),
 // found by walks over the vertex graph: false when the walks would visit more vertices
 // than a tree query costs (`edges` then incomplete). In the body frame, with the ridge
 // from a to a + along: every edge that passes has a point within `deep` of the ridge, and
 // within `shallow` of it or an end under the ridge's planes `sides` (may_be_under of
-// edge_pairs_near: on a crest both, else either of `planes`; any when there are none). A
+// gather_ridge_pairs: on a crest both, else either of `planes`; any when there are none). A
 // point within D of the ridge lies under the plane u·r = max over the ridge of u·r + D for
 // every unit u, and so does an end of its edge: with u the direction from the ridge's
 // point nearest the centre to the centre, the plane cuts off the block's side next to
 // the ridge. So every such edge has an end under one of: that plane for `shallow`, and
 // for `deep` either that plane again or the planes of the ridge's triangles. Before
-// those, one walk under the plane `out` at `out_limit` (edge_pairs_near keeps no edge
+// those, one walk under the plane `out` at `out_limit` (gather_ridge_pairs keeps no edge
 // with both ends above it), which alone finds every edge that can pass when it is short.
 //
 // When that walk alone served, its cap is set in `cap` and `capped` (walked_cap); its
@@ -714,7 +714,7 @@ inline __attribute__((always_inline)) void edge_meets_ridge(const Pose& pose, st
   // any plane through that end. (14 of 61 532 crossings below ridges, in random poses on
   // the roughest bench slope, lay up to 2.5 cm above the ground, all within |gap| of a
   // ridge's end.) The crest test above stays: the index gathers a crest's deep pairs by
-  // it (edge_pairs_near), and it is cheaper.
+  // it (gather_ridge_pairs), and it is cheaper.
   if (gap < 0.0 && !in_ground(patch, pc, 2.0 * depth)) return;
   Contact c;
   c.kind = ContactKind::edge_edge;
@@ -830,7 +830,8 @@ void gather_triangle_pairs(const PlacedBlock& at, const TerrainPatch::Triangle& 
 }
 
 // The search of detect_contacts in `patch` for a detailed block, over the pairs of `c`
-// (gathered by gather_indexed at this pose or one close enough): every test of a search
+// (gathered per triangle and ridge by gather_triangle_pairs and gather_ridge_pairs, at
+// this pose or one close enough for them to serve, pairs_serve): every test of a search
 // that gathered at this very pose, in its order, so the same contacts in the same order,
 // those of the scan. Terrain vertices are searched afresh (the faces near each).
 void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds, double vertex_ds, double depth,

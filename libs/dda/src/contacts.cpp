@@ -459,102 +459,100 @@ bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, doub
     eigen.computeDirect(pose.map.transpose() * pose.map, Eigen::EigenvaluesOnly);
     stretch = std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff())) * (1.0 + 1e-6);
   }
-  {
-    // In the body frame: the ridge's segment, and the distances lengthened by F⁻¹. A pair
-    // with gap ≥ 0 has its crossing within ds of the ridge. One with gap < 0 has it at
-    // most `depth` from the ridge, below the plane of a triangle of the ridge: the normal
-    // n, oriented along the triangles' normal sum, has n·nᵢ ≥ 0 for one of them, and
-    // (pc − qc)·nᵢ = gap·(n·nᵢ) ≤ 0 (unknown for an edge of more than two triangles);
-    // on a crest below both planes (edge_meets_ridge).
-    const geometry::Aabb ridge_box = te.box.inflated(margin);
-    const double tol = at.round_off() + kRound * magnitude(ridge_box) + kSlack * margin + 1e-9 * model.radius;
-    // Every pair passes the distance tests below: its edge lies within `deep` of the
-    // ridge in the body frame, so within stretch·deep in the world. A ridge the block lies
-    // farther from has none, and most in the block's box do (those beside a round block's
-    // box corners): skipped by their separation, a lower bound of the distance between
-    // the ridge and the hull of the world vertices, which lie within twice their
-    // round-off of the exact images of the body points.
-    if (!climb.empty()) {
-      const double apart = separation(at, {te.pa, te.pb, te.pb}) - 4.0 * at.round_off() - 1e-9 * model.radius;
-      const double lengthened = stretch * at.inverse_stretch() * (1.0 + 1e-9);
-      if (apart > lengthened * (margin + 2.0 * tol)) {
-        // Still apart at a pose where the block has moved by d while the search's margin
-        // is m, if m + d ≤ apart / lengthened − 2·tol (lengthened ≥ 1 on a rigid pose;
-        // a stretched one's pairs serve only while every point moves by the motion).
-        p.basis = pose.rigid ? Basis::apart : Basis::queried;
-        p.room = apart / lengthened - 2.0 * tol;
-        return;
-      }
+  // In the body frame: the ridge's segment, and the distances lengthened by F⁻¹. A pair
+  // with gap ≥ 0 has its crossing within ds of the ridge. One with gap < 0 has it at
+  // most `depth` from the ridge, below the plane of a triangle of the ridge: the normal
+  // n, oriented along the triangles' normal sum, has n·nᵢ ≥ 0 for one of them, and
+  // (pc − qc)·nᵢ = gap·(n·nᵢ) ≤ 0 (unknown for an edge of more than two triangles);
+  // on a crest below both planes (edge_meets_ridge).
+  const geometry::Aabb ridge_box = te.box.inflated(margin);
+  const double tol = at.round_off() + kRound * magnitude(ridge_box) + kSlack * margin + 1e-9 * model.radius;
+  // Every pair passes the distance tests below: its edge lies within `deep` of the
+  // ridge in the body frame, so within stretch·deep in the world. A ridge the block lies
+  // farther from has none, and most in the block's box do (those beside a round block's
+  // box corners): skipped by their separation, a lower bound of the distance between
+  // the ridge and the hull of the world vertices, which lie within twice their
+  // round-off of the exact images of the body points.
+  if (!climb.empty()) {
+    const double apart = separation(at, {te.pa, te.pb, te.pb}) - 4.0 * at.round_off() - 1e-9 * model.radius;
+    const double lengthened = stretch * at.inverse_stretch() * (1.0 + 1e-9);
+    if (apart > lengthened * (margin + 2.0 * tol)) {
+      // Still apart at a pose where the block has moved by d while the search's margin
+      // is m, if m + d ≤ apart / lengthened − 2·tol (lengthened ≥ 1 on a rigid pose;
+      // a stretched one's pairs serve only while every point moves by the motion).
+      p.basis = pose.rigid ? Basis::apart : Basis::queried;
+      p.room = apart / lengthened - 2.0 * tol;
+      return;
     }
-    const geometry::Aabb body = at.body_box(ridge_box.inflated(tol));
-    const Vec3 a = pose.inverse_map * (te.pa - pose.centre);
-    const Vec3 along = pose.inverse_map * (te.pb - pose.centre) - a;
-    const double inverse_length2 = along.squaredNorm() > 0.0 ? 1.0 / along.squaredNorm() : 0.0;
-    const double shallow = at.inverse_stretch() * (ds + 2.0 * tol);
-    const double deep = at.inverse_stretch() * (margin + 2.0 * tol);
-    const int planes = te.normal_count <= 2 ? static_cast<int>(te.normal_count) : 0;
-    std::array<BodyPlane, 2> sides;
-    for (int k = 0; k < planes; ++k) {
-      const Vec3& normal = te.normals[static_cast<std::size_t>(k)];
-      sides[static_cast<std::size_t>(k)] = BodyPlane(pose, normal, te.pa, 4.0 * tol + normal.norm() * motion);
-    }
-    // Only edges at most `margin` above the ridge's highest point can pass (a crossing
-    // lies in the ridge's box inflated by the margin).
-    const BodyPlane ceiling_plane(pose, Vec3::UnitZ(), Vec3(0.0, 0.0, te.box.hi.z() + margin), tol);
-    // detect_indexed passes over an edge with both ends more than its ds above the ridge
-    // along `out`; a point moves by at most `motion` before the pairs are gathered again,
-    // so an edge with both ends more than ds (which holds that motion) above it here
-    // never reaches the test.
-    const BodyPlane out_plane(pose, te.out, te.pa, 0.0);
-    const double out_limit = ridge_level_limit(te, at, ds, margin, 2);
-    // Whether a deep pair may lie under the ridge's planes, `under(k)` telling whether
-    // the edge (or a box of edges) reaches under plane k: on a crest both, else either.
-    const auto may_be_under = [&](const auto& under) {
-      if (planes == 0) return true;
-      if (te.convex) return under(0) && under(1);
-      return under(0) || (planes == 2 && under(1));
-    };
-    const auto passes = [&](const geometry::Aabb& b) {
-      if (!overlaps(b, body)) return false;
-      const Vec3 c = b.center();
-      const Vec3 h = 0.5 * b.extent();
-      if (ceiling_plane.min_over(c, h) > 0.0) return false;
-      const double t = std::clamp((c - a).dot(along) * inverse_length2, 0.0, 1.0);
-      const double distance2 = (c - a - t * along).squaredNorm();
-      const double size = h.norm();
-      if (distance2 <= (shallow + size) * (shallow + size)) return true;
-      if (distance2 > (deep + size) * (deep + size)) return false;
-      return may_be_under([&](int k) { return sides[static_cast<std::size_t>(k)].min_over(c, h) <= 0.0; });
-    };
-    thread_local std::vector<std::int32_t> found;
-    bool capped = false;
-    if (!climb.fills() || !edges_by_walk(at, a, along, shallow, deep, planes, te.convex, sides, out_plane, out_limit,
-                                         motion, passes, found, p.cap, capped)) {
-      found.clear();
-      at.index()->convex_edges.query(passes, found);
-    }
-    p.basis = capped ? Basis::walked : Basis::queried;
-    // The same tests on each edge's own segment: its distance to the ridge's instead of
-    // a box's, its ends' plane values instead of a box's extremes (a segment's extremes
-    // along a plane lie at its ends). An edge's box is as long as the edge: the box
-    // tests let through 1.5–3 times the pairs that pass these.
-    for (const std::int32_t e : found) {
-      const BlockEdge& edge = model.edges[static_cast<std::size_t>(e)];
-      const Vec3& r0 = model.vertices[static_cast<std::size_t>(edge.a)];
-      const Vec3& r1 = model.vertices[static_cast<std::size_t>(edge.b)];
-      const auto lowest = [&](const BodyPlane& plane) {
-        return std::min(plane.min_over(r0, Vec3::Zero()), plane.min_over(r1, Vec3::Zero()));
-      };
-      if (lowest(ceiling_plane) > 0.0 || lowest(out_plane) >= out_limit) continue;
-      const double distance2 = segment_distance2(r0, r1, a, a + along);
-      if (distance2 > shallow * shallow &&
-          (distance2 > deep * deep ||
-           !may_be_under([&](int k) { return lowest(sides[static_cast<std::size_t>(k)]) <= 0.0; })))
-        continue;
-      edges.push_back(e);
-    }
-    std::sort(edges.begin(), edges.end());
   }
+  const geometry::Aabb body = at.body_box(ridge_box.inflated(tol));
+  const Vec3 a = pose.inverse_map * (te.pa - pose.centre);
+  const Vec3 along = pose.inverse_map * (te.pb - pose.centre) - a;
+  const double inverse_length2 = along.squaredNorm() > 0.0 ? 1.0 / along.squaredNorm() : 0.0;
+  const double shallow = at.inverse_stretch() * (ds + 2.0 * tol);
+  const double deep = at.inverse_stretch() * (margin + 2.0 * tol);
+  const int planes = te.normal_count <= 2 ? static_cast<int>(te.normal_count) : 0;
+  std::array<BodyPlane, 2> sides;
+  for (int k = 0; k < planes; ++k) {
+    const Vec3& normal = te.normals[static_cast<std::size_t>(k)];
+    sides[static_cast<std::size_t>(k)] = BodyPlane(pose, normal, te.pa, 4.0 * tol + normal.norm() * motion);
+  }
+  // Only edges at most `margin` above the ridge's highest point can pass (a crossing
+  // lies in the ridge's box inflated by the margin).
+  const BodyPlane ceiling_plane(pose, Vec3::UnitZ(), Vec3(0.0, 0.0, te.box.hi.z() + margin), tol);
+  // detect_indexed passes over an edge with both ends more than its ds above the ridge
+  // along `out`; a point moves by at most `motion` before the pairs are gathered again,
+  // so an edge with both ends more than ds (which holds that motion) above it here
+  // never reaches the test.
+  const BodyPlane out_plane(pose, te.out, te.pa, 0.0);
+  const double out_limit = ridge_level_limit(te, at, ds, margin, 2);
+  // Whether a deep pair may lie under the ridge's planes, `under(k)` telling whether
+  // the edge (or a box of edges) reaches under plane k: on a crest both, else either.
+  const auto may_be_under = [&](const auto& under) {
+    if (planes == 0) return true;
+    if (te.convex) return under(0) && under(1);
+    return under(0) || (planes == 2 && under(1));
+  };
+  const auto passes = [&](const geometry::Aabb& b) {
+    if (!overlaps(b, body)) return false;
+    const Vec3 c = b.center();
+    const Vec3 h = 0.5 * b.extent();
+    if (ceiling_plane.min_over(c, h) > 0.0) return false;
+    const double t = std::clamp((c - a).dot(along) * inverse_length2, 0.0, 1.0);
+    const double distance2 = (c - a - t * along).squaredNorm();
+    const double size = h.norm();
+    if (distance2 <= (shallow + size) * (shallow + size)) return true;
+    if (distance2 > (deep + size) * (deep + size)) return false;
+    return may_be_under([&](int k) { return sides[static_cast<std::size_t>(k)].min_over(c, h) <= 0.0; });
+  };
+  thread_local std::vector<std::int32_t> found;
+  bool capped = false;
+  if (!climb.fills() || !edges_by_walk(at, a, along, shallow, deep, planes, te.convex, sides, out_plane, out_limit,
+                                       motion, passes, found, p.cap, capped)) {
+    found.clear();
+    at.index()->convex_edges.query(passes, found);
+  }
+  p.basis = capped ? Basis::walked : Basis::queried;
+  // The same tests on each edge's own segment: its distance to the ridge's instead of
+  // a box's, its ends' plane values instead of a box's extremes (a segment's extremes
+  // along a plane lie at its ends). An edge's box is as long as the edge: the box
+  // tests let through 1.5–3 times the pairs that pass these.
+  for (const std::int32_t e : found) {
+    const BlockEdge& edge = model.edges[static_cast<std::size_t>(e)];
+    const Vec3& r0 = model.vertices[static_cast<std::size_t>(edge.a)];
+    const Vec3& r1 = model.vertices[static_cast<std::size_t>(edge.b)];
+    const auto lowest = [&](const BodyPlane& plane) {
+      return std::min(plane.min_over(r0, Vec3::Zero()), plane.min_over(r1, Vec3::Zero()));
+    };
+    if (lowest(ceiling_plane) > 0.0 || lowest(out_plane) >= out_limit) continue;
+    const double distance2 = segment_distance2(r0, r1, a, a + along);
+    if (distance2 > shallow * shallow &&
+        (distance2 > deep * deep ||
+         !may_be_under([&](int k) { return lowest(sides[static_cast<std::size_t>(k)]) <= 0.0; })))
+      continue;
+    edges.push_back(e);
+  }
+  std::sort(edges.begin(), edges.end());
 }
 
 // The exact tests of the contact search, shared by the scan of a block of few vertices
@@ -1211,24 +1209,6 @@ geometry::Aabb PlacedBlock::world_box(const geometry::Aabb& body) const {
 
 namespace {
 
-// How far the points of a block at `pose` have moved at most (m) since the pose of
-// gathering g (∞ when g holds no pairs of `model`): |Δcentre| + ‖ΔF‖·radius (map_change
-// bounds the spectral norm).
-double moved_since(const TerrainPatch::Candidates::Gathering& g, const Model& model, const Pose& pose) {
-  if (g.model != &model) return std::numeric_limits<double>::infinity();
-  return (pose.centre - g.centre).norm() + map_change(pose, g.map, g.rigid) * model.radius +
-         1e-9 * (pose.centre.cwiseAbs().maxCoeff() + model.radius);
-}
-
-// Whether a detailed block's pairs p with one triangle or ridge serve a search at `pose`
-// with distances ds and depth (m) (docs/dda.md, "Reusing the pairs"). Every point has
-// moved by at most `moved` = |Δcentre| + ‖ΔF‖·radius since they were gathered. Those of
-// a tree query serve while that is within the motion their tests were widened by, with
-// ds + moved and depth + moved within their distances. Those of a walk serve too while
-// the points within its cap's reach of its pivot move by at most that, μ = |Δ(pivot)| +
-// ‖ΔF‖·reach, and ‖ΔF‖·reach ≤ rise: every point the walk left out then stays out of
-// reach. None serve while the block stays above the triangle's plane, beside its prisms
-// or apart from the ridge.
 // How far a block at `pose` has moved since an earlier pose (centre, map, rigid): the
 // map's change and its bound, the centre's shift, and every point's motion at most
 // (|Δcentre| + ‖ΔF‖₂·radius, plus round-off), with the round-off allowance of each.
@@ -1249,6 +1229,22 @@ Motion motion_since(const Model& model, const Pose& pose, const TerrainPatch::Ca
   return m;
 }
 
+// How far the points of a block at `pose` have moved at most (m) since the pose of
+// gathering g (∞ when g holds no pairs of `model`; Motion::moved).
+double moved_since(const TerrainPatch::Candidates::Gathering& g, const Model& model, const Pose& pose) {
+  if (g.model != &model) return std::numeric_limits<double>::infinity();
+  return motion_since(model, pose, g).moved;
+}
+
+// Whether a detailed block's pairs p with one triangle or ridge serve a search at `pose`
+// with distances ds and depth (m) (docs/dda.md, "Reusing the pairs"). Every point has
+// moved by at most `moved` = |Δcentre| + ‖ΔF‖·radius since they were gathered. Those of
+// a tree query serve while that is within the motion their tests were widened by, with
+// ds + moved and depth + moved within their distances. Those of a walk serve too while
+// the points within its cap's reach of its pivot move by at most that, μ = |Δ(pivot)| +
+// ‖ΔF‖·reach, and ‖ΔF‖·reach ≤ rise: every point the walk left out then stays out of
+// reach. None serve while the block stays above the triangle's plane, beside its prisms
+// or apart from the ridge.
 bool pairs_serve(const TerrainPatch::Candidates::Pairs& p, const Motion& since, double ds, double depth) {
   using Basis = TerrainPatch::Candidates::Pairs::Basis;
   const double moved = since.moved;

@@ -369,8 +369,26 @@ TEST(DdaBlockIndex, SearchesAsTheScanOnATin) {
   EXPECT_GT(all.deep, 200u);
 }
 
+// The rim test's definition, vertex by vertex with no pruning (hangs_past_rim): a vertex
+// with no ground under it, whose nearest rim point within twice 1.25 radii lies higher
+// than it, and above the continued plane there, by more than the penetration limit.
+bool hangs_past_rim_by_definition(const Model& m, const terrain::Surface& surface, const State& s) {
+  const double r = 1.25 * m.radius;
+  for (const Vec3& p : world_vertices(m, s)) {
+    if (surface.height_at(p.x(), p.y())) continue;
+    const auto rim = surface.nearest_rim_point(p.x(), p.y(), 2.0 * r);
+    if (!rim) continue;
+    const Vec3 n = surface.normal(static_cast<std::size_t>(rim->triangle));
+    const double below = rim->point.z() - p.z();
+    const double depth = n.z() > 0.1 ? std::min(below, n.dot(rim->point - p)) : below;
+    if (depth > m.penetration_limit()) return true;
+  }
+  return false;
+}
+
 // Whether a detailed block hangs past the rim of `surface`, decided from the vertices its
-// tree finds near the rim or off the ground, and by a scan of every vertex, at 300 poses
+// tree finds near the rim or off the ground, by a scan of every vertex, and by the
+// definition with no pruning (neither the bounding sphere nor the rim's top), at 300 poses
 // of each detailed block, rigid (6 DOF) and strained (12 DOF), astride the four sides of
 // the surface's box (the centre up to 0.9 radius inside or outside them), from a radius
 // above the ground at the border to 1.5 radii below it, turned at random: the poses
@@ -413,6 +431,7 @@ std::pair<std::size_t, std::size_t> compare_rim_tests(const terrain::Surface& su
         const bool pruned = detail::hangs_past_rim(m, surface, s);
         const bool scanned = detail::hangs_past_rim(m, surface, s, /*scan=*/true);
         EXPECT_EQ(pruned, scanned) << "block " << m.faces.size() << " faces, pose " << k;
+        EXPECT_EQ(scanned, hangs_past_rim_by_definition(m, surface, s)) << "block " << m.faces.size() << " faces, pose " << k;
         (scanned ? past : kept) += 1;
       }
     }
@@ -421,8 +440,9 @@ std::pair<std::size_t, std::size_t> compare_rim_tests(const terrain::Surface& su
 }
 
 // The rim test of a detailed block looks only at the vertices its tree finds near the
-// rim or off the ground, on a grid and on a TIN without walls or folds, and answers as
-// the scan of every vertex (compare_rim_tests, 1 800 poses on each).
+// rim or off the ground, below the rim's top nearby less the penetration limit, on a
+// grid and on a TIN without walls or folds, and answers as the scan of every vertex and
+// as the definition (compare_rim_tests, 1 800 poses on each).
 TEST(DdaBlockIndex, RimTestAsTheScan) {
   const terrain::Terrain grid = rough_grid(), tin = bumpy_tin();
   for (const terrain::Terrain* t : {&grid, &tin}) {

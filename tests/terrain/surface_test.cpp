@@ -1,8 +1,10 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <set>
 #include <thread>
@@ -673,6 +675,49 @@ TEST(TinSurface, RimIsTheEdgesOfOneTriangleAndMatchesBruteForce) {
   EXPECT_FALSE(s.near_rim(Aabb{Vec3(15.5, 18.5, -1e3), Vec3(17.5, 20.5, 1e3)}));
   EXPECT_FALSE(s.nearest_rim_point(16.5, 19.5, 1.0));
   EXPECT_FALSE(s.rim_bounds_footprint());  // the wall and the roof
+}
+
+// rim_top bounds the realized elevation of every rim point in a plan box: at random
+// points in random boxes on a rough grid and on the rough general TIN (wall and roof
+// included), the rim point nearest to each (within the box's reach) lies no higher than
+// the top of the box widened by that reach. A box clear of the rim has none: −∞.
+TEST(TinSurface, RimTopBoundsTheRimPointsInABox) {
+  Terrain tin;
+  tin.mesh = general_tin();
+  tin.roughness = Roughness{0.2, 5};
+  const Terrain grid = rough_grid(Diagonal::random, 0.3, 8, 40, 36);
+  for (const Terrain* t : std::array<const Terrain*, 2>{&grid, &tin}) {
+    const Surface s = Surface::realize(*t, 7u);
+    const Aabb& b = s.bounds();
+    const RandomStream rng(t == &grid ? 42 : 43, Stream::bootstrap, 0);
+    int with_rim = 0;
+    for (std::uint64_t k = 0; k < 400; ++k) {
+      const auto u = [&](std::uint64_t j) { return rng.uniform(8 * k + j); };
+      const Vec3 centre(b.lo.x() - 3.0 + (b.hi.x() - b.lo.x() + 6.0) * u(0),
+                        b.lo.y() - 3.0 + (b.hi.y() - b.lo.y() + 6.0) * u(1), 0.0);
+      const Vec3 half(0.2 + 2.0 * u(2), 0.2 + 2.0 * u(3), 1.0);
+      const double reach = 0.5 + 2.0 * u(4);
+      const Aabb box{centre - half, centre + half};
+      const double top = s.rim_top(box.inflated(reach));
+      double highest = -std::numeric_limits<double>::infinity();
+      for (std::uint64_t j = 0; j < 40; ++j) {
+        const double x = box.lo.x() + (box.hi.x() - box.lo.x()) * rng.uniform(1000 * k + 2 * j + 100000);
+        const double y = box.lo.y() + (box.hi.y() - box.lo.y()) * rng.uniform(1000 * k + 2 * j + 100001);
+        const auto rim = s.nearest_rim_point(x, y, reach);
+        if (!rim) continue;
+        EXPECT_LE(rim->point.z(), top) << "box " << k;
+        highest = std::max(highest, rim->point.z());
+      }
+      if (std::isfinite(highest)) ++with_rim;
+    }
+    EXPECT_GT(with_rim, 100);
+  }
+  const Surface s = Surface::realize(grid, 7u);
+  const Aabb& b = s.bounds();
+  const Vec3 middle = 0.5 * (b.lo + b.hi);
+  EXPECT_EQ(s.rim_top(Aabb{middle - Vec3(2, 2, 1), middle + Vec3(2, 2, 1)}), -std::numeric_limits<double>::infinity());
+  EXPECT_EQ(s.rim_top(Aabb{b.lo - Vec3(9, 9, 1), b.lo - Vec3(1, 1, 0)}), -std::numeric_limits<double>::infinity());
+  EXPECT_TRUE(std::isfinite(s.rim_top(Aabb{b.lo - Vec3(1, 1, 1), b.lo + Vec3(1, 1, 1)})));
 }
 
 }  // namespace

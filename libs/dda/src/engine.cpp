@@ -48,15 +48,22 @@ namespace detail {
 // ground). A block that overhangs the rim while resting on or moving over the ground
 // lies on the continued plane, and one hanging over the crest of a slope that rises
 // beyond the rim lies above the rim: both go on. The test costs nothing while the
-// block's bounding sphere is clear of the rim.
+// block's bounding sphere is clear of the rim, and near it looks only at the vertices
+// lower than the rim nearby by the penetration limit (`floor`).
 bool hangs_past_rim(const Model& model, const terrain::Surface& surf, const State& s, bool scan) {
   // The bounding sphere with room for the 12-DOF path's strains.
   const double r = 1.25 * model.radius;
   const geometry::Aabb plan{s.position - Vec3::Constant(r), s.position + Vec3::Constant(r)};
   if (!surf.near_rim(plan)) return false;
   const double limit = model.penetration_limit();
+  // A vertex's rim point lies within 2r of it in plan, so within 2r of the plan box, no
+  // higher than `top` (Surface::rim_top, raised by far more than the round-off of the
+  // depths below): a vertex at or above `floor` lies less than the limit below it, and is
+  // not past the rim. (A detailed block rolling off the end of the ground looked at
+  // thousands of vertices a step, most of them far above it.)
+  const double floor = surf.rim_top(plan.inflated(2.0 * r)) - limit;
   const auto past = [&](const Vec3& p) {
-    if (surf.height_at(p.x(), p.y())) return false;
+    if (p.z() >= floor || surf.height_at(p.x(), p.y())) return false;
     const auto rim = surf.nearest_rim_point(p.x(), p.y(), 2.0 * r);
     if (!rim) return false;
     const Vec3 n = surf.normal(static_cast<std::size_t>(rim->triangle));
@@ -88,6 +95,7 @@ bool hangs_past_rim(const Model& model, const terrain::Surface& surf, const Stat
   model.index->vertices.query(
       [&](const geometry::Aabb& body) {
         const geometry::Aabb w = at.world_box(body).inflated(widening);
+        if (w.lo.z() >= floor) return false;
         if (surf.near_rim(w)) return true;
         const Vec3 c = w.center();
         return !surf.height_at(c.x(), c.y());

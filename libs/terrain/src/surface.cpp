@@ -602,6 +602,53 @@ std::optional<Surface::RimPoint> Surface::nearest_rim_point(double x, double y, 
   return RimPoint{best_p, rim.triangle_of_edge[static_cast<std::size_t>(best_e)]};
 }
 
+double Surface::rim_top(const Aabb& box) const {
+  double top = -std::numeric_limits<double>::infinity();
+  double magnitude = 0.0;
+  const auto take = [&](double z) {
+    top = std::max(top, z);
+    magnitude = std::max(magnitude, std::abs(z));
+  };
+  if (impl_->grid_mode) {
+    const Aabb& b = bounds();
+    if (box.hi.x() < b.lo.x() || box.lo.x() > b.hi.x() || box.hi.y() < b.lo.y() || box.lo.y() > b.hi.y() ||
+        !near_rim(box))
+      return top;
+    const auto& spec = impl_->spec;
+    // The range of point indices whose cells the box spans along an axis, one wider on
+    // each side.
+    const auto span = [](double lo, double hi, double origin, double step, std::int32_t count) {
+      const double first = std::floor((lo - origin) / step) - 1.0;
+      const double last = std::ceil((hi - origin) / step) + 1.0;
+      return std::pair{static_cast<std::int32_t>(std::clamp(first, 0.0, count - 1.0)),
+                       static_cast<std::int32_t>(std::clamp(last, 0.0, count - 1.0))};
+    };
+    const auto [i0, i1] = span(box.lo.x(), box.hi.x(), spec.x0, spec.dx, spec.nx);
+    const auto [j0, j1] = span(box.lo.y(), box.hi.y(), spec.y0, spec.dy, spec.ny);
+    // A side's two rows of points, over the range (a point clamped to a side may round
+    // into the cell's inner half).
+    const auto column = [&](std::int32_t i) {
+      for (std::int32_t j = j0; j <= j1; ++j) take(impl_->z(i, j));
+    };
+    const auto row = [&](std::int32_t j) {
+      for (std::int32_t i = i0; i <= i1; ++i) take(impl_->z(i, j));
+    };
+    if (box.lo.x() <= b.lo.x()) column(0), column(std::min(1, spec.nx - 1));
+    if (box.hi.x() >= b.hi.x()) column(spec.nx - 1), column(std::max(0, spec.nx - 2));
+    if (box.lo.y() <= b.lo.y()) row(0), row(std::min(1, spec.ny - 1));
+    if (box.hi.y() >= b.hi.y()) row(spec.ny - 1), row(std::max(0, spec.ny - 2));
+  } else {
+    const Impl::SharedRim& rim = impl_->shared_rim();
+    const Aabb plan{Vec3(box.lo.x(), box.lo.y(), -1.0), Vec3(box.hi.x(), box.hi.y(), 1.0)};
+    rim.tree.overlapping(plan, [&](std::int32_t e) {
+      const auto& edge = rim.edges[static_cast<std::size_t>(e)];
+      take(impl_->vertex(static_cast<std::size_t>(edge[0])).z());
+      take(impl_->vertex(static_cast<std::size_t>(edge[1])).z());
+    });
+  }
+  return top + 1e-9 * (1.0 + magnitude);
+}
+
 geometry::TriangleMesh Surface::to_mesh() const {
   geometry::TriangleMesh mesh;
   const std::size_t nv = vertex_count();

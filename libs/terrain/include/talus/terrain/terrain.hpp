@@ -216,6 +216,12 @@ class Surface {
     std::int32_t triangle = -1;
   };
   std::optional<RimPoint> nearest_rim_point(double x, double y, double reach) const;
+  /// An upper bound of the realized elevation (m) of the rim's points within the plan box
+  /// (x and y of `box`), −∞ when no rim point can lie in it: on a grid the highest of the
+  /// two rows of points along each border side the box meets, over the cells it spans;
+  /// on a TIN the highest end of a rim edge whose plan box meets it; raised by 1e-9 of
+  /// the elevations (far more than the round-off of a point interpolated between them).
+  double rim_top(const Aabb& box) const;
   /// Every triangle, realized (for export and tests; costs the whole terrain).
   geometry::TriangleMesh to_mesh() const;
 

@@ -54,6 +54,10 @@ EXCLUDED = [
      "the whole bench-slope study (about 35 s on two cores) and its check; the bench_slope_make test runs "
      "the check (the study at 16 realizations per level, outputs checked)"),
     (r"^bench/pareto/pareto\.py\b", "run time against error: about 80 runs of 500 realizations (an hour on 2 cores)"),
+    (r"^valgrind --tool=callgrind\b",
+     "instruction counts: the run under valgrind takes minutes; the same run without it is the whole-run law's "
+     "command in the same document"),
+    (r"^callgrind_annotate\b", "reads the counts of the valgrind command before it"),
 ]
 
 # Commands that need a part of the build that is optional: run when it is there.

@@ -35,6 +35,47 @@ TEST(DdaModel, CubeMassAndInertia) {
   EXPECT_EQ(m.faces.size(), 6u);
 }
 
+// A square pyramid whose base is split into two triangles along a diagonal, the corner
+// (1, 0, 0) lowered by `drop` (m): the diagonal is flat when drop = 0, bent outwards
+// (convex) when drop < 0 and inwards (reflex) when drop > 0.
+geometry::Polyhedron split_pyramid(double drop) {
+  geometry::Polyhedron p;
+  p.vertices = {Vec3(0, 0, 0), Vec3(1, 0, -drop), Vec3(1, 1, 0), Vec3(0, 1, 0), Vec3(0.5, 0.5, 1)};
+  p.faces = {{0, 2, 1}, {0, 3, 2}, {0, 1, 4}, {1, 2, 4}, {2, 3, 4}, {3, 0, 4}};
+  return p;
+}
+
+// The block is convex unless it bends inwards at some edge. Between two triangles that is
+// decided exactly: a flat diagonal (a flat face split in two) or one bent outwards by
+// far less than the convex-edge tolerance (1e-9 of the radius) keeps the block convex,
+// though neither is a convex edge; one bent inwards by as little does not. A triangulated
+// cube is convex too.
+TEST(DdaModel, ConvexUnlessAnEdgeBendsInwardsExactly) {
+  for (const double drop : {0.0, -1e-13, 1e-13, -1e-3, 1e-3}) {
+    const Model m = Model::build(Settings{}, split_pyramid(drop));
+    EXPECT_EQ(m.convex, drop <= 0.0) << drop;
+    const auto diagonal = std::find_if(m.edges.begin(), m.edges.end(), [](const BlockEdge& e) {
+      return (e.a == 0 && e.b == 2) || (e.a == 2 && e.b == 0);
+    });
+    ASSERT_NE(diagonal, m.edges.end());
+    EXPECT_EQ(diagonal->convex, drop == -1e-3) << drop;
+    EXPECT_EQ(std::count_if(m.edges.begin(), m.edges.end(), [](const BlockEdge& e) { return e.convex; }),
+              drop == -1e-3 ? 9 : 8)
+        << drop;
+  }
+  geometry::Polyhedron cube12;
+  cube12.vertices = cube(1.0).vertices;
+  for (const auto& face : cube(1.0).faces) {
+    ASSERT_EQ(face.size(), 4u);
+    cube12.faces.push_back({face[0], face[1], face[2]});
+    cube12.faces.push_back({face[0], face[2], face[3]});
+  }
+  const Model m = Model::build(Settings{}, cube12);
+  EXPECT_TRUE(m.convex);
+  EXPECT_EQ(std::count_if(m.edges.begin(), m.edges.end(), [](const BlockEdge& e) { return e.convex; }), 12);
+  EXPECT_EQ(m.edges.size(), 18u);
+}
+
 // The simplex-integrated 12×12 mass matrix against Gauss quadrature over a box
 // (2 points per axis integrate the quadratic integrand exactly).
 TEST(DdaModel, MassMatrixMatchesQuadrature) {

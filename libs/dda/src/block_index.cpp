@@ -24,6 +24,8 @@ void VertexClimb::build(const Model& model) {
   neighbours_.resize(static_cast<std::size_t>(offsets_[n]));
   edges_.resize(neighbours_.size());
   longest_.assign(n, 0.0);
+  radius_ = 0.0;
+  for (const Vec3& r : model.vertices) radius_ = std::max(radius_, r.norm());
   std::vector<std::int32_t> fill(offsets_.begin(), offsets_.end() - 1);
   for (std::size_t k = 0; k < model.edges.size(); ++k) {
     const BlockEdge& e = model.edges[k];
@@ -85,6 +87,27 @@ bool VertexClimb::below(const std::vector<Vec3>& vertices, const Vec3& m, double
     }
   }
   return true;
+}
+
+std::int32_t VertexClimb::beyond_plateau(const std::vector<Vec3>& vertices, const Vec3& m, std::int32_t at,
+                                         double best, double tie) const {
+  thread_local RoundMarks met;
+  thread_local std::vector<std::int32_t> plateau;
+  met.start(vertices.size());
+  met.mark(at);
+  plateau.assign(1, at);
+  for (std::size_t next = 0; next < plateau.size(); ++next) {
+    const std::int32_t v = plateau[next];
+    const std::int32_t end = offsets_[static_cast<std::size_t>(v) + 1];
+    for (std::int32_t k = offsets_[static_cast<std::size_t>(v)]; k < end; ++k) {
+      const std::int32_t w = neighbours_[static_cast<std::size_t>(k)];
+      if (!met.mark(w)) continue;
+      const double value = m.dot(vertices[static_cast<std::size_t>(w)]);
+      if (value > best + tie) return w;
+      if (value >= best - tie) plateau.push_back(w);
+    }
+  }
+  return -1;
 }
 
 int VertexClimb::cell(const Vec3& m) {

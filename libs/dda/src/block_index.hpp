@@ -84,8 +84,11 @@ class RoundMarks {
 /// farthest along a body direction m, max m·rᵢ, in a few steps instead of a tree search.
 /// On a convex polyhedron a vertex none of whose neighbours lies farther is the farthest
 /// of all (exactly; in floating point within a few ulps of |m|·radius, which the callers
-/// allow for). The walk starts at the farthest vertex along the centre of the cell of a
-/// cube map (6 faces of kCells × kCells cells, tabulated) that m points into, a few
+/// allow for), unless it lies on a plateau: a flat face of many triangles (Model::convex
+/// lets their edges be flat) across m, whose vertices are all as far. Where some neighbour
+/// is as far to within kTie of |m|₁·radius, the plateau is searched for a way on
+/// (beyond_plateau). The walk starts at the farthest vertex along the centre of the cell of
+/// a cube map (6 faces of kCells × kCells cells, tabulated) that m points into, a few
 /// degrees from m, so its result depends on m alone and it takes a few steps.
 class VertexClimb {
  public:
@@ -99,16 +102,24 @@ class VertexClimb {
     double best = m.dot(vertices[static_cast<std::size_t>(at)]);
     for (;;) {
       std::int32_t next = -1;
+      double nearest = -std::numeric_limits<double>::infinity();  // the neighbours' largest value
       const std::int32_t end = offsets_[static_cast<std::size_t>(at) + 1];
       for (std::int32_t k = offsets_[static_cast<std::size_t>(at)]; k < end; ++k) {
         const std::int32_t j = neighbours_[static_cast<std::size_t>(k)];
         const double value = m.dot(vertices[static_cast<std::size_t>(j)]);
+        nearest = std::max(nearest, value);
         if (value > best) {
           best = value;
           next = j;
         }
       }
-      if (next < 0) return at;
+      if (next < 0) {
+        const double tie = kTie * radius_ * m.cwiseAbs().sum();
+        if (!(nearest >= best - tie)) return at;
+        next = beyond_plateau(vertices, m, at, best, tie);
+        if (next < 0) return at;
+        best = m.dot(vertices[static_cast<std::size_t>(next)]);
+      }
       at = next;
     }
   }
@@ -145,6 +156,14 @@ class VertexClimb {
   std::vector<std::int32_t> offsets_, neighbours_;  ///< the graph, compressed rows
   std::vector<std::int32_t> edges_;                  ///< the edge to each neighbour
   std::vector<double> longest_;                      ///< of each vertex (m)
+  double radius_ = 0.0;                              ///< the largest |r| of a vertex (m)
+  static constexpr double kTie = 1e-12;              ///< a plateau's spread, of |m|₁·radius
+  /// From vertex `at` (value `best` along m, no neighbour beyond it): through the
+  /// vertices connected to it within `tie` of that value, a vertex more than `tie` beyond
+  /// it, or −1 when there is none (`at` is then the farthest, to within the plateau's
+  /// spread).
+  std::int32_t beyond_plateau(const std::vector<Vec3>& vertices, const Vec3& m, std::int32_t at, double best,
+                              double tie) const;
   bool fills_ = false;
   std::vector<std::int32_t> starts_;                ///< farthest vertex along each cell's centre
 };

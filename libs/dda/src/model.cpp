@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "block_index.hpp"
+#include "convexity.hpp"
 #include "talus/core/error.hpp"
 
 namespace talus::dda {
@@ -178,9 +179,17 @@ RestitutionLaw parse_restitution(const std::string& text) {
 }
 
 // Checks the polyhedron is closed and consistently oriented (each directed edge once,
-// its reverse once) and returns its edges with their convexity.
+// its reverse once) and returns its edges with their convexity: convex where the far
+// face lies behind the near face's plane by more than tol (only those can touch terrain
+// edge to edge). `reflex` tells whether the solid bends inwards at some edge. Between two
+// triangles that is decided exactly: an edge whose far triangle lies on the near one's
+// plane (a flat face split in two, as meshes and hulls of many points have them) or
+// behind it bends nowhere, though it is no convex edge; the block is then still convex
+// (the vertex graph's climbs and walks hold, docs/dda.md). Next to a polygon of more
+// vertices, planar only to within 1e-6 of the radius, an edge that is not convex counts
+// as reflex.
 std::vector<BlockEdge> build_edges(const geometry::Polyhedron& poly, const std::vector<BlockFace>& faces,
-                                   const std::vector<Vec3>& verts, double tol) {
+                                   const std::vector<Vec3>& verts, double tol, bool& reflex) {
   std::map<std::pair<std::int32_t, std::int32_t>, std::int32_t> directed;  // edge -> face
   for (std::size_t f = 0; f < poly.faces.size(); ++f) {
     const auto& face = poly.faces[f];
@@ -207,6 +216,16 @@ std::vector<BlockEdge> build_edges(const geometry::Polyhedron& poly, const std::
     far_center /= static_cast<double>(far.vertices.size());
     const bool convex = near.normal.dot(far_center) - near.offset < -tol;
     edges.push_back(BlockEdge{key.first, key.second, convex});
+    if (convex || reflex) continue;
+    if (near.vertices.size() != 3 || far.vertices.size() != 3) {
+      reflex = true;
+      continue;
+    }
+    // The far triangle's vertex off the edge.
+    std::int32_t w = far.vertices[0];
+    for (const std::int32_t v : far.vertices)
+      if (v != key.first && v != key.second) w = v;
+    reflex = !detail::on_or_behind(verts[near.vertices[0]], verts[near.vertices[1]], verts[near.vertices[2]], verts[w]);
   }
   return edges;
 }
@@ -276,8 +295,9 @@ Model Model::build(const Settings& settings, const geometry::Polyhedron& block) 
     for (std::int32_t v : face) f.polygon.emplace_back(f.u.dot(m.vertices[v]), f.v.dot(m.vertices[v]));
     m.faces.push_back(std::move(f));
   }
-  m.edges = build_edges(block, m.faces, m.vertices, tol);
-  m.convex = std::all_of(m.edges.begin(), m.edges.end(), [](const BlockEdge& e) { return e.convex; });
+  bool reflex = false;
+  m.edges = build_edges(block, m.faces, m.vertices, tol, reflex);
+  m.convex = !reflex;
   if (m.vertices.size() > detail::kScannedVertices)
     m.index = std::make_shared<const detail::BlockIndex>(detail::make_block_index(m, 1e-6 * m.radius));
   m.elasticity = isotropic_elasticity(settings.young_modulus, settings.poisson_ratio);

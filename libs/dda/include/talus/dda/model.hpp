@@ -67,7 +67,9 @@ struct Model {
   /// Normal contact spring stiffness in use (N/m): Settings::penalty_stiffness, or from
   /// the mass and penalty_omega when that is 0.
   double stiffness = 0.0;
-  bool convex = true;  ///< every edge of the block is convex
+  /// The solid bends inwards at no edge: every edge is convex, or flat between two
+  /// triangles on one plane (decided exactly).
+  bool convex = true;
   /// Box trees over the vertices, convex edges and faces (body frame), through which
   /// contact detection and the step control find the features they need in logarithmic
   /// time (docs/dda.md, Detection); null for a block of few vertices, which is scanned.

@@ -12,6 +12,7 @@ void VertexClimb::build(const Model& model) {
   edges_.clear();
   longest_.clear();
   fills_ = false;
+  plateaus_ = false;
   if (!model.convex) return;
   const std::size_t n = model.vertices.size();
   std::vector<std::int32_t> degree(n, 0);
@@ -26,6 +27,7 @@ void VertexClimb::build(const Model& model) {
   longest_.assign(n, 0.0);
   radius_ = 0.0;
   for (const Vec3& r : model.vertices) radius_ = std::max(radius_, r.norm());
+  plateaus_ = std::any_of(model.edges.begin(), model.edges.end(), [](const BlockEdge& e) { return !e.convex; });
   std::vector<std::int32_t> fill(offsets_.begin(), offsets_.end() - 1);
   for (std::size_t k = 0; k < model.edges.size(); ++k) {
     const BlockEdge& e = model.edges[k];

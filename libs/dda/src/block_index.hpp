@@ -98,30 +98,7 @@ class VertexClimb {
   /// The vertex farthest along m (body frame): from the tabulated start, or from `from`
   /// when that is a vertex (a walk of nearby directions, warm).
   std::int32_t farthest(const std::vector<Vec3>& vertices, const Vec3& m, std::int32_t from = -1) const {
-    std::int32_t at = from >= 0 ? from : start(m);
-    double best = m.dot(vertices[static_cast<std::size_t>(at)]);
-    for (;;) {
-      std::int32_t next = -1;
-      double nearest = -std::numeric_limits<double>::infinity();  // the neighbours' largest value
-      const std::int32_t end = offsets_[static_cast<std::size_t>(at) + 1];
-      for (std::int32_t k = offsets_[static_cast<std::size_t>(at)]; k < end; ++k) {
-        const std::int32_t j = neighbours_[static_cast<std::size_t>(k)];
-        const double value = m.dot(vertices[static_cast<std::size_t>(j)]);
-        nearest = std::max(nearest, value);
-        if (value > best) {
-          best = value;
-          next = j;
-        }
-      }
-      if (next < 0) {
-        const double tie = kTie * radius_ * m.cwiseAbs().sum();
-        if (!(nearest >= best - tie)) return at;
-        next = beyond_plateau(vertices, m, at, best, tie);
-        if (next < 0) return at;
-        best = m.dot(vertices[static_cast<std::size_t>(next)]);
-      }
-      at = next;
-    }
+    return plateaus_ ? climb<true>(vertices, m, from) : climb<false>(vertices, m, from);
   }
   /// Whether below() applies: the block is convex and every face a triangle, so that the
   /// graph is exactly the edge graph of a convex polytope.
@@ -157,6 +134,37 @@ class VertexClimb {
   std::vector<std::int32_t> edges_;                  ///< the edge to each neighbour
   std::vector<double> longest_;                      ///< of each vertex (m)
   double radius_ = 0.0;                              ///< the largest |r| of a vertex (m)
+  bool plateaus_ = false;                            ///< some edge is flat (not convex)
+  /// farthest(), on a graph with flat edges (kPlateaus) or with none: a block whose
+  /// edges are all convex has no flat region, and its climbs skip the plateau test.
+  template <bool kPlateaus>
+  std::int32_t climb(const std::vector<Vec3>& vertices, const Vec3& m, std::int32_t from) const {
+    std::int32_t at = from >= 0 ? from : start(m);
+    double best = m.dot(vertices[static_cast<std::size_t>(at)]);
+    for (;;) {
+      std::int32_t next = -1;
+      double nearest = -std::numeric_limits<double>::infinity();  // the neighbours' largest value
+      const std::int32_t end = offsets_[static_cast<std::size_t>(at) + 1];
+      for (std::int32_t k = offsets_[static_cast<std::size_t>(at)]; k < end; ++k) {
+        const std::int32_t j = neighbours_[static_cast<std::size_t>(k)];
+        const double value = m.dot(vertices[static_cast<std::size_t>(j)]);
+        if constexpr (kPlateaus) nearest = std::max(nearest, value);
+        if (value > best) {
+          best = value;
+          next = j;
+        }
+      }
+      if (next < 0) {
+        if constexpr (!kPlateaus) return at;
+        const double tie = kTie * radius_ * m.cwiseAbs().sum();
+        if (!(nearest >= best - tie)) return at;
+        next = beyond_plateau(vertices, m, at, best, tie);
+        if (next < 0) return at;
+        best = m.dot(vertices[static_cast<std::size_t>(next)]);
+      }
+      at = next;
+    }
+  }
   static constexpr double kTie = 1e-12;              ///< a plateau's spread, of |m|₁·radius
   /// From vertex `at` (value `best` along m, no neighbour beyond it): through the
   /// vertices connected to it within `tie` of that value, a vertex more than `tie` beyond

@@ -8,7 +8,6 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
-#include <map>
 #include <numeric>
 #include <vector>
 
@@ -36,56 +35,12 @@ geometry::Polyhedron solid(block::SolidKind kind, int resolution, double roughne
   return block::make_solid(spec, "test");
 }
 
-// A box of 1.2 × 1.0 × 0.8 m whose faces are grids of n × n squares, each split into two
-// triangles: a convex block whose flat faces are made of many triangles, as meshes and
-// hulls have them (the edges inside a face are flat, exactly: no convex edges, and no
-// reflex ones), with ties along the axes.
-geometry::Polyhedron faceted_box(int n) {
-  const Vec3 half(0.6, 0.5, 0.4);
-  geometry::Polyhedron poly;
-  std::map<std::array<int, 3>, std::int32_t> ids;
-  const auto vertex = [&](std::array<int, 3> g) {
-    const auto [it, fresh] = ids.emplace(g, static_cast<std::int32_t>(poly.vertices.size()));
-    if (fresh) {
-      Vec3 p;
-      for (int k = 0; k < 3; ++k) p[k] = half[k] * (2.0 * g[static_cast<std::size_t>(k)] / n - 1.0);
-      poly.vertices.push_back(p);
-    }
-    return it->second;
-  };
-  for (int axis = 0; axis < 3; ++axis)
-    for (int side = 0; side < 2; ++side) {
-      // (u, v, axis) right-handed: u × v points out on the upper side, in on the lower.
-      const int u = (axis + 1) % 3, v = (axis + 2) % 3;
-      for (int i = 0; i < n; ++i)
-        for (int j = 0; j < n; ++j) {
-          std::array<std::int32_t, 4> corner{};
-          const int di[4] = {0, 1, 1, 0}, dj[4] = {0, 0, 1, 1};
-          for (int c = 0; c < 4; ++c) {
-            std::array<int, 3> g{};
-            g[static_cast<std::size_t>(axis)] = side * n;
-            g[static_cast<std::size_t>(u)] = i + di[c];
-            g[static_cast<std::size_t>(v)] = j + dj[c];
-            corner[static_cast<std::size_t>(c)] = vertex(g);
-          }
-          if (side == 1) {
-            poly.faces.push_back({corner[0], corner[1], corner[2]});
-            poly.faces.push_back({corner[0], corner[2], corner[3]});
-          } else {
-            poly.faces.push_back({corner[0], corner[2], corner[1]});
-            poly.faces.push_back({corner[0], corner[3], corner[2]});
-          }
-        }
-    }
-  return poly;
-}
-
 // Smooth and rough ellipsoids (convex and concave meshes of 5120 and 1280 triangles), the
 // hull of 200 random points and a box of flat faces split into triangles: each above the
 // scanning threshold.
 std::vector<geometry::Polyhedron> detailed_blocks() {
   return {solid(block::SolidKind::ellipsoid, 16, 0.0), solid(block::SolidKind::ellipsoid, 8, 0.15),
-          solid(block::SolidKind::rock, 8, 0.0, 200), faceted_box(6)};
+          solid(block::SolidKind::rock, 8, 0.0, 200), testing::faceted_box(6)};
 }
 
 terrain::Terrain rough_grid() {
@@ -515,7 +470,7 @@ TEST(DdaBlockIndex, OnlyDetailedBlocksAreIndexed) {
   EXPECT_TRUE(sphere.convex);
   EXPECT_FALSE(Model::build(Settings{}, solid(block::SolidKind::ellipsoid, 8, 0.15)).convex);
   // Flat faces split into triangles: convex, with a graph to climb and walk.
-  const Model facets = Model::build(Settings{}, faceted_box(6));
+  const Model facets = Model::build(Settings{}, testing::faceted_box(6));
   ASSERT_NE(facets.index, nullptr);
   EXPECT_TRUE(facets.convex);
   EXPECT_TRUE(facets.index->climb.fills());
@@ -530,7 +485,8 @@ TEST(DdaBlockIndex, ClimbFindsTheFarthestVertex) {
   const core::RandomStream rng(5, core::Stream::release, 3);
   for (const geometry::Polyhedron& poly :
        {solid(block::SolidKind::ellipsoid, 16, 0.0), solid(block::SolidKind::ellipsoid, 32, 0.0),
-        solid(block::SolidKind::rock, 8, 0.0, 200), faceted_box(6), solid(block::SolidKind::ellipsoid, 8, 0.15)}) {
+        solid(block::SolidKind::rock, 8, 0.0, 200), testing::faceted_box(6),
+        solid(block::SolidKind::ellipsoid, 8, 0.15)}) {
     const Model m = Model::build(Settings{}, poly);
     ASSERT_NE(m.index, nullptr);
     const detail::VertexClimb& climb = m.index->climb;
@@ -568,7 +524,7 @@ TEST(DdaBlockIndex, WalkFindsTheVerticesUnderAPlane) {
   const core::RandomStream rng(6, core::Stream::release, 3);
   for (const geometry::Polyhedron& poly :
        {solid(block::SolidKind::ellipsoid, 16, 0.0), solid(block::SolidKind::ellipsoid, 32, 0.0),
-        solid(block::SolidKind::rock, 8, 0.0, 200), faceted_box(6)}) {
+        solid(block::SolidKind::rock, 8, 0.0, 200), testing::faceted_box(6)}) {
     const Model m = Model::build(Settings{}, poly);
     ASSERT_NE(m.index, nullptr);
     const detail::VertexClimb& climb = m.index->climb;

@@ -1,7 +1,10 @@
 // SPDX-License-Identifier: MIT
 // Blocks and planar terrains shared by the DDA tests and benchmarks.
 #pragma once
+#include <array>
 #include <cmath>
+#include <cstdint>
+#include <map>
 #include <vector>
 
 #include "talus/block/solids.hpp"
@@ -81,6 +84,50 @@ inline terrain::Material material(double friction_coefficient, double restitutio
   m.restitution_scale = scale;
   m.lateral_tilt_sd_deg = 0.0;
   return m;
+}
+
+/// A box of 1.2 × 1.0 × 0.8 m whose faces are grids of n × n squares, each split into two
+/// triangles: a convex block whose flat faces are made of many triangles, as meshes and
+/// hulls have them (the edges inside a face are flat, exactly: no convex edges, and no
+/// reflex ones), with ties along the axes.
+inline geometry::Polyhedron faceted_box(int n) {
+  const Vec3 half(0.6, 0.5, 0.4);
+  geometry::Polyhedron poly;
+  std::map<std::array<int, 3>, std::int32_t> ids;
+  const auto vertex = [&](std::array<int, 3> g) {
+    const auto [it, fresh] = ids.emplace(g, static_cast<std::int32_t>(poly.vertices.size()));
+    if (fresh) {
+      Vec3 p;
+      for (int k = 0; k < 3; ++k) p[k] = half[k] * (2.0 * g[static_cast<std::size_t>(k)] / n - 1.0);
+      poly.vertices.push_back(p);
+    }
+    return it->second;
+  };
+  for (int axis = 0; axis < 3; ++axis)
+    for (int side = 0; side < 2; ++side) {
+      // (u, v, axis) right-handed: u × v points out on the upper side, in on the lower.
+      const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+      for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) {
+          std::array<std::int32_t, 4> corner{};
+          const int di[4] = {0, 1, 1, 0}, dj[4] = {0, 0, 1, 1};
+          for (int c = 0; c < 4; ++c) {
+            std::array<int, 3> g{};
+            g[static_cast<std::size_t>(axis)] = side * n;
+            g[static_cast<std::size_t>(u)] = i + di[c];
+            g[static_cast<std::size_t>(v)] = j + dj[c];
+            corner[static_cast<std::size_t>(c)] = vertex(g);
+          }
+          if (side == 1) {
+            poly.faces.push_back({corner[0], corner[1], corner[2]});
+            poly.faces.push_back({corner[0], corner[2], corner[3]});
+          } else {
+            poly.faces.push_back({corner[0], corner[2], corner[1]});
+            poly.faces.push_back({corner[0], corner[3], corner[2]});
+          }
+        }
+    }
+  return poly;
 }
 
 }  // namespace talus::dda::testing

@@ -70,46 +70,32 @@ bool VertexClimb::below(const std::vector<Vec3>& vertices, const Vec3& m, double
   if (rise > 0.0) level = std::max(level, lowest + rise);
   const double top = level + slack;
   if (!(lowest <= top)) return true;
-  // The vertices met in this walk: each is tested once.
-  thread_local RoundMarks met;
-  met.start(vertices.size());
-  met.mark(start);
-  out.push_back(start);
-  // `out` is the walk's stack too: the vertices from `next` on are still to be expanded.
-  for (std::size_t next = 0; next < out.size(); ++next) {
-    const std::int32_t v = out[next];
-    const std::int32_t end = offsets_[static_cast<std::size_t>(v) + 1];
-    for (std::int32_t k = offsets_[static_cast<std::size_t>(v)]; k < end; ++k) {
-      const std::int32_t w = neighbours_[static_cast<std::size_t>(k)];
-      if (!met.mark(w)) continue;
-      if (m.dot(vertices[static_cast<std::size_t>(w)]) <= top) {
-        if (out.size() >= limit) return false;
-        out.push_back(w);
-      }
+  std::int32_t stopped = -1;
+  spread(start, vertices.size(), out, [&](std::int32_t w) {
+    if (!(m.dot(vertices[static_cast<std::size_t>(w)]) <= top)) return Reach::pass;
+    if (out.size() >= limit) {
+      stopped = w;
+      return Reach::stop;
     }
-  }
-  return true;
+    return Reach::take;
+  });
+  return stopped < 0;
 }
 
 std::int32_t VertexClimb::beyond_plateau(const std::vector<Vec3>& vertices, const Vec3& m, std::int32_t at,
                                          double best, double tie) const {
-  thread_local RoundMarks met;
   thread_local std::vector<std::int32_t> plateau;
-  met.start(vertices.size());
-  met.mark(at);
-  plateau.assign(1, at);
-  for (std::size_t next = 0; next < plateau.size(); ++next) {
-    const std::int32_t v = plateau[next];
-    const std::int32_t end = offsets_[static_cast<std::size_t>(v) + 1];
-    for (std::int32_t k = offsets_[static_cast<std::size_t>(v)]; k < end; ++k) {
-      const std::int32_t w = neighbours_[static_cast<std::size_t>(k)];
-      if (!met.mark(w)) continue;
-      const double value = m.dot(vertices[static_cast<std::size_t>(w)]);
-      if (value > best + tie) return w;
-      if (value >= best - tie) plateau.push_back(w);
+  plateau.clear();
+  std::int32_t beyond = -1;
+  spread(at, vertices.size(), plateau, [&](std::int32_t w) {
+    const double value = m.dot(vertices[static_cast<std::size_t>(w)]);
+    if (value > best + tie) {
+      beyond = w;
+      return Reach::stop;
     }
-  }
-  return -1;
+    return value >= best - tie ? Reach::take : Reach::pass;
+  });
+  return beyond;
 }
 
 int VertexClimb::cell(const Vec3& m) {

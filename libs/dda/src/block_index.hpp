@@ -134,6 +134,30 @@ class VertexClimb {
   std::vector<std::int32_t> edges_;                  ///< the edge to each neighbour
   std::vector<double> longest_;                      ///< of each vertex (m)
   double radius_ = 0.0;                              ///< the largest |r| of a vertex (m)
+  /// What spread() does with a vertex it meets: passes over it, takes it (and goes on
+  /// from it), or stops.
+  enum class Reach { pass, take, stop };
+  /// Breadth first over the graph from `start` (appended to `out`, which must not hold
+  /// it): each vertex met once (of n), judged by reach(w); the vertices taken are
+  /// appended to `out`, which is the walk's queue too.
+  template <class Judge>
+  void spread(std::int32_t start, std::size_t n, std::vector<std::int32_t>& out, const Judge& reach) const {
+    thread_local RoundMarks met;
+    met.start(n);
+    met.mark(start);
+    out.push_back(start);
+    for (std::size_t next = 0; next < out.size(); ++next) {
+      const std::int32_t v = out[next];
+      const std::int32_t end = offsets_[static_cast<std::size_t>(v) + 1];
+      for (std::int32_t k = offsets_[static_cast<std::size_t>(v)]; k < end; ++k) {
+        const std::int32_t w = neighbours_[static_cast<std::size_t>(k)];
+        if (!met.mark(w)) continue;
+        const Reach r = reach(w);
+        if (r == Reach::stop) return;
+        if (r == Reach::take) out.push_back(w);
+      }
+    }
+  }
   bool plateaus_ = false;                            ///< some edge is flat (not convex)
   /// farthest(), on a graph with flat edges (kPlateaus) or with none: a block whose
   /// edges are all convex has no flat region, and its climbs skip the plateau test.

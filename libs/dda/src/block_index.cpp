@@ -25,8 +25,7 @@ void VertexClimb::build(const Model& model) {
   neighbours_.resize(static_cast<std::size_t>(offsets_[n]));
   edges_.resize(neighbours_.size());
   longest_.assign(n, 0.0);
-  radius_ = 0.0;
-  for (const Vec3& r : model.vertices) radius_ = std::max(radius_, r.norm());
+  radius_ = model.radius;
   plateaus_ = std::any_of(model.edges.begin(), model.edges.end(), [](const BlockEdge& e) { return !e.convex; });
   std::vector<std::int32_t> fill(offsets_.begin(), offsets_.end() - 1);
   for (std::size_t k = 0; k < model.edges.size(); ++k) {

@@ -11,10 +11,12 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
 #include "contacts.hpp"
+#include "dense6.hpp"
 #include "talus/dda/engine.hpp"
 
 namespace talus::dda::detail {
@@ -72,6 +74,14 @@ template <int N>
 using MatN = Eigen::Matrix<double, N, N>;
 template <int N>
 using VecN = Eigen::Matrix<double, N, 1>;
+
+// The solvers of an N × N step system: a symmetric positive definite one (Cholesky) and
+// an unsymmetric one (LU with partial pivoting). The rigid path's 6 × 6 ones give Eigen's
+// results bit for bit at a fraction of the cost (dense6.hpp).
+template <int N>
+using SymmetricSolver = std::conditional_t<N == 6, Cholesky6, Eigen::LLT<MatN<N>>>;
+template <int N>
+using GeneralSolver = std::conditional_t<N == 6, PivotedLu6, Eigen::PartialPivLU<MatN<N>>>;
 
 // T(r) restricted to the N unknowns of the path (3×6 rigid or 3×12 full).
 template <int N>
@@ -263,7 +273,7 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
       k.noalias() += ps * (gram<N>(ta) - gt * gt.transpose());
       if (c.anchored) f -= ps * (ta.transpose() * w.s0);
     }
-    const VecN<N> trial = Eigen::LLT<MatN<N>>(k).solve(f);
+    const VecN<N> trial = SymmetricSolver<N>(k).solve(f);
     if (trial.allFinite()) {
       for (std::size_t i = 0; i < contacts.size(); ++i) {
         Contact& c = contacts[i];
@@ -380,13 +390,13 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
           const Mat6 k6 = k.template topLeftCorner<6, 6>();
           const Eigen::Matrix<double, 6, 1> f6 = f.template head<6>();
           x.setZero();
-          if (sliding) x.template head<6>() = Eigen::PartialPivLU<Mat6>(k6).solve(f6);
-          else x.template head<6>() = Eigen::LLT<Mat6>(k6).solve(f6);
+          if (sliding) x.template head<6>() = PivotedLu6(k6).solve(f6);
+          else x.template head<6>() = Cholesky6(k6).solve(f6);
         }
       }
       if (!(N == 12 && freeze_strain)) {
-        if (sliding) x = Eigen::PartialPivLU<MatN<N>>(k).solve(f);
-        else x = Eigen::LLT<MatN<N>>(k).solve(f);
+        if (sliding) x = GeneralSolver<N>(k).solve(f);
+        else x = SymmetricSolver<N>(k).solve(f);
       }
     }
   };
@@ -885,7 +895,7 @@ template <int N>
 void settle_contacts(const Model& model, State& s, const std::vector<Persistent>& persistent) {
   if (persistent.empty()) return;
   const MatN<N> m = current_mass<N>(model, pose_of(model, s));
-  const Eigen::LLT<MatN<N>> llt(m);
+  const SymmetricSolver<N> llt(m);
   thread_local std::vector<VecN<N>> g, minv_g;
   thread_local std::vector<double> weight, impulse, lower, upper;
   g.clear();

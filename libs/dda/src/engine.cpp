@@ -970,7 +970,7 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   // An impact is a rigid-body event on both DOF paths (the 12-DOF path holds its strains
   // through it, and the law acts on the rigid velocity): approaches and the effective
   // mass at a point are those of the rigid block.
-  std::optional<Eigen::LLT<Mat6>> mass_llt;
+  std::optional<Cholesky6> mass_llt;
   const auto approach_energy = [&](const VecN<6>& gn, double speed) {
     if (!mass_llt) mass_llt.emplace(current_mass<6>(model, pose));
     const double inverse_mass = gn.dot(mass_llt->solve(gn));

@@ -566,6 +566,64 @@ TEST(DdaRealization, TippingOverTheRimLeavesTheTerrain) {
   }
 }
 
+// A surveyed TIN's footprint may have holes. A 40 × 20 m slope of 1 m cells falling at
+// 20° along x, with the 6 × 6 cells at x, y in [6, 12] left out.
+terrain::Terrain slope_with_hole() {
+  const double t = std::tan(20.0 * M_PI / 180.0);
+  terrain::Terrain out;
+  constexpr int nx = 41, ny = 21;
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) out.mesh.vertices.emplace_back(i, j, (40.0 - i) * t);
+  for (int j = 0; j + 1 < ny; ++j)
+    for (int i = 0; i + 1 < nx; ++i) {
+      if (i >= 6 && i < 12 && j >= 6 && j < 12) continue;
+      const int a = j * nx + i;
+      out.mesh.triangles.push_back({a, a + 1, a + nx + 1});
+      out.mesh.triangles.push_back({a, a + nx + 1, a + nx});
+    }
+  out.material_of_triangle.assign(out.mesh.triangles.size(), 0);
+  out.materials = {testing::material(0.8)};
+  return out;
+}
+
+// A block that rolls into a hole of a TIN's footprint has left the terrain once it lies
+// lower than the hole's rim by the penetration limit, though its bounding sphere is then
+// clear of the rim: it ends at the hole's edge, not after falling through it. One thrown
+// across the hole high above it flies over and lands beyond.
+TEST(DdaRealization, FallingIntoAHoleOfTheFootprintLeavesTheTerrain) {
+  Settings set;
+  set.check_invariants = true;
+  const Model m = Model::build(set, testing::box(0.5, 0.5, 0.5));
+  const terrain::Terrain t = slope_with_hole();
+  const terrain::Surface surface = terrain::Surface::realize(t, std::nullopt);
+  const Ground g{&surface, t.materials};
+  const double slope = std::tan(20.0 * M_PI / 180.0);
+  // Thrown from 1 m above the slope uphill of the hole, it comes down inside the hole,
+  // clear of its rim.
+  Release roll;
+  roll.position = Vec3(4.0, 9.0, (40.0 - 4.0) * slope + 1.0);
+  roll.velocity = Vec3(6.0, 0.0, 0.0);
+  const Summary in = run(m, g, roll, core::RandomStream(1, core::Stream::impact, 0));
+  EXPECT_EQ(in.end, EndReason::left_terrain);
+  // The hole's rim is no lower than its downhill edge (x = 12); the block ends within
+  // its own size of that, metres above where falling on would have taken it.
+  EXPECT_GT(in.final_position.z(), (40.0 - 12.0) * slope - 1.0);
+  EXPECT_LT(in.final_position.x(), 12.5);
+  EXPECT_EQ(in.counters.depth_violations, 0u);
+  EXPECT_EQ(in.counters.energy_violations, 0u);
+  // Thrown over the hole from its uphill edge, 3 m above the slope: it flies across,
+  // lands near x = 17.7 and goes on down the slope (to rest, or off its lower end).
+  Release fly = roll;
+  fly.position = Vec3(5.0, 9.0, (40.0 - 5.0) * slope + 3.0);
+  fly.velocity = Vec3(8.0, 0.0, 3.0);
+  const Summary over = run(m, g, fly, core::RandomStream(1, core::Stream::impact, 0));
+  EXPECT_GT(over.final_position.x(), 14.0);
+  if (over.end == EndReason::left_terrain) {
+    EXPECT_GT(over.final_position.x(), 40.0);
+  }
+  EXPECT_EQ(over.counters.depth_violations, 0u);
+}
+
 }  // namespace
 }  // namespace talus::dda
 

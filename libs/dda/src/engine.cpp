@@ -37,6 +37,22 @@ bool is_failure(EndReason reason) {
 
 namespace detail {
 
+namespace {
+
+// The rim point nearest to (x, y) in plan, looked for within `reach` and then within
+// four times as far, and so on, until one is found or the reach spans the terrain.
+std::optional<terrain::Surface::RimPoint> nearest_rim_point_anywhere(const terrain::Surface& surf, double x, double y,
+                                                                     double reach) {
+  const geometry::Aabb& b = surf.bounds();
+  const double span = (b.hi - b.lo).head<2>().norm() + std::abs(x - b.lo.x()) + std::abs(y - b.lo.y());
+  for (double r = reach;; r *= 4.0) {
+    if (const auto rim = surf.nearest_rim_point(x, y, std::min(r, span))) return rim;
+    if (!(r < span)) return std::nullopt;
+  }
+}
+
+}  // namespace
+
 // Whether part of the block has dropped past the terrain's rim, where the surface ends
 // with nothing beyond: a vertex with no ground under it lies lower than the rim's nearest
 // point, and deeper under the ground continued past the rim (the plane of that rim
@@ -50,21 +66,40 @@ namespace detail {
 // beyond the rim lies above the rim: both go on. The test costs nothing while the
 // block's bounding sphere is clear of the rim, and near it looks only at the vertices
 // lower than the rim nearby by the penetration limit (`floor`).
+//
+// A TIN's footprint may have holes and bays (a survey's gaps): a block whose centroid is
+// over one, with its bounding sphere clear of the rim, is off the ground as a whole. The
+// same rule then holds with the nearest rim point at any distance: a block flying over a
+// gap goes on while it stays above the rim around it, and one that drops into it ends
+// once a vertex lies lower than its nearest rim point by the limit. (Before, the test
+// ended at the rim's reach: 0.1 m³ blocks rolled into an 8 m hole in a surveyed slope and
+// fell 9 m through it before the depth limit under the terrain's lowest point ended
+// them.)
 bool hangs_past_rim(const Model& model, const terrain::Surface& surf, const State& s, bool scan) {
   // The bounding sphere with room for the 12-DOF path's strains.
   const double r = 1.25 * model.radius;
   const geometry::Aabb plan{s.position - Vec3::Constant(r), s.position + Vec3::Constant(r)};
-  if (!surf.near_rim(plan)) return false;
+  // How far from a vertex its rim point is looked for: 2r (the vertex lies within r of
+  // the centroid, the rim within r of the centroid when near_rim), or, off the ground,
+  // the centroid's distance to the rim plus 2r.
+  double reach = 2.0 * r;
+  if (!surf.near_rim(plan)) {
+    if (!std::isnan(s.height)) return false;
+    const auto centre_rim = nearest_rim_point_anywhere(surf, s.position.x(), s.position.y(), 2.0 * r);
+    if (!centre_rim) return false;
+    reach = (centre_rim->point - s.position).head<2>().norm() * (1.0 + 1e-9) + 2.0 * r;
+    scan = true;
+  }
   const double limit = model.penetration_limit();
-  // A vertex's rim point lies within 2r of it in plan, so within 2r of the plan box, no
-  // higher than `top` (Surface::rim_top, raised by far more than the round-off of the
-  // depths below): a vertex at or above `floor` lies less than the limit below it, and is
-  // not past the rim. (A detailed block rolling off the end of the ground looked at
-  // thousands of vertices a step, most of them far above it.)
-  const double floor = surf.rim_top(plan.inflated(2.0 * r)) - limit;
+  // A vertex's rim point lies within `reach` of it in plan, so within that of the plan
+  // box, no higher than `top` (Surface::rim_top, raised by far more than the round-off of
+  // the depths below): a vertex at or above `floor` lies less than the limit below it,
+  // and is not past the rim. (A detailed block rolling off the end of the ground looked
+  // at thousands of vertices a step, most of them far above it.)
+  const double floor = surf.rim_top(plan.inflated(reach)) - limit;
   const auto past = [&](const Vec3& p) {
     if (p.z() >= floor || surf.height_at(p.x(), p.y())) return false;
-    const auto rim = surf.nearest_rim_point(p.x(), p.y(), 2.0 * r);
+    const auto rim = surf.nearest_rim_point(p.x(), p.y(), reach);
     if (!rim) return false;
     const Vec3 n = surf.normal(static_cast<std::size_t>(rim->triangle));
     const double below = rim->point.z() - p.z();

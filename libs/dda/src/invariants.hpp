@@ -19,7 +19,9 @@ double block_depth_below_terrain(const std::vector<Vec3>& world, const TerrainPa
 /// where the rule is written out). A detailed block over ground whose rim bounds its
 /// footprint (Surface::rim_bounds_footprint: a grid, a TIN without walls, overhangs or
 /// folds) looks only at the vertices its tree finds near the rim or off the ground;
-/// `scan` looks at every vertex (the reference the tests compare with).
+/// `scan` looks at every vertex (the reference the tests compare with). `s.height` NaN
+/// (finish_step) says the centroid is off the ground: over a hole or bay of a TIN's
+/// footprint, where the rim may lie beyond the bounding sphere.
 bool hangs_past_rim(const Model& model, const terrain::Surface& surf, const State& s, bool scan = false);
 
 }  // namespace talus::dda::detail

@@ -76,6 +76,45 @@ TEST(Scene, RefusesBadScenesWithOneLineReasons) {
 
 // A scene's material override may name a class: it sets the six parameters, and the
 // fields given beside it override them.
+// A release point inside the terrain's extent but over a hole in a TIN's surface is
+// refused for having no terrain under it, not for lying outside the terrain.
+TEST(Scene, ReleaseOverAHoleHasNoTerrainUnderIt) {
+  terrain::Terrain t;
+  // A 4 × 4 m square of 1 m cells with the middle four cells left out.
+  for (int j = 0; j < 5; ++j)
+    for (int i = 0; i < 5; ++i) t.mesh.vertices.emplace_back(i, j, 0.0);
+  for (int j = 0; j < 4; ++j)
+    for (int i = 0; i < 4; ++i) {
+      if ((i == 1 || i == 2) && (j == 1 || j == 2)) continue;
+      const int a = j * 5 + i;
+      t.mesh.triangles.push_back({a, a + 1, a + 6});
+      t.mesh.triangles.push_back({a, a + 6, a + 5});
+    }
+  t.material_of_triangle.assign(t.mesh.triangles.size(), 0);
+  t.materials = bench_terrain().materials;
+  t.materials.resize(1);
+  SceneSettings s = bench_scene();
+  s.release.points = {{2.0, 2.0}};
+  s.stop_zones.clear();
+  s.outputs.barriers.clear();
+  std::string message;
+  try {
+    Scene::build(s, t, library({block::SolidKind::cube}), "scene.yaml");
+  } catch (const core::InputError& e) {
+    message = e.what();
+  }
+  EXPECT_NE(message.find("release point (2, 2) has no terrain under it (a hole or gap"), std::string::npos)
+      << message;
+  s.release.points = {{0.5, 0.5}};
+  message.clear();
+  try {
+    Scene::build(s, t, library({block::SolidKind::cube}), "scene.yaml");
+  } catch (const core::InputError& e) {
+    message = e.what();
+  }
+  EXPECT_EQ(message.find("release point"), std::string::npos) << message;
+}
+
 TEST(Scene, MaterialOverrideByClass) {
   SceneSettings s = bench_scene();
   MaterialOverride o;

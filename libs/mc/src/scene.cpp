@@ -167,6 +167,11 @@ std::string extent_text(const geometry::Aabb& b, const Eigen::Vector2d& shift) {
          format_number(b.lo.y() + shift.y()) + ", " + format_number(b.hi.y() + shift.y()) + "]";
 }
 
+// Whether plan point p (local frame) lies within the plan bounds b.
+bool within_bounds(const geometry::Aabb& b, const Eigen::Vector2d& p) {
+  return p.x() >= b.lo.x() && p.x() <= b.hi.x() && p.y() >= b.lo.y() && p.y() <= b.hi.y();
+}
+
 // The release features of a vector file in the local frame, with their part sizes and
 // weights; every vertex must lie over the terrain. Errors name the file.
 std::vector<ReleaseFeature> local_release_features(const ReleaseSettings& r, const std::vector<PlanFeature>& read,
@@ -184,8 +189,10 @@ std::vector<ReleaseFeature> local_release_features(const ReleaseSettings& r, con
         for (auto& p : list) {
           if (!base.height_at(p.x() - shift.x(), p.y() - shift.y()))
             throw InputError(file, "release " + f.label + ": point " + point_text(p) +
-                                       " is outside the terrain (input coordinates: " +
-                                       extent_text(base.bounds(), shift) + ")");
+                                       (within_bounds(base.bounds(), p - shift)
+                                            ? " has no terrain under it (a hole or gap in the terrain's surface; "
+                                            : " is outside the terrain (") +
+                                       "input coordinates: " + extent_text(base.bounds(), shift) + ")");
           p -= shift;
         }
       double part_size = 1.0;
@@ -265,7 +272,10 @@ void check_release_points(const SceneSettings& s, const terrain::Surface& base, 
       hint = "; it lies inside the terrain in its local frame (input coordinates minus the origin shift [" +
              format_number(shift.x()) + ", " + format_number(shift.y()) +
              "]): give the scene's coordinates in the terrain's input coordinates, or set frame: local";
-    throw InputError(source, "release point " + point_text(p) + " is outside the terrain (" +
+    const bool within = within_bounds(b, Eigen::Vector2d(p[0], p[1]) - shift);
+    throw InputError(source, "release point " + point_text(p) +
+                                 (within ? " has no terrain under it (a hole or gap in the terrain's surface; "
+                                         : " is outside the terrain (") +
                                  (input ? "input" : "local") + " coordinates: x in [" +
                                  format_number(b.lo.x() + shift.x()) + ", " + format_number(b.hi.x() + shift.x()) +
                                  "], y in [" + format_number(b.lo.y() + shift.y()) + ", " +

@@ -53,6 +53,32 @@ TEST(DdaFlight, ProjectileIsExact) {
   }
 }
 
+// The dynamic coefficient damps the velocity carried out of contact steps only: at any
+// k_d the free flight is the exact parabola, and a cube dropped from 2 m lands and comes
+// to rest on the ground, not in the air where it was released.
+TEST(DdaEngine, DynamicCoefficientDampsContactStepsOnly) {
+  for (const double kd : {0.0, 0.5, 0.9}) {
+    for (const char* dof : {"rigid6", "full12"}) {
+      Settings set;
+      set.dof = dof;
+      set.dynamic_coefficient = kd;
+      const testing::FlightResult f = testing::projectile(set, 1.0);
+      EXPECT_LT(f.position_error, 1e-10) << dof << " k_d " << kd;
+      EXPECT_LT(f.velocity_error, 1e-10) << dof << " k_d " << kd;
+      const terrain::Surface surface = incline(0.0, 20.0);
+      const std::vector<terrain::Material> mats{material(0.5)};
+      const Ground g{&surface, mats};
+      const Model m = Model::build(set, cube(1.0));
+      Release r;
+      r.position = Vec3(0.0, 0.0, 2.5);
+      const Summary out = run(m, g, r, testing::impact_stream());
+      EXPECT_EQ(out.end, EndReason::rest) << dof << " k_d " << kd;
+      // Resting on its face: the centroid half the edge above the ground.
+      EXPECT_NEAR(out.final_position.z(), 0.5, 0.01) << dof << " k_d " << kd;
+    }
+  }
+}
+
 // A cube hopping from 1 mm above a 30° incline, tilted 10° so that one edge is lowest,
 // launched at 1 m/s off the plane and 0.5 m/s down it, spinning at 2 rad/s about the
 // normal (no point approaches the plane by turning); `set` chooses the engine settings.

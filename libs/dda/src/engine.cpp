@@ -293,6 +293,13 @@ void note_jump(const terrain::Surface& surf, State& s, double height, std::int32
   }
 }
 
+// Whether the block ended its last step touching the ground: a contact step with a
+// closed contact.
+bool touching(const State& s) {
+  return s.last_step_contact &&
+         std::any_of(s.contacts.begin(), s.contacts.end(), [](const Contact& c) { return c.mode != ContactMode::open; });
+}
+
 // Bookkeeping after an accepted step: time, kinetic energy, height, maxima, rest,
 // leaving, trajectory, limits. Each is computed once here and kept in the state for
 // whoever else needs it (the rest test, the trajectory, the driver's observers).
@@ -329,7 +336,8 @@ void finish_step(const Model& model, const Ground& ground, State& s, double dt) 
                                                   : rigid_kinetic_energy(model, s) < rest_energy && s.kinetic < rest_energy;
   if (slow) {
     s.rest_time += dt;
-    if (s.rest_time >= model.settings.rest_dwell) {
+    // At rest on the ground: a block at the top of a throw is slow too, in the air.
+    if (s.rest_time >= model.settings.rest_dwell && touching(s)) {
       end_with(s, EndReason::rest);
       return;
     }
@@ -490,7 +498,8 @@ double clear_time(const Model& model, const Ground& ground, State& s, double h, 
   const geometry::Aabb box = swept_sphere_box(model, s, h).inflated(model.max_step_displacement());
   thread_local FlightBound bound;
   const double round_off = 1e-9 * (s.position.cwiseAbs().maxCoeff() + model.radius);
-  const bool damped = model.settings.dynamic_coefficient < 1.0;
+  // Free flight is the exact parabola whatever dynamic_coefficient is (apply_displacement).
+  const bool damped = false;
   if (at.index() == nullptr)
     bound.reset(at.vertices(), s.position, s.velocity.head<3>(), s.velocity.segment<3>(3), model.settings.gravity,
                 damped, round_off);
@@ -537,8 +546,14 @@ double clear_time(const Model& model, const Ground& ground, State& s, double h, 
 }
 
 // Applies an accepted displacement d (N components) to the state.
+// The velocity carried into the next step is k_d·v₁ (dynamic_coefficient) after a contact
+// step, v₁ itself after a flight step (`damped` false): the coefficient damps contact
+// steps only, and free flight stays the exact parabola whatever its value. (Damping
+// flight too held a block released with k_d = 0 in the air, where the rest test then
+// ended it, and took one factor per flight step whatever its length.)
 template <int N>
-void apply_displacement(const Model& model, State& s, const VecN<N>& d, double dt, bool strain_frozen = false) {
+void apply_displacement(const Model& model, State& s, const VecN<N>& d, double dt, bool strain_frozen = false,
+                        bool damped = true) {
   const Mat3 r_old = s.orientation.toRotationMatrix();
   const Vec3 theta = d.template segment<3>(3);
   s.position += d.template head<3>();
@@ -550,7 +565,7 @@ void apply_displacement(const Model& model, State& s, const VecN<N>& d, double d
     s.stretch = s.stretch + r_old.transpose() * e * r_old * s.stretch;
   }
   const VecN<N> v1 = (2.0 / dt) * d - s.velocity.template head<N>();
-  s.velocity.template head<N>() = model.settings.dynamic_coefficient * v1;
+  s.velocity.template head<N>() = damped ? model.settings.dynamic_coefficient * v1 : v1;
   if constexpr (N == 12) {
     if (strain_frozen) s.velocity.template tail<6>().setZero();
   }
@@ -691,7 +706,7 @@ double flight_step(const Model& model, const Ground& ground, State& s) {
     const int k = static_cast<int>(std::clamp(whole, 1.0, std::floor(model.settings.flight_step_ratio)));
     h = k * dt;
     if (k > 1) sample_flight(model, ground, s, dt, k);
-    apply_displacement<6>(model, s, free_displacement(model, s, h), h);
+    apply_displacement<6>(model, s, free_displacement(model, s, h), h, false, false);
   } else {
     // Strains keep oscillating in flight: solve the contact-free 12-DOF step. The
     // stretch update is not linear in the step, so the vibration's energy drifts by a
@@ -701,7 +716,7 @@ double flight_step(const Model& model, const Ground& ground, State& s) {
     std::vector<Contact> none;
     VecN<12> d;
     solve_step<12>(model, pose_of(model, s), s, dt, 0.0, none, d, s.times);
-    apply_displacement<12>(model, s, d, dt);
+    apply_displacement<12>(model, s, d, dt, false, false);
     s.stored_energy = 0.0;
     limit_energy(model, s, energy_start);
   }
@@ -1077,7 +1092,8 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
     closed_end.emplace_back(c.point + du, c.normal);
     s.contacts.push_back(c);
   }
-  apply_displacement<N>(model, s, d, dt, freeze_strain);
+  // A step whose contacts all stay open is free motion, and is not damped either.
+  apply_displacement<N>(model, s, d, dt, freeze_strain, any_closed);
   s.stored_energy = spring_energy;
   // The fastest approach of a closed contact point at the step end (m/s); only an impact
   // in progress asks.

@@ -70,6 +70,31 @@ TEST(SettingsYaml, UnknownKeyNamesKeyFileAndLineWithSuggestion) {
   }
 }
 
+// A key given twice in one mapping, at the top, in a section or in a list item, is an
+// error naming the second's line and the first's (an override appended at the end of a
+// file was silently dropped).
+TEST(SettingsYaml, DuplicateKeysAreErrors) {
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"sigma: 0.4\ncount: 2\nsigma: 0.5\n", "d.yaml:3: duplicate key 'sigma' (first given at line 1)"},
+      {"nested:\n  inner: 1\n  inner: 2\n", "d.yaml:3: duplicate key 'inner' (first given at line 2)"},
+      {"zones:\n  - {name: a, name: b}\n", "d.yaml:2: duplicate key 'name' (first given at line 2)"},
+  };
+  for (const auto& [text, expected] : cases) {
+    Example e;
+    try {
+      read_settings(text, "d.yaml", {}, bind(e));
+      ADD_FAILURE() << "no error for " << text;
+    } catch (const core::InputError& err) {
+      EXPECT_EQ(std::string(err.what()), expected);
+      EXPECT_EQ(err.code(), core::ExitCode::bad_input);
+    }
+  }
+  // The same key in different mappings is no duplicate.
+  Example e;
+  read_settings("sigma: 0.4\nzones:\n  - {name: a}\n  - {name: b}\n", "d.yaml", {}, bind(e));
+  EXPECT_EQ(e.zones.size(), 2u);
+}
+
 TEST(SettingsYaml, WrongTypesAreErrors) {
   Example e;
   EXPECT_THROW(read_settings("sigma: abc\n", "f", {}, bind(e)), core::InputError);

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -529,6 +530,29 @@ void apply_override(YAML::Node& root, const std::string& text, SetValues& set_va
   }
 }
 
+// Refuses a mapping that gives a key twice, at any depth: YAML forbids it, and a parser
+// that takes the first (or the last) would silently drop the other value, such as an
+// override appended at the end of a file.
+void check_unique_keys(const YAML::Node& node, const std::string& source) {
+  if (node.IsSequence()) {
+    for (const auto& item : node) check_unique_keys(item, source);
+    return;
+  }
+  if (!node.IsMap()) return;
+  std::map<std::string, int> first_line;
+  for (const auto& pair : node) {
+    if (pair.first.IsScalar()) {
+      const std::string key = pair.first.Scalar();
+      const int line = pair.first.Mark().line + 1;
+      const auto [at, inserted] = first_line.emplace(key, line);
+      if (!inserted)
+        throw InputError(source + ":" + std::to_string(line),
+                         "duplicate key '" + key + "' (first given at line " + std::to_string(at->second) + ")");
+    }
+    check_unique_keys(pair.second, source);
+  }
+}
+
 }  // namespace
 
 void read_settings(const std::string& yaml_text, const std::string& source,
@@ -541,6 +565,7 @@ void read_settings(const std::string& yaml_text, const std::string& source,
   }
   if (root.IsNull()) root = YAML::Node(YAML::NodeType::Map);
   if (!root.IsMap()) throw InputError(source, "expected a mapping of settings at the top level");
+  check_unique_keys(root, source);
   SetValues set_values;
   for (const auto& o : overrides) apply_override(root, o, set_values);
   Reader reader(root, source, "", set_values);

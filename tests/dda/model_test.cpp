@@ -119,7 +119,24 @@ TEST(DdaModel, ElasticityMatrix) {
 TEST(DdaModel, BadSettingsAreOneLineErrors) {
   Settings s;
   s.time_step = -1.0;
-  EXPECT_EQ(build_error(s, cube(1.0)), "dda settings: time_step = -1: must be > 0");
+  EXPECT_EQ(build_error(s, cube(1.0)), "dda settings: time_step = -1: must be in (0, 0.05] s");
+  // Upper bounds: a step of 10 s, a penetration limit of 20 diameters, a rest threshold of
+  // 1e6 J/kg were accepted and gave nonsense.
+  s = Settings{};
+  s.time_step = 10.0;
+  EXPECT_EQ(build_error(s, cube(1.0)), "dda settings: time_step = 10: must be in (0, 0.05] s");
+  s = Settings{};
+  s.penetration_limit_ratio = 20.0;
+  EXPECT_EQ(build_error(s, cube(1.0)), "dda settings: penetration_limit_ratio = 20: must be in (0, 0.5]");
+  s = Settings{};
+  s.rest_kinetic_energy = 1e6;
+  EXPECT_EQ(build_error(s, cube(1.0)), "dda settings: rest_kinetic_energy = 1000000: must be in [0, 0.5]");
+  // A step below the step control's floor names both fields.
+  s = Settings{};
+  s.time_step = 1e-9;
+  EXPECT_EQ(build_error(s, cube(1.0)),
+            "dda settings: time_step = 1e-09 s is below min_time_step = 1e-07 s, the shortest step the step control "
+            "may cut to");
   s = Settings{};
   s.dof = "twelve";
   EXPECT_EQ(build_error(s, cube(1.0)), "dda settings: dof = 'twelve': expected rigid6 or full12");

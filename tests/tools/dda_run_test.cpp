@@ -194,6 +194,9 @@ TEST_F(DdaRun, BadScenesAreRefusedWithOneLine) {
       {{"--set", "release.points=[[80, 10]]"}, "release point (80, 10) is outside the terrain"},
       {{"--set", "blocks=[R7]"}, "block 'R7' is not in the block file"},
       {{"--set", "terrain=scene.yaml"}, "scene.yaml: not an HDF5 file"},
+      // An engine value out of its range is named by its --set key.
+      {{"--set", "engine.penalty_omega=2.9"}, "--set engine.penalty_omega: must be in [3, 300], got 2.9"},
+      {{"--set", "engine.time_step=1"}, "--set engine.time_step: must be in (0, 0.05] s, got 1"},
   };
   for (const Case& c : cases) {
     std::vector<std::string> args = {"-c", "scene.yaml"};
@@ -207,6 +210,14 @@ TEST_F(DdaRun, BadScenesAreRefusedWithOneLine) {
     EXPECT_FALSE(fs::exists(dir_ / "bad.h5"));
     EXPECT_FALSE(fs::exists(dir_ / "bad.h5.journal"));
   }
+  // An engine value out of its range in the scene file, named with its line.
+  std::string with_omega = kScene;
+  with_omega.replace(with_omega.find("engine:\n"), 8, "engine:\n  penalty_omega: 2.9\n");
+  std::ofstream(dir_ / "omega.yaml") << with_omega;
+  const Outcome omega = run({"-c", "omega.yaml", "-o", "bad.h5"});
+  EXPECT_EQ(omega.code, 3);
+  EXPECT_NE(omega.err.find("omega.yaml:"), std::string::npos) << omega.err;
+  EXPECT_NE(omega.err.find("engine.penalty_omega: must be in [3, 300], got 2.9"), std::string::npos) << omega.err;
   // An unknown key in the scene file, named with its line.
   std::ofstream(dir_ / "typo.yaml") << std::string(kScene) + "realisations: 3\n";
   const Outcome typo = run({"-c", "typo.yaml", "-o", "bad.h5"});

@@ -296,8 +296,8 @@ void note_jump(const terrain::Surface& surf, State& s, double height, std::int32
 // Whether the block ended its last step touching the ground: a contact step with a
 // closed contact.
 bool touching(const State& s) {
-  return s.last_step_contact &&
-         std::any_of(s.contacts.begin(), s.contacts.end(), [](const Contact& c) { return c.mode != ContactMode::open; });
+  return s.last_step_contact && std::any_of(s.contacts.begin(), s.contacts.end(),
+                                            [](const Contact& c) { return c.mode != ContactMode::open; });
 }
 
 // Bookkeeping after an accepted step: time, kinetic energy, height, maxima, rest,

@@ -45,6 +45,17 @@ void apply_preset(Settings& s, const std::string& preset) {
   }
 }
 
+// The range of Ω = √(k/m)·Δt of one contact spring in which contacts are well posed
+// (docs/dda.md): softer lets a fast small block sink deeper than the penetration limit in
+// one impact, stiffer leaves springs whose energy round-off exceeds the invariant
+// tolerances.
+constexpr double kMinOmega = 3.0;
+constexpr double kMaxOmega = 300.0;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// Each field's range is part of its declaration: the reader refuses a value outside it
+// naming the file and line or the --set key (validate() checks the same on settings made
+// in code, and what relates two fields).
 void Settings::visit(core::SettingsVisitor& v) {
   // The preset first: reading it sets the fields it names, and the fields that follow
   // in this visit override it where they are given.
@@ -55,52 +66,82 @@ void Settings::visit(core::SettingsVisitor& v) {
   if (preset != before) apply_preset(*this, preset);
   v.choice("dof", dof, {"rigid6", "full12"},
            "unknowns per block: rigid 6-DOF (fast default) or full 12-DOF DDA with strains");
-  v.field("time_step", time_step, "s", "nominal time step");
-  v.field("min_time_step", min_time_step, "s", "smallest time step the step control may cut to");
-  v.field("max_displacement_ratio", max_displacement_ratio, "-",
-          "largest vertex displacement per contact step over the block's circumscribed diameter");
-  v.field("dynamic_coefficient", dynamic_coefficient, "-",
-          "share of the end-of-step velocity carried to the next step (1 = fully dynamic)");
-  v.field("penalty_stiffness", penalty_stiffness, "N/m",
-          "normal contact spring stiffness, 0 = from the block mass: m*(penalty_omega/time_step)^2");
-  v.field("penalty_omega", penalty_omega, "-",
-          "sqrt(k/m)*time_step of one contact spring when penalty_stiffness is 0");
-  v.field("shear_stiffness_ratio", shear_stiffness_ratio, "-",
-          "normal over shear contact spring stiffness");
-  v.field("max_open_close_iterations", max_open_close_iterations, "-",
-          "open-close iterations after which a contact that changes state is held in it");
-  v.field("max_step_energy_gain", max_step_energy_gain, "-",
-          "energy gain of a contact step, over kinetic energy + m*g*radius, beyond which the step is redone "
-          "shorter; 0 = never");
-  v.field("penetration_limit_ratio", penetration_limit_ratio, "-",
-          "penetration over block diameter that ends a realization as a numerical failure");
-  v.field("gravity", gravity, "m/s^2", "gravitational acceleration (along -z)");
+  v.bounded("time_step", time_step, "s",
+            "nominal time step",
+            core::Range::positive(0.05));
+  v.bounded("min_time_step", min_time_step, "s",
+            "smallest time step the step control may cut to",
+            core::Range::positive(0.05));
+  v.bounded("max_displacement_ratio", max_displacement_ratio, "-",
+            "largest vertex displacement per contact step over the block's circumscribed diameter",
+            core::Range::positive(1.0));
+  v.bounded("dynamic_coefficient", dynamic_coefficient, "-",
+            "share of the end-of-step velocity carried to the next step (1 = fully dynamic)",
+            core::Range::closed(0.0, 1.0));
+  v.bounded("penalty_stiffness", penalty_stiffness, "N/m",
+            "normal contact spring stiffness, 0 = from the block mass: m*(penalty_omega/time_step)^2",
+            core::Range{0.0, kInf});
+  v.bounded("penalty_omega", penalty_omega, "-",
+            "sqrt(k/m)*time_step of one contact spring when penalty_stiffness is 0",
+            core::Range::closed(kMinOmega, kMaxOmega));
+  v.bounded("shear_stiffness_ratio", shear_stiffness_ratio, "-",
+            "normal over shear contact spring stiffness",
+            core::Range{0.0, kInf, true, false});
+  v.bounded("max_open_close_iterations", max_open_close_iterations, "-",
+            "open-close iterations after which a contact that changes state is held in it",
+            core::Range::closed(1.0, 1000.0));
+  v.bounded("max_step_energy_gain", max_step_energy_gain, "-",
+            "energy gain of a contact step, over kinetic energy + m*g*radius, beyond which the step is redone "
+          "shorter; 0 = never",
+            core::Range{0.0, kInf});
+  v.bounded("penetration_limit_ratio", penetration_limit_ratio, "-",
+            "penetration over block diameter that ends a realization as a numerical failure",
+            core::Range::positive(0.5));
+  v.bounded("gravity", gravity, "m/s^2",
+            "gravitational acceleration (along -z)",
+            core::Range::closed(0.0, 1000.0));
   v.choice("restitution", restitution, {"scaled", "normal_component", "off"},
            "impact-rebound law applied when a contact episode ends");
-  v.field("impact_min_normal_speed", impact_min_normal_speed, "m/s",
-          "normal approach speed below which a contact episode is rolling/sliding, not an impact");
+  v.bounded("impact_min_normal_speed", impact_min_normal_speed, "m/s",
+            "normal approach speed below which a contact episode is rolling/sliding, not an impact",
+            core::Range{0.0, kInf});
   v.choice("restitution_bound", restitution_bound, {"normal_approach", "none"},
            "scaled law: remove at most the kinetic energy of the impact's normal approach, or no bound");
   v.field("impact_strains", impact_strains,
           "full12: strains respond during impact episodes (else held during impacts)");
-  v.field("rest_kinetic_energy", rest_kinetic_energy, "J/kg",
-          "kinetic energy per unit mass below which the block may be at rest");
-  v.field("rest_dwell", rest_dwell, "s", "time below the rest threshold that ends the realization");
-  v.field("rest_step_ratio", rest_step_ratio, "-",
-          "longest contact step of a rigid6 block below slow_kinetic_energy, or below the rest threshold for "
-          "rest_dwell/5 or more, over time_step (1 = none longer)");
-  v.field("flight_step_ratio", flight_step_ratio, "-",
-          "longest flight step of a rigid6 block proven clear of the terrain, over time_step (1 = nominal steps)");
-  v.field("slow_kinetic_energy", slow_kinetic_energy, "J/kg",
-          "kinetic energy per unit mass below which a rigid6 block outside an impact grows its contact steps up "
-          "to rest_step_ratio*time_step, 0 = only in the rest dwell");
-  v.field("max_time", max_time, "s",
-          "simulated-time limit per realization, 0 = 60 s + terrain plan diagonal / (1 m/s)");
-  v.field("max_steps", max_steps, "-", "accepted-step limit per realization, 0 = none");
-  v.field("trajectory_interval", trajectory_interval, "s", "sampled trajectory spacing, 0 = none");
-  v.field("density", density, "kg/m^3", "block density");
-  v.field("young_modulus", young_modulus, "Pa", "block Young's modulus (full12 only)");
-  v.field("poisson_ratio", poisson_ratio, "-", "block Poisson's ratio (full12 only)");
+  v.bounded("rest_kinetic_energy", rest_kinetic_energy, "J/kg",
+            "kinetic energy per unit mass below which the block may be at rest",
+            core::Range::closed(0.0, 0.5));
+  v.bounded("rest_dwell", rest_dwell, "s",
+            "time below the rest threshold that ends the realization",
+            core::Range{0.0, kInf});
+  v.bounded("rest_step_ratio", rest_step_ratio, "-",
+            "longest contact step of a rigid6 block below slow_kinetic_energy, or below the rest threshold for "
+          "rest_dwell/5 or more, over time_step (1 = none longer)",
+            core::Range::closed(1.0, 100.0));
+  v.bounded("flight_step_ratio", flight_step_ratio, "-",
+            "longest flight step of a rigid6 block proven clear of the terrain, over time_step (1 = nominal steps)",
+            core::Range::closed(1.0, 64.0));
+  v.bounded("slow_kinetic_energy", slow_kinetic_energy, "J/kg",
+            "kinetic energy per unit mass below which a rigid6 block outside an impact grows its contact steps up "
+          "to rest_step_ratio*time_step, 0 = only in the rest dwell",
+            core::Range{0.0, kInf});
+  v.bounded("max_time", max_time, "s",
+            "simulated-time limit per realization, 0 = 60 s + terrain plan diagonal / (1 m/s)",
+            core::Range{0.0, kInf});
+  v.bounded("max_steps", max_steps, "-", "accepted-step limit per realization, 0 = none", core::Range{0.0, kInf});
+  v.bounded("trajectory_interval", trajectory_interval, "s",
+            "sampled trajectory spacing, 0 = none",
+            core::Range{0.0, kInf});
+  v.bounded("density", density, "kg/m^3",
+            "block density",
+            core::Range{0.0, kInf, true, false});
+  v.bounded("young_modulus", young_modulus, "Pa",
+            "block Young's modulus (full12 only)",
+            core::Range{0.0, kInf, true, false});
+  v.bounded("poisson_ratio", poisson_ratio, "-",
+            "block Poisson's ratio (full12 only)",
+            core::Range{-1.0, 0.5, true, true});
   v.field("check_invariants", check_invariants,
           "check depth and energy invariants at every step (counted per realization; slow)");
   v.field("flight_test", flight_test,
@@ -112,12 +153,6 @@ void Settings::visit(core::SettingsVisitor& v) {
 namespace {
 
 const char* const kSettings = "dda settings";
-// The range of Ω = √(k/m)·Δt of one contact spring in which contacts are well posed
-// (docs/dda.md): softer lets a fast small block sink deeper than the penetration limit in
-// one impact, stiffer leaves springs whose energy round-off exceeds the invariant
-// tolerances.
-constexpr double kMinOmega = 3.0;
-constexpr double kMaxOmega = 300.0;
 
 void require_range(bool ok, const char* key, double value, const char* what) {
   if (!ok || !std::isfinite(value))
@@ -125,9 +160,12 @@ void require_range(bool ok, const char* key, double value, const char* what) {
 }
 
 void validate(const Settings& s) {
-  require_range(s.time_step > 0.0, "time_step", s.time_step, "must be > 0");
-  require_range(s.min_time_step > 0.0 && s.min_time_step <= s.time_step, "min_time_step",
-                s.min_time_step, "must be > 0 and <= time_step");
+  require_range(s.time_step > 0.0 && s.time_step <= 0.05, "time_step", s.time_step, "must be in (0, 0.05] s");
+  require_range(s.min_time_step > 0.0, "min_time_step", s.min_time_step, "must be > 0");
+  if (!(s.min_time_step <= s.time_step))
+    throw core::InputError(kSettings, "time_step = " + core::format_number(s.time_step) +
+                                          " s is below min_time_step = " + core::format_number(s.min_time_step) +
+                                          " s, the shortest step the step control may cut to");
   require_range(s.max_displacement_ratio > 0.0 && s.max_displacement_ratio <= 1.0,
                 "max_displacement_ratio", s.max_displacement_ratio, "must be in (0, 1]");
   require_range(s.dynamic_coefficient >= 0.0 && s.dynamic_coefficient <= 1.0, "dynamic_coefficient",
@@ -143,12 +181,13 @@ void validate(const Settings& s) {
                 "must be in [1, 1000]");
   require_range(s.max_step_energy_gain >= 0.0, "max_step_energy_gain", s.max_step_energy_gain,
                 "must be >= 0 (0 = never redo)");
-  require_range(s.penetration_limit_ratio > 0.0, "penetration_limit_ratio", s.penetration_limit_ratio,
-                "must be > 0");
-  require_range(s.gravity >= 0.0, "gravity", s.gravity, "must be >= 0");
+  require_range(s.penetration_limit_ratio > 0.0 && s.penetration_limit_ratio <= 0.5, "penetration_limit_ratio",
+                s.penetration_limit_ratio, "must be in (0, 0.5]");
+  require_range(s.gravity >= 0.0 && s.gravity <= 1000.0, "gravity", s.gravity, "must be in [0, 1000]");
   require_range(s.impact_min_normal_speed >= 0.0, "impact_min_normal_speed", s.impact_min_normal_speed,
                 "must be >= 0");
-  require_range(s.rest_kinetic_energy >= 0.0, "rest_kinetic_energy", s.rest_kinetic_energy, "must be >= 0");
+  require_range(s.rest_kinetic_energy >= 0.0 && s.rest_kinetic_energy <= 0.5, "rest_kinetic_energy",
+                s.rest_kinetic_energy, "must be in [0, 0.5]");
   require_range(s.rest_dwell >= 0.0, "rest_dwell", s.rest_dwell, "must be >= 0");
   require_range(s.rest_step_ratio >= 1.0 && s.rest_step_ratio <= 100.0, "rest_step_ratio", s.rest_step_ratio,
                 "must be in [1, 100]");

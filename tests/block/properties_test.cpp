@@ -131,6 +131,25 @@ TEST(Properties, BoxClosedFormAndDimensions) {
   EXPECT_NEAR(b.principal_axes.determinant(), 1.0, 1e-14);
 }
 
+// A block thinner than 1/1000 of its length is a sheet the contact model cannot hold
+// (kMinThicknessRatio): refused with a one-line reason. A 2 cm slab of 1.5 m is a block.
+TEST(Properties, SheetsAreRefused) {
+  SolidSpec spec;
+  spec.kind = SolidKind::box;
+  spec.volume = 0.0;
+  spec.dimensions = Vec3(6.0, 5.0, 0.0005);
+  try {
+    make_block("plate", make_solid(spec, "test"), 2700.0, "plate.xyz");
+    ADD_FAILURE() << "a 0.5 mm plate of 6 m was accepted";
+  } catch (const core::InputError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "plate.xyz: block is a sheet, not a solid: 0.0005 m thick along its thinnest axis, under 1/1000 of "
+              "its length of 6 m");
+  }
+  spec.dimensions = Vec3(1.5, 1.5, 0.02);
+  EXPECT_NO_THROW(make_block("slab", make_solid(spec, "test"), 2700.0, "slab"));
+}
+
 TEST(Properties, CubeDimensionsDoNotDependOnOrientation) {
   // Isotropic inertia leaves the principal axes free; the face rule makes L1..L3 the edges.
   SolidSpec spec;

@@ -236,6 +236,10 @@ Block make_block(const std::string& name, const Polyhedron& input_frame, double 
   if (axes.determinant() < 0.0) axes.col(2) = -axes.col(2);
   b.principal_axes = axes;
   b.dimensions = principal_box(b.polyhedron, m.inertia).lengths;
+  if (b.dimensions.minCoeff() < kMinThicknessRatio * b.dimensions.maxCoeff())
+    throw core::InputError(source, "block is a sheet, not a solid: " + core::format_number(b.dimensions.minCoeff()) +
+                                       " m thick along its thinnest axis, under 1/1000 of its length of " +
+                                       core::format_number(b.dimensions.maxCoeff()) + " m");
   set_density(b, density);
   return b;
 }

@@ -155,6 +155,27 @@ def main():
                     d = run(["h5diff", "ref.h5", out, g, g])
                     check(d.returncode == 0, f"resume after {sig.name} equals the uninterrupted run in {g}", d.stdout)
 
+        # A signal does not wait for the realizations in hand: one long realization (a block
+        # floating without gravity for 600 s in steps of 10 µs, every step searched) is
+        # abandoned within a few hundred steps, and the run ends at once, with nothing of it
+        # in the journal.
+        out = "long.h5"
+        long_run = [dda, "-c", "scene.yaml", "--set", "realizations=1", "--set", "engine.time_step=1e-5",
+                    "--set", "engine.min_time_step=1e-7", "--set", "engine.flight_test=false", "--set",
+                    "engine.gravity=0", "--set", "engine.max_time=600", "--threads", "1", "-o", out]
+        first = subprocess.Popen(long_run, cwd=work, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        deadline = time.time() + 30
+        while not os.path.isdir(os.path.join(work, out + ".journal")) and time.time() < deadline:
+            time.sleep(0.05)
+        time.sleep(1.0)
+        signalled = time.time()
+        first.send_signal(signal.SIGINT)
+        _, err = first.communicate(timeout=60)
+        waited = time.time() - signalled
+        check(first.returncode == 130 and "0 of 1 realizations are in the journal" in err,
+              "SIGINT abandons the realization in hand", f"{first.returncode}: {err}")
+        check(waited < 5.0, "SIGINT ends a long realization within seconds", f"{waited:.1f} s")
+
         # Leftover temporaries: this host's dead process is removed, another host's kept.
         host = socket.gethostname().replace("-", "_").replace("/", "_")
         dead = f".tmp.h5.tmp-{host}-999999999"

@@ -274,10 +274,11 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
         }
         progress.advance();
         if (g_stop_signal != 0) throw StopRequested{};
-      });
+      }, [] { return g_stop_signal != 0; });
+      if (g_stop_signal != 0) throw StopRequested{};
     } catch (const StopRequested&) {
-      // Realizations handed over are kept; those still running on workers are redone
-      // by the resume.
+      // Realizations handed over are kept; those still running on workers are abandoned
+      // within a few hundred steps and redone by the resume.
       journal.append(buffer);
       progress.finish();
       const int signal = g_stop_signal;

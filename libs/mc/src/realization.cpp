@@ -349,7 +349,7 @@ ReleaseDraw draw_release(const Scene& scene, const terrain::Surface& ground, std
   return draw;
 }
 
-RealizationResult run_realization(const Scene& scene, std::uint32_t index) {
+RealizationResult run_realization(const Scene& scene, std::uint32_t index, const std::atomic<bool>* abandon) {
   const SceneSettings& s = scene.settings();
   const terrain::Surface surface =
       scene.base_surface().realization(s.stochastic.roughness ? std::optional<std::uint32_t>(index) : std::nullopt);
@@ -371,6 +371,8 @@ RealizationResult run_realization(const Scene& scene, std::uint32_t index) {
     const Before before{state.time, state.position, state.velocity.head<3>(), rotational(state, kinetic),
                         state.counters.flight_steps};
     dda::step(model, ground, state);
+    if (abandon != nullptr && (state.counters.steps & 255u) == 0 && abandon->load(std::memory_order_relaxed))
+      throw Abandoned{};
     kinetic = state.kinetic;
     if (std::isfinite(kinetic)) max_kinetic = std::max(max_kinetic, kinetic);
     if (observe && state.position.allFinite()) observer.segment(before, state, rotational(state, kinetic));

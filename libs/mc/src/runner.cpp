@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <deque>
 #include <exception>
@@ -15,13 +16,15 @@
 namespace talus::mc {
 
 void run_realizations(const Scene& scene, const std::vector<std::uint32_t>& indices, unsigned threads,
-                      const std::function<void(RealizationResult&&)>& on_done) {
+                      const std::function<void(RealizationResult&&)>& on_done,
+                      const std::function<bool()>& stop_asked) {
   if (indices.empty()) return;
   if (threads == 0) threads = core::default_thread_count();
   threads = static_cast<unsigned>(std::min<std::size_t>(threads, indices.size()));
 
   std::atomic<std::size_t> next{0};
   std::atomic<bool> stop{false};
+  std::atomic<bool> abandon{false};  // stop_asked: the realizations in hand are dropped
   std::mutex mutex;
   std::condition_variable ready;
   std::deque<RealizationResult> finished;
@@ -33,9 +36,11 @@ void run_realizations(const Scene& scene, const std::vector<std::uint32_t>& indi
       const std::size_t k = next.fetch_add(1);
       if (k >= indices.size()) break;
       try {
-        RealizationResult r = run_realization(scene, indices[k]);
+        RealizationResult r = run_realization(scene, indices[k], &abandon);
         std::lock_guard lock(mutex);
         finished.push_back(std::move(r));
+      } catch (const Abandoned&) {
+        break;
       } catch (...) {
         std::lock_guard lock(mutex);
         if (!failure) failure = std::current_exception();
@@ -55,7 +60,16 @@ void run_realizations(const Scene& scene, const std::vector<std::uint32_t>& indi
   // Results are handed over on this thread, so on_done needs no locking of its own.
   std::unique_lock lock(mutex);
   while (true) {
-    ready.wait(lock, [&] { return !finished.empty() || running == 0; });
+    const auto woken = [&] { return !finished.empty() || running == 0; };
+    if (stop_asked) {
+      ready.wait_for(lock, std::chrono::milliseconds(50), woken);
+      if (!abandon.load() && stop_asked()) {
+        abandon = true;
+        stop = true;
+      }
+    } else {
+      ready.wait(lock, woken);
+    }
     if (finished.empty() && running == 0) break;
     while (!finished.empty()) {
       RealizationResult r = std::move(finished.front());

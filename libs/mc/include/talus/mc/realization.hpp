@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
 #pragma once
+#include <atomic>
 #include <cstdint>
 #include <map>
 #include <vector>
@@ -82,8 +83,12 @@ struct RealizationResult {
 /// realization `index`, the release draws of Stream::release, the block of
 /// Stream::block_shape (weighted selection) and the impact draws of Stream::impact, all
 /// keyed by the scene seed (the terrain's own seed for roughness). Throws
-/// core::InputError as draw_release does.
-RealizationResult run_realization(const Scene& scene, std::uint32_t index);
+/// core::InputError as draw_release does. When `abandon` is given and becomes true, the
+/// realization stops within a few hundred steps by throwing Abandoned (a run stopped by a
+/// signal redoes it on --resume).
+struct Abandoned {};
+RealizationResult run_realization(const Scene& scene, std::uint32_t index,
+                                  const std::atomic<bool>* abandon = nullptr);
 
 /// The release of realization `index` and its block on its realized `ground`: plan point
 /// and orientation drawn, then the height set by release.height_reference, and a

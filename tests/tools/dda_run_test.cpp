@@ -417,6 +417,14 @@ TEST_F(DdaRun, WarnsOnceWhenRealizationsDoNotEndAtRest) {
   EXPECT_NE(cut.err.find("; ends: 6 step_limit\n"), std::string::npos) << cut.err;
   EXPECT_EQ(after_summary(cut.err, "cut.h5", 6),
             "dda-run: warning: cut.h5: 6 of 6 realizations did not end at rest: 6 step_limit\n");
+  // A step of 20 ms moves the cube more than 3 % of its diameter at its fastest: one
+  // line more, saying so.
+  const Outcome coarse = run({"-c", "scene.yaml", "--set", "engine.time_step=0.02", "-o", "coarse.h5"});
+  ASSERT_EQ(coarse.code, 0) << coarse.err;
+  EXPECT_NE(coarse.err.find("dda-run: warning: coarse.h5: 6 of 6 realizations moved more than 3 % of their block's "
+                            "diameter in one time step at their fastest (up to "),
+            std::string::npos)
+      << coarse.err;
   // The lifted cube slides down the 45° plane and leaves it at its foot.
   const Outcome off = run({"-c", "plane.yaml", "--set", "release.clearance=lift", "-o", "off.h5"});
   ASSERT_EQ(off.code, 0) << off.err;

@@ -382,3 +382,25 @@ TEST(LasCloud, CrsFromWktOrGeoTiffKeys) {
 
 }  // namespace
 }  // namespace talus::io
+
+namespace talus::io {
+namespace {
+
+// An ASCII PLY body word that is not a finite number is named with its line in the file
+// (it was reported as the file ending early).
+TEST(PlyCloud, BadValuesAreNamedWithTheirLine) {
+  const std::string header =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
+  ScratchFile f("bad.ply");
+  f.write(header + "0 0 0\n1 abc 0\n0 1 0\n");
+  EXPECT_EQ(cloud_error(f.path()), f.path() + ": line 9: 'abc' is not a number");
+  f.write(header + "0 0 0\n1 0 0\n0 nan 0\n");
+  EXPECT_EQ(cloud_error(f.path()), f.path() + ": line 10: non-finite value 'nan'");
+  f.write(header + "0 0 0\n1 0 0\n");
+  EXPECT_EQ(cloud_error(f.path()), f.path() + ": PLY file ends early");
+  f.write(header + "0 0 0\n1 0 0\n0 1 0\n");
+  EXPECT_EQ(read_point_cloud(f.path()).size(), 3u);
+}
+
+}  // namespace
+}  // namespace talus::io

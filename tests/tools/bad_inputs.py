@@ -149,6 +149,9 @@ def make_fixtures(bin_dir, root):
     write(os.path.join(root, "nan.xyz"), "0 0 0\n1 0 0\nnan 1 0\n0 0 1\n")
     write(os.path.join(root, "two.xyz"), "0 0 0\n1 0 0\n")
     write(os.path.join(root, "empty.obj"), "")
+    write(os.path.join(root, "badindex.ply"), "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\n"
+          "property float y\nproperty float z\nelement face 4\nproperty list uchar int vertex_indices\n"
+          "end_header\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 -1\n")
     ground = [(0, 0, 0, 2), (1, 0, 0, 2), (0, 1, 0, 2), (1, 1, 0.5, 2), (0.5, 0.5, 3, 5)]
     for name, data in (("ground.las", las_bytes(ground)), ("ground.laz", las_bytes(ground)),
                        ("packed.las", las_bytes(ground, compressed=True)), ("cut.las", las_bytes(ground)[:-30])):
@@ -277,6 +280,8 @@ CASES = [
     (["terrain-gen", "-c", "missing.yaml", "-o", "x.h5"], BAD_INPUT, ["missing.yaml"]),
     (["terrain-gen", "-c", "bad.yaml", "-o", "x.h5"], BAD_INPUT, ["bad.yaml:", "YAML"]),
     (["block-gen", "huge.obj", "-o", "x.h5"], BAD_INPUT, ["huge.obj", "vertex 1", "[-1e9, 1e9] m"]),
+    (["block-gen", "badindex.ply", "-o", "x.h5"], BAD_INPUT,
+     ["badindex.ply", "face refers to vertex index -1, but the vertices are numbered 0 to 3"]),
     (["block-gen", "cube.obj", "--set", "inputs.scale=1e150", "-o", "x.h5"], BAD_INPUT, ["--set inputs.scale", "(0, 1e+06]"]),
     (["block-gen", "cube.obj", "--set", "inputs.scale=1e-150", "-o", "x.h5"], BAD_INPUT, ["cube.obj", "block volume", "[1e-06, 1e+06] m^3"]),
     (["block-gen", "--set", "blocks=[{solid: cube, volume: 1e300}]", "-o", "x.h5"], BAD_INPUT,

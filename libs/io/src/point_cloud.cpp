@@ -262,20 +262,37 @@ PlyData read_ply(const std::string& path, const PointCloudOptions& options, bool
     throw core::InputError(path, "unknown PLY format '" + h.format + "'");
   PlyData data;
   std::istringstream words;
-  // The next number of the body, whatever its layout.
+  // The line of the ASCII body being read, counted in the file (the header's lines first).
+  std::size_t body_line = 0;
+  if (ascii) {
+    const std::streamoff header_bytes = in.tellg();
+    std::ifstream again(path, std::ios::binary);
+    std::string header_text(static_cast<std::size_t>(std::max<std::streamoff>(0, header_bytes)), '\0');
+    again.read(header_text.data(), static_cast<std::streamsize>(header_text.size()));
+    body_line = static_cast<std::size_t>(std::count(header_text.begin(), header_text.end(), '\n'));
+  }
+  // The next number of the body, whatever its layout. An ASCII word that is not a
+  // number (or not a finite one) is named with its line of the body.
   auto next_value = [&](const std::string& type) -> double {
     if (!ascii) {
       const double v = read_binary(in, type, big);
       if (!in) throw core::InputError(path, "PLY file ends early");
       return v;
     }
-    double v = 0.0;
-    while (!(words >> v)) {
+    std::string word;
+    while (!(words >> word)) {
       std::string line;
       if (!std::getline(in, line)) throw core::InputError(path, "PLY file ends early");
+      ++body_line;
       words.clear();
       words.str(line);
     }
+    const char* begin = word.c_str();
+    char* end = nullptr;
+    const double v = std::strtod(begin, &end);
+    const std::string where = "line " + std::to_string(body_line) + ": ";
+    if (end == begin || *end != '\0') throw core::InputError(path, where + "'" + word + "' is not a number");
+    if (!std::isfinite(v)) throw core::InputError(path, where + "non-finite value '" + word + "'");
     return v;
   };
   for (const PlyElement& e : h.elements) {
@@ -320,10 +337,15 @@ PlyData read_ply(const std::string& path, const PointCloudOptions& options, bool
 }
 
 // Adds polygon `face` (0-based indices) to `mesh` as a fan of triangles.
-void add_polygon(geometry::TriangleMesh& mesh, const std::vector<std::int64_t>& face, const std::string& path) {
+// Indices out of range are named as the file gives them: `one_based` (OBJ) or from 0 (PLY).
+void add_polygon(geometry::TriangleMesh& mesh, const std::vector<std::int64_t>& face, const std::string& path,
+                 bool one_based) {
   const auto n = static_cast<std::int64_t>(mesh.vertices.size());
   for (std::int64_t q : face)
-    if (q < 0 || q >= n) throw core::InputError(path, "face refers to vertex " + std::to_string(q + 1) + " of " + std::to_string(n));
+    if (q < 0 || q >= n)
+      throw core::InputError(path, one_based ? "face refers to vertex " + std::to_string(q + 1) + " of " + std::to_string(n)
+                                             : "face refers to vertex index " + std::to_string(q) +
+                                                   ", but the vertices are numbered 0 to " + std::to_string(n - 1));
   for (std::size_t k = 1; k + 1 < face.size(); ++k)
     mesh.triangles.push_back({static_cast<std::int32_t>(face[0]), static_cast<std::int32_t>(face[k]),
                               static_cast<std::int32_t>(face[k + 1])});
@@ -353,7 +375,7 @@ geometry::TriangleMesh read_obj(const std::string& path, const PointCloudOptions
         if (v == 0) throw core::InputError(path, "line " + std::to_string(number) + ": bad face index '" + word + "'");
         face.push_back(v > 0 ? v - 1 : static_cast<std::int64_t>(mesh.vertices.size()) + v);
       }
-      add_polygon(mesh, face, path + ": line " + std::to_string(number));
+      add_polygon(mesh, face, path + ": line " + std::to_string(number), true);
     }
   }
   return mesh;
@@ -383,7 +405,7 @@ geometry::TriangleMesh read_off(const std::string& path, const PointCloudOptions
     for (auto& q : face)
       if (!(s >> q)) throw core::InputError(path, "bad OFF face " + std::to_string(f));
     std::getline(s, line);  // colours, if any
-    add_polygon(mesh, face, path);
+    add_polygon(mesh, face, path, false);
   }
   return mesh;
 }
@@ -475,7 +497,7 @@ std::optional<geometry::TriangleMesh> read_mesh_in_double(const std::string& pat
   PlyData ply = read_ply(path, placement, true);
   geometry::TriangleMesh mesh;
   mesh.vertices = std::move(ply.points);
-  for (const auto& face : ply.faces) add_polygon(mesh, face, path);
+  for (const auto& face : ply.faces) add_polygon(mesh, face, path, false);
   return mesh;
 }
 

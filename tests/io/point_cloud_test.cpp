@@ -404,3 +404,23 @@ TEST(PlyCloud, BadValuesAreNamedWithTheirLine) {
 
 }  // namespace
 }  // namespace talus::io
+
+namespace talus::io {
+namespace {
+
+// A Leica .pts file starts with its point count on a line of its own; rows carry
+// intensity and colour after x y z.
+TEST(TextCloud, PtsPointCountLineIsSkipped) {
+  ScratchFile f("scan.pts");
+  f.write("3\n0 0 0 -1200 10 20 30\n1 0 0 -1100 10 20 30\n0 1 0.5 -1000 10 20 30\n");
+  const std::vector<Vec3> points = read_point_cloud(f.path());
+  ASSERT_EQ(points.size(), 3u);
+  EXPECT_EQ(points[2], Vec3(0.0, 1.0, 0.5));
+  // In an .xyz file a lone number on the first line is still an error.
+  ScratchFile g("count.xyz");
+  g.write("3\n0 0 0\n1 0 0\n0 1 0\n");
+  EXPECT_NE(cloud_error(g.path()), "");
+}
+
+}  // namespace
+}  // namespace talus::io

@@ -116,6 +116,7 @@ std::vector<geometry::Vec3> read_text_cloud(const std::string& path, const Point
   std::optional<std::array<std::size_t, 3>> header;
   std::size_t header_line = 0, needed = 0;
   bool first = true;
+  const bool pts = lower_extension(path) == ".pts";
   std::vector<std::string_view> columns;
   while (std::getline(in, line)) {
     ++number;
@@ -126,6 +127,8 @@ std::vector<geometry::Vec3> read_text_cloud(const std::string& path, const Point
     if (first) {
       first = false;
       split_columns(line, columns);
+      // A Leica .pts file starts with its point count, alone on the first line.
+      if (pts && columns.size() == 1 && line.find_first_not_of("0123456789 \t\r") == std::string::npos) continue;
       if (columns.empty() || !column_number(columns.front())) {
         header = header_columns(columns, line, where);
         header_line = number;

@@ -66,11 +66,8 @@ void Settings::visit(core::SettingsVisitor& v) {
   if (preset != before) apply_preset(*this, preset);
   v.choice("dof", dof, {"rigid6", "full12"},
            "unknowns per block: rigid 6-DOF (fast default) or full 12-DOF DDA with strains");
-  v.bounded("time_step", time_step, "s",
-            "nominal time step",
-            core::Range::positive(0.05));
-  v.bounded("min_time_step", min_time_step, "s",
-            "smallest time step the step control may cut to",
+  v.bounded("time_step", time_step, "s", "nominal time step", core::Range::positive(0.05));
+  v.bounded("min_time_step", min_time_step, "s", "smallest time step the step control may cut to",
             core::Range::positive(0.05));
   v.bounded("max_displacement_ratio", max_displacement_ratio, "-",
             "largest vertex displacement per contact step over the block's circumscribed diameter",
@@ -84,22 +81,19 @@ void Settings::visit(core::SettingsVisitor& v) {
   v.bounded("penalty_omega", penalty_omega, "-",
             "sqrt(k/m)*time_step of one contact spring when penalty_stiffness is 0",
             core::Range::closed(kMinOmega, kMaxOmega));
-  v.bounded("shear_stiffness_ratio", shear_stiffness_ratio, "-",
-            "normal over shear contact spring stiffness",
+  v.bounded("shear_stiffness_ratio", shear_stiffness_ratio, "-", "normal over shear contact spring stiffness",
             core::Range{0.0, kInf, true, false});
   v.bounded("max_open_close_iterations", max_open_close_iterations, "-",
             "open-close iterations after which a contact that changes state is held in it",
             core::Range::closed(1.0, 1000.0));
   v.bounded("max_step_energy_gain", max_step_energy_gain, "-",
             "energy gain of a contact step, over kinetic energy + m*g*radius, beyond which the step is redone "
-          "shorter; 0 = never",
+            "shorter; 0 = never",
             core::Range{0.0, kInf});
   v.bounded("penetration_limit_ratio", penetration_limit_ratio, "-",
             "penetration over block diameter that ends a realization as a numerical failure",
             core::Range::positive(0.5));
-  v.bounded("gravity", gravity, "m/s^2",
-            "gravitational acceleration (along -z)",
-            core::Range::closed(0.0, 1000.0));
+  v.bounded("gravity", gravity, "m/s^2", "gravitational acceleration (along -z)", core::Range::closed(0.0, 1000.0));
   v.choice("restitution", restitution, {"scaled", "normal_component", "off"},
            "impact-rebound law applied when a contact episode ends");
   v.bounded("impact_min_normal_speed", impact_min_normal_speed, "m/s",
@@ -112,35 +106,29 @@ void Settings::visit(core::SettingsVisitor& v) {
   v.bounded("rest_kinetic_energy", rest_kinetic_energy, "J/kg",
             "kinetic energy per unit mass below which the block may be at rest",
             core::Range::closed(0.0, 0.5));
-  v.bounded("rest_dwell", rest_dwell, "s",
-            "time below the rest threshold that ends the realization",
+  v.bounded("rest_dwell", rest_dwell, "s", "time below the rest threshold that ends the realization",
             core::Range{0.0, kInf});
   v.bounded("rest_step_ratio", rest_step_ratio, "-",
             "longest contact step of a rigid6 block below slow_kinetic_energy, or below the rest threshold for "
-          "rest_dwell/5 or more, over time_step (1 = none longer)",
+            "rest_dwell/5 or more, over time_step (1 = none longer)",
             core::Range::closed(1.0, 100.0));
   v.bounded("flight_step_ratio", flight_step_ratio, "-",
             "longest flight step of a rigid6 block proven clear of the terrain, over time_step (1 = nominal steps)",
             core::Range::closed(1.0, 64.0));
   v.bounded("slow_kinetic_energy", slow_kinetic_energy, "J/kg",
             "kinetic energy per unit mass below which a rigid6 block outside an impact grows its contact steps up "
-          "to rest_step_ratio*time_step, 0 = only in the rest dwell",
+            "to rest_step_ratio*time_step, 0 = only in the rest dwell",
             core::Range{0.0, kInf});
   v.bounded("max_time", max_time, "s",
             "simulated-time limit per realization, 0 = 60 s + terrain plan diagonal / (1 m/s)",
             core::Range{0.0, kInf});
   v.bounded("max_steps", max_steps, "-", "accepted-step limit per realization, 0 = none", core::Range{0.0, kInf});
-  v.bounded("trajectory_interval", trajectory_interval, "s",
-            "sampled trajectory spacing, 0 = none",
+  v.bounded("trajectory_interval", trajectory_interval, "s", "sampled trajectory spacing, 0 = none",
             core::Range{0.0, kInf});
-  v.bounded("density", density, "kg/m^3",
-            "block density",
+  v.bounded("density", density, "kg/m^3", "block density", core::Range{0.0, kInf, true, false});
+  v.bounded("young_modulus", young_modulus, "Pa", "block Young's modulus (full12 only)",
             core::Range{0.0, kInf, true, false});
-  v.bounded("young_modulus", young_modulus, "Pa",
-            "block Young's modulus (full12 only)",
-            core::Range{0.0, kInf, true, false});
-  v.bounded("poisson_ratio", poisson_ratio, "-",
-            "block Poisson's ratio (full12 only)",
+  v.bounded("poisson_ratio", poisson_ratio, "-", "block Poisson's ratio (full12 only)",
             core::Range{-1.0, 0.5, true, true});
   v.field("check_invariants", check_invariants,
           "check depth and energy invariants at every step (counted per realization; slow)");

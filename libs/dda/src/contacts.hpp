@@ -135,9 +135,11 @@ double separation(const PlacedBlock& at, const std::array<Vec3, 3>& corners, Vec
 ///   dᵢ(t) = −(n·wᵢ)·t + ½·(g·n_z + |ω|²·|r|)·t²
 /// in a time t of free flight. This is the parabola of the centroid exactly, plus the
 /// spin's rotation by θ = |ω|·t to first order; the rotation's remainder is at most
-/// ½θ²·|r|. When dynamic_coefficient < 1 damps the velocity step by step (`damped`),
-/// the translation's and the spin's approaches count only where positive, and gravity
-/// only towards the plane: max(0, −n·v) + max(0, −n·(ω × r)) and g·max(0, n_z).
+/// ½θ²·|r|. For a motion whose velocity is damped step by step (`damped`), the
+/// translation's and the spin's approaches count only where positive, and gravity only
+/// towards the plane: max(0, −n·v) + max(0, −n·(ω × r)) and g·max(0, n_z). (The engine's
+/// flight is never damped, whatever dynamic_coefficient is, so clear_time passes false;
+/// the damped form stays a tested bound, DdaFlight's damped cases.)
 class FlightBound {
  public:
   /// `vertices` (world, m) must outlive the bound's use; `round_off` (m) is taken off

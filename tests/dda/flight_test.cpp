@@ -185,7 +185,7 @@ struct Tightness {
 
 // No vertex of a tumbling cube reaches a plane before the time the bound gives, whatever
 // the plane's tilt (overhangs included), the speed (to 15 m/s) and the spin (to 15 rad/s),
-// undamped and damped (stepped at 1 ms as the engine steps, velocity scaled by 0.9 each
+// undamped and damped (stepped at 1 ms, velocity scaled by 0.9 each
 // step); and the bound is tight enough to matter: for most cases that do reach the plane
 // within a second, it gives at least a third of the time they take.
 TEST(DdaFlight, ClearTimeNeverPassesTheFirstTouch) {

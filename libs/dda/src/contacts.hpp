@@ -139,7 +139,7 @@ double separation(const PlacedBlock& at, const std::array<Vec3, 3>& corners, Vec
 /// translation's and the spin's approaches count only where positive, and gravity only
 /// towards the plane: max(0, −n·v) + max(0, −n·(ω × r)) and g·max(0, n_z). (The engine's
 /// flight is never damped, whatever dynamic_coefficient is, so clear_time passes false;
-/// the damped form stays a tested bound, DdaFlight's damped cases.)
+/// the damped form stays a tested bound: DdaFlight.ClearTimeNeverPassesTheFirstTouch.)
 class FlightBound {
  public:
   /// `vertices` (world, m) must outlive the bound's use; `round_off` (m) is taken off

@@ -186,6 +186,7 @@ struct PlyElement {
 struct PlyHeader {
   std::string format;  // ascii, binary_little_endian, binary_big_endian
   std::vector<PlyElement> elements;
+  std::size_t lines = 0;  // the header's lines, end_header included
 };
 
 std::size_t type_size(const std::string& t) {
@@ -200,7 +201,9 @@ PlyHeader read_ply_header(std::istream& in, const std::string& path) {
   std::string line;
   if (!std::getline(in, line) || line.rfind("ply", 0) != 0) throw core::InputError(path, "not a PLY file (no 'ply' magic)");
   PlyHeader h;
+  h.lines = 1;
   while (std::getline(in, line)) {
+    ++h.lines;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     std::istringstream s(line);
     std::string word;
@@ -266,14 +269,7 @@ PlyData read_ply(const std::string& path, const PointCloudOptions& options, bool
   PlyData data;
   std::istringstream words;
   // The line of the ASCII body being read, counted in the file (the header's lines first).
-  std::size_t body_line = 0;
-  if (ascii) {
-    const std::streamoff header_bytes = in.tellg();
-    std::ifstream again(path, std::ios::binary);
-    std::string header_text(static_cast<std::size_t>(std::max<std::streamoff>(0, header_bytes)), '\0');
-    again.read(header_text.data(), static_cast<std::streamsize>(header_text.size()));
-    body_line = static_cast<std::size_t>(std::count(header_text.begin(), header_text.end(), '\n'));
-  }
+  std::size_t body_line = h.lines;
   // The next number of the body, whatever its layout. An ASCII word that is not a
   // number (or not a finite one) is named with its line of the body.
   auto next_value = [&](const std::string& type) -> double {

@@ -230,10 +230,12 @@ void warn_coarse_step(const std::string& path, const mc::Scene& scene, const std
     worst = std::max(worst, ratio);
   }
   if (coarse == 0) return;
-  char text[64];
+  char share[32], text[64];
+  std::snprintf(share, sizeof share, "%g %%", 100.0 * kCoarseStepRatio);
   std::snprintf(text, sizeof text, "%.2f", worst);
   core::log_warn(path + ": " + std::to_string(coarse) + " of " + std::to_string(records.size()) +
-                 " realizations moved more than 3 % of their block's diameter in one time step at their fastest "
+                 " realizations moved more than " + share +
+                 " of their block's diameter in one time step at their fastest "
                  "(up to " + text + "): the step may cost their impacts rebound; compare with a finer "
                  "engine.time_step (engine.preset=research) before relying on jump heights and energies");
 }

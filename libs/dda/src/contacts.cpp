@@ -273,6 +273,10 @@ struct BodyPlane {
       : m(pose.map.transpose() * w), m_abs(m.cwiseAbs()), s0(w.dot(pose.centre - a)), tol(widening) {}
   double max_over(const Vec3& c, const Vec3& h) const { return s0 + m.dot(c) + m_abs.dot(h) + tol; }
   double min_over(const Vec3& c, const Vec3& h) const { return s0 + m.dot(c) - m_abs.dot(h) - tol; }
+  /// min_over of the point r (a box of no size): the same value.
+  double min_at(const Vec3& r) const { return s0 + m.dot(r) - tol; }
+  /// max_over of the point r: the same value.
+  double max_at(const Vec3& r) const { return s0 + m.dot(r) + tol; }
   Vec3 m = Vec3::Zero(), m_abs = Vec3::Zero();
   double s0 = 0.0, tol = 0.0;
 };
@@ -324,6 +328,15 @@ double ridge_level_limit(const TerrainPatch::Ridge& te, const PlacedBlock& at, d
     };
     return reaches(prism) || (faces_up && reaches(plan));
   };
+  // The same on a vertex's own box (a point: its centre is r, its half-sizes zero).
+  const auto point_passes = [&](const Vec3& r) {
+    if (!contains(body, r)) return false;
+    if (ceiling_plane.min_at(r) > 0.0 || floor_plane.min_at(r) >= ds || floor_plane.max_at(r) <= -depth) return false;
+    const auto reaches = [&](const std::array<BodyPlane, 3>& sides) {
+      return sides[0].max_at(r) >= 0.0 && sides[1].max_at(r) >= 0.0 && sides[2].max_at(r) >= 0.0;
+    };
+    return reaches(prism) || (faces_up && reaches(plan));
+  };
   out.clear();
   const Model& model = at.model();
   const VertexClimb& climb = at.index()->climb;
@@ -337,11 +350,8 @@ double ridge_level_limit(const TerrainPatch::Ridge& te, const PlacedBlock& at, d
     double level = ds + floor_plane.tol - floor_plane.s0;
     if (climb.below(model.vertices, floor_plane.m, level, walk_slack(model, floor_plane.m, level), walk_limit(model), under,
                     lowest, rise)) {
-      for (const std::int32_t v : under) {
-        geometry::Aabb b;
-        b.add(model.vertices[static_cast<std::size_t>(v)]);
-        if (passes(b)) out.push_back(v);
-      }
+      for (const std::int32_t v : under)
+        if (point_passes(model.vertices[static_cast<std::size_t>(v)])) out.push_back(v);
       cap = walked_cap(model, climb, under, lowest, level);
       return true;
     }
@@ -351,10 +361,11 @@ double ridge_level_limit(const TerrainPatch::Ridge& te, const PlacedBlock& at, d
   return false;
 }
 
-// The edges of a convex block (VertexClimb::fills) that pass `passes`, the test of
-// gather_ridge_pairs's tree query, on their own box, into `edges` (in no particular order),
-// found by walks over the vertex graph: false when the walks would visit more vertices
-// than a tree query costs (`edges` then incomplete). In the body frame, with the ridge
+// The convex edges of a convex block (VertexClimb::fills) that `keeps` (gather_ridge_pairs's
+// tests of an edge: those of its tree query on the edge's own box, and those on its
+// segment), into `edges` (in no particular order), found by walks over the vertex graph:
+// false when the walks would visit more vertices than a tree query costs (`edges` then
+// incomplete). In the body frame, with the ridge
 // from a to a + along: every edge that passes has a point within `deep` of the ridge, and
 // within `shallow` of it or an end under the ridge's planes `sides` (may_be_under of
 // gather_ridge_pairs: on a crest both, else either of `planes`; any when there are none). A
@@ -368,10 +379,10 @@ double ridge_level_limit(const TerrainPatch::Ridge& te, const PlacedBlock& at, d
 //
 // When that walk alone served, its cap is set in `cap` and `capped` (walked_cap); its
 // level is raised to at least `rise` (m) over the block's lowest vertex along `out`.
-template <class Passes>
+template <class Keeps>
 bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, double shallow, double deep, int planes,
                    bool crest, const std::array<BodyPlane, 2>& sides, const BodyPlane& out, double out_limit,
-                   double rise, const Passes& passes, std::vector<std::int32_t>& edges,
+                   double rise, const Keeps& keeps, std::vector<std::int32_t>& edges,
                    TerrainPatch::Candidates::Cap& cap, bool& capped) {
   const Model& model = at.model();
   const VertexClimb& climb = at.index()->climb;
@@ -402,12 +413,8 @@ bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, doub
       for (std::int32_t k = climb.first(v); k < climb.first(v + 1); ++k) {
         const std::int32_t e = climb.edge(k);
         if (!tested.mark(e)) continue;
-        const BlockEdge& edge = model.edges[static_cast<std::size_t>(e)];
-        if (!edge.convex) continue;
-        geometry::Aabb b;
-        b.add(model.vertices[static_cast<std::size_t>(edge.a)]);
-        b.add(model.vertices[static_cast<std::size_t>(edge.b)]);
-        if (passes(b)) edges.push_back(e);
+        if (!model.edges[static_cast<std::size_t>(e)].convex) continue;
+        if (keeps(e)) edges.push_back(e);
       }
     }
     if (raise > 0.0) cap = walked_cap(model, climb, under, lowest, level);
@@ -525,33 +532,42 @@ bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, doub
     if (distance2 > (deep + size) * (deep + size)) return false;
     return may_be_under([&](int k) { return sides[static_cast<std::size_t>(k)].min_over(c, h) <= 0.0; });
   };
-  thread_local std::vector<std::int32_t> found;
-  bool capped = false;
-  if (!climb.fills() || !edges_by_walk(at, a, along, shallow, deep, planes, te.convex, sides, out_plane, out_limit,
-                                       motion, passes, found, p.cap, capped)) {
-    found.clear();
-    at.index()->convex_edges.query(passes, found);
-  }
-  p.basis = capped ? Basis::walked : Basis::queried;
   // The same tests on each edge's own segment: its distance to the ridge's instead of
   // a box's, its ends' plane values instead of a box's extremes (a segment's extremes
   // along a plane lie at its ends). An edge's box is as long as the edge: the box
   // tests let through 1.5–3 times the pairs that pass these.
-  for (const std::int32_t e : found) {
+  const auto segment_passes = [&](std::int32_t e) {
     const BlockEdge& edge = model.edges[static_cast<std::size_t>(e)];
     const Vec3& r0 = model.vertices[static_cast<std::size_t>(edge.a)];
     const Vec3& r1 = model.vertices[static_cast<std::size_t>(edge.b)];
-    const auto lowest = [&](const BodyPlane& plane) {
-      return std::min(plane.min_over(r0, Vec3::Zero()), plane.min_over(r1, Vec3::Zero()));
-    };
-    if (lowest(ceiling_plane) > 0.0 || lowest(out_plane) >= out_limit) continue;
+    const auto lowest = [&](const BodyPlane& plane) { return std::min(plane.min_at(r0), plane.min_at(r1)); };
+    if (lowest(ceiling_plane) > 0.0 || lowest(out_plane) >= out_limit) return false;
     const double distance2 = segment_distance2(r0, r1, a, a + along);
-    if (distance2 > shallow * shallow &&
-        (distance2 > deep * deep ||
-         !may_be_under([&](int k) { return lowest(sides[static_cast<std::size_t>(k)]) <= 0.0; })))
-      continue;
-    edges.push_back(e);
+    return distance2 <= shallow * shallow ||
+           (distance2 <= deep * deep &&
+            may_be_under([&](int k) { return lowest(sides[static_cast<std::size_t>(k)]) <= 0.0; }));
+  };
+  // A walk's edges are given both, the segment's first (it decides most); a tree query's
+  // pass the boxes' tests on the way.
+  const auto keeps = [&](std::int32_t e) {
+    if (!segment_passes(e)) return false;
+    const BlockEdge& edge = model.edges[static_cast<std::size_t>(e)];
+    geometry::Aabb b;
+    b.add(model.vertices[static_cast<std::size_t>(edge.a)]);
+    b.add(model.vertices[static_cast<std::size_t>(edge.b)]);
+    return passes(b);
+  };
+  bool capped = false;
+  if (!climb.fills() || !edges_by_walk(at, a, along, shallow, deep, planes, te.convex, sides, out_plane, out_limit,
+                                       motion, keeps, edges, p.cap, capped)) {
+    thread_local std::vector<std::int32_t> found;
+    found.clear();
+    at.index()->convex_edges.query(passes, found);
+    edges.clear();
+    for (const std::int32_t e : found)
+      if (segment_passes(e)) edges.push_back(e);
   }
+  p.basis = capped ? Basis::walked : Basis::queried;
   std::sort(edges.begin(), edges.end());
 }
 

@@ -124,7 +124,7 @@ class VertexClimb {
   double longest(std::int32_t v) const { return longest_[static_cast<std::size_t>(v)]; }
 
  private:
-  static constexpr int kCells = 8;
+  static constexpr int kCells = 32;
   /// The cube-map cell m points into: face (axis of |m|'s largest coordinate and its
   /// sign) and the cell of the other two coordinates over it.
   static int cell(const Vec3& m);

@@ -843,23 +843,27 @@ void gather_triangle_pairs(const PlacedBlock& at, const TerrainPatch::Triangle& 
   std::sort(p.features.begin(), p.features.end());
 }
 
+// The triangles and ridges of a detailed block's pairs (indices into Candidates::triangles
+// and ::ridges, ascending) whose boxes meet a search's reach (the block's box inflated by
+// the search's margin): the only ones its pairs are refreshed and tested for.
+struct Live {
+  std::vector<std::size_t> triangles, ridges;
+};
+
 // The search of detect_contacts in `patch` for a detailed block, over the pairs of `c`
 // (gathered per triangle and ridge by gather_triangle_pairs and gather_ridge_pairs, at
 // this pose or one close enough for them to serve, pairs_serve): every test of a search
 // that gathered at this very pose, in its order, so the same contacts in the same order,
 // those of the scan. Terrain vertices are searched afresh (the faces near each).
 void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds, double vertex_ds, double depth,
-                    const TerrainPatch::Candidates& c, std::vector<Contact>& out) {
+                    const TerrainPatch::Candidates& c, const Live& live, std::vector<Contact>& out) {
   const Model& model = at.model();
   const Pose& pose = at.pose();
   const BlockIndex* index = at.index();
   const double margin = std::max(ds, depth);
-  const geometry::Aabb reach = at.box().inflated(margin);
   double top = -std::numeric_limits<double>::infinity();
-  for (const std::int32_t t : c.triangles) {
-    const TerrainPatch::Triangle& tri = patch.triangles[static_cast<std::size_t>(t)];
-    if (overlaps(tri.box, reach)) top = std::max(top, tri.box.hi.z());
-  }
+  for (const std::size_t j : live.triangles)
+    top = std::max(top, patch.triangles[static_cast<std::size_t>(c.triangles[j])].box.hi.z());
   const double ceiling = top + margin;
   // Whether any vertex is that low (the lowest vertex is the box's floor).
   const bool any_low = at.box().lo.z() <= ceiling;
@@ -890,10 +894,11 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
   // (−depth, ds) by more than the round-off of either computation fails the exact test
   // below, so it is passed over before its world position is computed (the pairs were
   // gathered for a wider distance).
-  for (std::size_t j = 0; j < c.triangles.size() && any_low; ++j) {
+  for (std::size_t l = 0; l < live.triangles.size() && any_low; ++l) {
+    const std::size_t j = live.triangles[l];
     const TerrainPatch::Triangle& tri = patch.triangles[static_cast<std::size_t>(c.triangles[j])];
     const std::vector<std::int32_t>& vertices = c.triangle_pairs[j].features;
-    if (vertices.empty() || !overlaps(tri.box, reach)) continue;
+    if (vertices.empty()) continue;
     const geometry::Aabb tbox = tri.box.inflated(margin);
     const BodyPlane slab(pose, tri.normal, tri.p[0], at.round_off() + kRound * magnitude(tbox));
     for (const std::int32_t vi : vertices) {
@@ -943,11 +948,11 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
   const std::size_t first_crossing = out.size();
   thread_local std::vector<std::pair<std::int32_t, std::int32_t>> order;  // (edge, ridge) of each crossing
   order.clear();
-  for (std::size_t j = 0; j < c.ridges.size(); ++j) {
+  for (const std::size_t j : live.ridges) {
     const std::int32_t r = c.ridges[j];
     const TerrainPatch::Ridge& te = patch.ridges[static_cast<std::size_t>(r)];
     const std::vector<std::int32_t>& edges = c.ridge_pairs[j].features;
-    if (edges.empty() || !overlaps(te.box, reach)) continue;
+    if (edges.empty()) continue;
     const BodyPlane level(pose, te.out, te.pa, 0.0);
     const double limit = ridge_level_limit(te, at, ds, margin, 1);
     for (const std::int32_t be : edges) {
@@ -1353,25 +1358,30 @@ void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, dou
     };
     // The pairs of the features (`ids`, of `features`) whose boxes meet the reach, gathered
     // again by `gather(feature, pairs)` where they no longer serve.
+    thread_local Live live;
     const auto refresh = [&](const std::vector<std::int32_t>& ids, const auto& features,
-                             std::vector<TerrainPatch::Candidates::Pairs>& pairs, const auto& gather) {
+                             std::vector<TerrainPatch::Candidates::Pairs>& pairs, std::vector<std::size_t>& met,
+                             const auto& gather) {
+      met.clear();
       for (std::size_t j = 0; j < ids.size(); ++j) {
         const auto& feature = features[static_cast<std::size_t>(ids[j])];
-        if (!overlaps(feature.box, reach) || serves(pairs[j])) continue;
+        if (!overlaps(feature.box, reach)) continue;
+        met.push_back(j);
+        if (serves(pairs[j])) continue;
         gather(feature, pairs[j]);
         pairs[j].search = search;
         pairs[j].travelled = c.travelled;
       }
     };
-    refresh(c.triangles, patch.triangles, c.triangle_pairs,
+    refresh(c.triangles, patch.triangles, c.triangle_pairs, live.triangles,
             [&](const TerrainPatch::Triangle& tri, TerrainPatch::Candidates::Pairs& pairs) {
               gather_triangle_pairs(at, tri, ds + widening, depth_limit + widening, widening, pairs);
             });
-    refresh(c.ridges, patch.ridges, c.ridge_pairs,
+    refresh(c.ridges, patch.ridges, c.ridge_pairs, live.ridges,
             [&](const TerrainPatch::Ridge& te, TerrainPatch::Candidates::Pairs& pairs) {
               gather_ridge_pairs(at, te, ds + widening, depth_limit + widening, widening, pairs);
             });
-    detect_indexed(at, patch, ds, search_distance, depth_limit, c, out);
+    detect_indexed(at, patch, ds, search_distance, depth_limit, c, live, out);
     return;
   }
   const double moved = moved_since(c.gathering, model, pose);

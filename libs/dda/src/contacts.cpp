@@ -235,6 +235,29 @@ TerrainPatch::Candidates::Cap walked_cap(const Model& model, const VertexClimb& 
   return cap;
 }
 
+// Sets p.coordinates from p.features (Pairs::coordinates): vertices, or edges' ends.
+void set_coordinates(const Model& model, bool edges, TerrainPatch::Candidates::Pairs& p) {
+  const std::size_t n = p.features.size();
+  p.coordinates.resize((edges ? 6 : 3) * n);
+  double* x = p.coordinates.data();
+  const auto put = [&](std::size_t at, const Vec3& r) {
+    x[at] = r.x();
+    x[n + at] = r.y();
+    x[2 * n + at] = r.z();
+  };
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::size_t f = static_cast<std::size_t>(p.features[k]);
+    if (!edges) {
+      put(k, model.vertices[f]);
+      continue;
+    }
+    put(k, model.vertices[static_cast<std::size_t>(model.edges[f].a)]);
+    x += 3 * n;
+    put(k, model.vertices[static_cast<std::size_t>(model.edges[f].b)]);
+    x -= 3 * n;
+  }
+}
+
 // Starts `g` for pairs gathered at the pose of `at` with these distances and motion (m).
 void start_gathering(const PlacedBlock& at, double ds, double depth, double motion,
                      TerrainPatch::Candidates::Gathering& g) {
@@ -458,6 +481,7 @@ bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, doub
   start_gathering(at, ds, depth, motion, p);
   std::vector<std::int32_t>& edges = p.features;
   edges.clear();
+  p.coordinates.clear();
   // ‖F‖₂, generously: 1 for a rigid pose (a rotation, to round-off), else the square
   // root of FᵀF's largest eigenvalue.
   double stretch = 1.0 + 1e-6;
@@ -569,6 +593,7 @@ bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, doub
   }
   p.basis = capped ? Basis::walked : Basis::queried;
   std::sort(edges.begin(), edges.end());
+  set_coordinates(model, true, p);
 }
 
 // The exact tests of the contact search, shared by the scan of a block of few vertices
@@ -809,6 +834,7 @@ void gather_triangle_pairs(const PlacedBlock& at, const TerrainPatch::Triangle& 
   const Pose& pose = at.pose();
   start_gathering(at, ds, depth, motion, p);
   p.features.clear();
+  p.coordinates.clear();
   const double margin = std::max(ds, depth);
   const geometry::Aabb tbox = tri.box.inflated(margin);
   // A plane the whole block lies above by more than ds has none of its vertices in the
@@ -841,6 +867,7 @@ void gather_triangle_pairs(const PlacedBlock& at, const TerrainPatch::Triangle& 
                 ? Basis::walked
                 : Basis::queried;
   std::sort(p.features.begin(), p.features.end());
+  set_coordinates(at.model(), false, p);
 }
 
 // The triangles and ridges of a detailed block's pairs (indices into Candidates::triangles
@@ -887,6 +914,7 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
   // Between searches every entry of `latest` is −1 (those set are reset below), so it
   // costs what the contacts found cost, not what the block has.
   const std::size_t first = out.size();
+  thread_local std::vector<double> body_gaps;
   thread_local std::vector<std::int32_t> latest, earlier;
   if (latest.size() < model.vertices.size()) latest.resize(model.vertices.size(), -1);
   earlier.clear();
@@ -901,17 +929,25 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
     if (vertices.empty()) continue;
     const geometry::Aabb tbox = tri.box.inflated(margin);
     const BodyPlane slab(pose, tri.normal, tri.p[0], at.round_off() + kRound * magnitude(tbox));
-    for (const std::int32_t vi : vertices) {
-      const std::size_t i = static_cast<std::size_t>(vi);
-      const double body_gap = slab.s0 + slab.m.dot(model.vertices[i]);
+    // Each vertex's gap over the body frame, s0 + m·r (as Eigen's dot sums a 3-vector:
+    // the first two products, then the third), in one pass over the coordinates.
+    const std::size_t n = vertices.size();
+    const double* x = c.triangle_pairs[j].coordinates.data();
+    body_gaps.resize(n);
+    for (std::size_t k = 0; k < n; ++k)
+      body_gaps[k] = slab.s0 + ((slab.m.x() * x[k] + slab.m.y() * x[n + k]) + slab.m.z() * x[2 * n + k]);
+    for (std::size_t k = 0; k < n; ++k) {
+      const double body_gap = body_gaps[k];
       if (body_gap - slab.tol >= ds || body_gap + slab.tol <= -depth) continue;
+      const std::int32_t vi = vertices[k];
+      const std::size_t i = static_cast<std::size_t>(vi);
       const Vec3& p = world_vertex(vi);
       if (p.z() > ceiling || !contains(tbox, p)) continue;
       double gap = 0.0;
       if (!vertex_meets_triangle(tri, p, ds, depth, gap)) continue;
       bool duplicate = false;
-      for (std::int32_t k = latest[i]; k >= 0 && !duplicate; k = earlier[static_cast<std::size_t>(k)])
-        duplicate = out[first + static_cast<std::size_t>(k)].normal.dot(tri.normal) > 1.0 - 1e-9;
+      for (std::int32_t e = latest[i]; e >= 0 && !duplicate; e = earlier[static_cast<std::size_t>(e)])
+        duplicate = out[first + static_cast<std::size_t>(e)].normal.dot(tri.normal) > 1.0 - 1e-9;
       if (duplicate) continue;
       earlier.push_back(latest[i]);
       latest[i] = static_cast<std::int32_t>(out.size() - first);
@@ -955,13 +991,21 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
     if (edges.empty()) continue;
     const BodyPlane level(pose, te.out, te.pa, 0.0);
     const double limit = ridge_level_limit(te, at, ds, margin, 1);
-    for (const std::int32_t be : edges) {
+    // Each edge's lower end's value along `out`, in one pass over the coordinates (each
+    // dot as Eigen sums it).
+    const std::size_t n = edges.size();
+    const double* x = c.ridge_pairs[j].coordinates.data();
+    const double* y = x + 3 * n;
+    const double mx = level.m.x(), my = level.m.y(), mz = level.m.z();
+    body_gaps.resize(n);
+    for (std::size_t k = 0; k < n; ++k)
+      body_gaps[k] = std::min((mx * x[k] + my * x[n + k]) + mz * x[2 * n + k],
+                              (mx * y[k] + my * y[n + k]) + mz * y[2 * n + k]) +
+                     level.s0;
+    for (std::size_t k = 0; k < n; ++k) {
+      if (body_gaps[k] >= limit) continue;
+      const std::int32_t be = edges[k];
       const BlockEdge& bedge = model.edges[static_cast<std::size_t>(be)];
-      if (std::min(level.m.dot(model.vertices[static_cast<std::size_t>(bedge.a)]),
-                   level.m.dot(model.vertices[static_cast<std::size_t>(bedge.b)])) +
-              level.s0 >=
-          limit)
-        continue;
       const Vec3& p0 = world_vertex(bedge.a);
       const Vec3& p1 = world_vertex(bedge.b);
       if (std::min(p0.z(), p1.z()) > ceiling || !overlaps(te.box, edge_box(p0, p1, margin))) continue;

@@ -231,6 +231,10 @@ struct TerrainPatch {
       double room = 0.0;
       Cap cap;
       std::vector<std::int32_t> features;  ///< block vertices or edges, ascending
+      /// The features' body-frame points by coordinate, for the search's first tests in
+      /// one pass each (m): of vertices x of each, then y, then z; of edges the same for
+      /// their ends a, then for their ends b.
+      std::vector<double> coordinates;
     };
     /// Of all the pairs of a scanned block; of a detailed block's triangles, by their boxes.
     Gathering gathering;

@@ -1310,7 +1310,8 @@ double moved_since(const TerrainPatch::Candidates::Gathering& g, const Model& mo
 // ‖ΔF‖·reach, and ‖ΔF‖·reach ≤ rise: every point the walk left out then stays out of
 // reach. None serve while the block stays above the triangle's plane, beside its prisms
 // or apart from the ridge.
-bool pairs_serve(const TerrainPatch::Candidates::Pairs& p, const Motion& since, double ds, double depth) {
+inline __attribute__((always_inline)) bool pairs_serve(const TerrainPatch::Candidates::Pairs& p, const Motion& since,
+                                                       double ds, double depth) {
   using Basis = TerrainPatch::Candidates::Pairs::Basis;
   const double moved = since.moved;
   const auto within = [&](double motion) { return ds + motion <= p.ds && depth + motion <= p.depth && motion <= p.motion; };

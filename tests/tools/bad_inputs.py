@@ -167,6 +167,10 @@ def make_fixtures(bin_dir, root):
     write(os.path.join(root, "short.asc"), "\n".join(dem[:-1]) + "\n")
     write(os.path.join(root, "vast.asc"), "ncols 100000000\nnrows 100000000\nxllcorner 0\nyllcorner 0\ncellsize 1\n1 2 3\n")
     write(os.path.join(root, "far.asc"), DEM_ASC.replace("xllcorner 0", "xllcorner 1e300"))
+    # Projected coordinates with a point without data inside: named in the DEM's own
+    # coordinates, not the shifted frame the terrain is built in.
+    write(os.path.join(root, "hole.asc"), "ncols 5\nnrows 4\nxllcorner 2600000\nyllcorner 1200000\ncellsize 2\n"
+          "NODATA_value -9999\n9 8 7 6 5\n9 8 -9999 6 5\n9 8 7 6 5\n9 8 7 6 5\n")
     write(os.path.join(root, "ids.asc"), DEM_ASC.replace("3 2 1 0", "0 0 0 0"))
     write(os.path.join(root, "bad.yaml"), "source: synthetic\nsynthetic: [unclosed\n")
     write(os.path.join(root, "friction.yaml"), PLANE_YAML.replace("restitution_mean: 0.8", "friction_angle_mean_deg: 100"))
@@ -264,6 +268,7 @@ CASES = [
     (["terrain-gen", "short.asc", "-o", "x.h5"], BAD_INPUT, ["short.asc", "too few values"]),
     (["terrain-gen", "vast.asc", "-o", "x.h5"], BAD_INPUT, ["vast.asc:1", "ncols 100000000 x nrows 100000000"]),
     (["terrain-gen", "far.asc", "-o", "x.h5"], BAD_INPUT, ["far.asc", "[-1e9, 1e9] m"]),
+    (["terrain-gen", "hole.asc", "-o", "x.h5"], BAD_INPUT, ["hole.asc", "(i=2, j=2) at (x=2600005, y=1200005)", "NODATA"]),
     (["terrain-gen", "huge.obj", "-o", "x.h5"], BAD_INPUT, ["huge.obj", "vertex", "[-1e9, 1e9] m"]),
     (["terrain-gen", "missing.asc", "-o", "x.h5"], BAD_INPUT, ["missing.asc"]),
     (["terrain-gen", "ground.laz", "-o", "x.h5"], BAD_INPUT,

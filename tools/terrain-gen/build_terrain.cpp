@@ -288,6 +288,9 @@ Terrain terrain_from_dem(const Settings& s, SourceKind kind, const std::vector<s
   const std::string& source = kind == SourceKind::synthetic ? settings_source : inputs.front();
   if (dem.spec.nx < 2 || dem.spec.ny < 2)
     throw InputError(source, "no grid of at least 2 x 2 points with data remains (after crop and NODATA trim)");
+  // Checked before the origin shift, so that a point without data is named in the DEM's
+  // own coordinates.
+  terrain::validate_dem(dem, source);
   PlanBounds b;
   b.add(dem.spec.x0, dem.spec.y0);
   b.add(dem.spec.x0 + (dem.spec.nx - 1) * dem.spec.dx, dem.spec.y0 + (dem.spec.ny - 1) * dem.spec.dy);

@@ -239,23 +239,29 @@ TerrainPatch::Candidates::Cap walked_cap(const Model& model, const VertexClimb& 
 void set_coordinates(const Model& model, bool edges, TerrainPatch::Candidates::Pairs& p) {
   const std::size_t n = p.features.size();
   p.coordinates.resize((edges ? 6 : 3) * n);
-  double* x = p.coordinates.data();
-  const auto put = [&](std::size_t at, const Vec3& r) {
-    x[at] = r.x();
-    x[n + at] = r.y();
-    x[2 * n + at] = r.z();
+  // Point r of feature k into the block of three coordinate rows starting at `rows`.
+  const auto put = [&](double* rows, std::size_t k, const Vec3& r) {
+    rows[k] = r.x();
+    rows[n + k] = r.y();
+    rows[2 * n + k] = r.z();
   };
+  double* const a = p.coordinates.data();
   for (std::size_t k = 0; k < n; ++k) {
     const std::size_t f = static_cast<std::size_t>(p.features[k]);
     if (!edges) {
-      put(k, model.vertices[f]);
+      put(a, k, model.vertices[f]);
       continue;
     }
-    put(k, model.vertices[static_cast<std::size_t>(model.edges[f].a)]);
-    x += 3 * n;
-    put(k, model.vertices[static_cast<std::size_t>(model.edges[f].b)]);
-    x -= 3 * n;
+    put(a, k, model.vertices[static_cast<std::size_t>(model.edges[f].a)]);
+    put(a + 3 * n, k, model.vertices[static_cast<std::size_t>(model.edges[f].b)]);
   }
+}
+
+// m·r for the point k of coordinate rows `rows` of n points each (Pairs::coordinates),
+// summed as Eigen sums a 3-vector's dot product (the first two products, then the third),
+// so that it equals m.dot(r) to the last bit.
+inline double coordinate_dot(const Vec3& m, const double* rows, std::size_t n, std::size_t k) {
+  return (m.x() * rows[k] + m.y() * rows[n + k]) + m.z() * rows[2 * n + k];
 }
 
 // Starts `g` for pairs gathered at the pose of `at` with these distances and motion (m).
@@ -929,13 +935,11 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
     if (vertices.empty()) continue;
     const geometry::Aabb tbox = tri.box.inflated(margin);
     const BodyPlane slab(pose, tri.normal, tri.p[0], at.round_off() + kRound * magnitude(tbox));
-    // Each vertex's gap over the body frame, s0 + m·r (as Eigen's dot sums a 3-vector:
-    // the first two products, then the third), in one pass over the coordinates.
+    // Each vertex's gap over the body frame, s0 + m·r, in one pass over the coordinates.
     const std::size_t n = vertices.size();
     const double* x = c.triangle_pairs[j].coordinates.data();
     body_gaps.resize(n);
-    for (std::size_t k = 0; k < n; ++k)
-      body_gaps[k] = slab.s0 + ((slab.m.x() * x[k] + slab.m.y() * x[n + k]) + slab.m.z() * x[2 * n + k]);
+    for (std::size_t k = 0; k < n; ++k) body_gaps[k] = slab.s0 + coordinate_dot(slab.m, x, n, k);
     for (std::size_t k = 0; k < n; ++k) {
       const double body_gap = body_gaps[k];
       if (body_gap - slab.tol >= ds || body_gap + slab.tol <= -depth) continue;
@@ -991,17 +995,13 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
     if (edges.empty()) continue;
     const BodyPlane level(pose, te.out, te.pa, 0.0);
     const double limit = ridge_level_limit(te, at, ds, margin, 1);
-    // Each edge's lower end's value along `out`, in one pass over the coordinates (each
-    // dot as Eigen sums it).
+    // Each edge's lower end's value along `out`, in one pass over the coordinates (ends
+    // a, then ends b).
     const std::size_t n = edges.size();
     const double* x = c.ridge_pairs[j].coordinates.data();
-    const double* y = x + 3 * n;
-    const double mx = level.m.x(), my = level.m.y(), mz = level.m.z();
     body_gaps.resize(n);
     for (std::size_t k = 0; k < n; ++k)
-      body_gaps[k] = std::min((mx * x[k] + my * x[n + k]) + mz * x[2 * n + k],
-                              (mx * y[k] + my * y[n + k]) + mz * y[2 * n + k]) +
-                     level.s0;
+      body_gaps[k] = std::min(coordinate_dot(level.m, x, n, k), coordinate_dot(level.m, x + 3 * n, n, k)) + level.s0;
     for (std::size_t k = 0; k < n; ++k) {
       if (body_gaps[k] >= limit) continue;
       const std::int32_t be = edges[k];

@@ -345,8 +345,27 @@ TEST_F(TerrainGen, SurveyedTinYUpOneFilePerMaterial) {
   EXPECT_EQ(box.lo, geometry::Vec3(0, 0, 0));
   EXPECT_EQ(box.hi, geometry::Vec3(10, 4, 5));
   EXPECT_EQ(t.material_of_triangle, (std::vector<std::int32_t>{0, 0, 1, 1}));
-  EXPECT_NE(r.out.find("walls and overhangs: 2 triangles"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("walls and overhangs: 2 triangles steeper than 80 degrees, 0 of them facing down"),
+            std::string::npos)
+      << r.out;
   EXPECT_NE(r.out.find("TIN, from tin"), std::string::npos) << r.out;
+  EXPECT_EQ(r.err.find("up_axis"), std::string::npos) << r.err;  // upright: nothing to say
+
+  // Read z-up, the ground strip stands on its side: all of it is wall, and terrain-gen
+  // says which setting would stand it up.
+  const Outcome side = run({"ground.obj", "-o", "side.h5"});
+  ASSERT_EQ(side.code, 0) << side.err;
+  EXPECT_NE(side.err.find("ground.obj: 100 % of the surface is steeper than 80 degrees (tin.up_axis is z"),
+            std::string::npos)
+      << side.err;
+  // A y-up survey in projected coordinates read z-up has a northing for elevation.
+  write_text(dir_ / "survey.obj", "v 2600000 700 -1200000\nv 2600010 700 -1200000\nv 2600010 701 -1200004\nf 1 2 3\n");
+  const Outcome far = run({"survey.obj", "-o", "far.h5"});
+  ASSERT_EQ(far.code, 0) << far.err;
+  EXPECT_NE(far.err.find("survey.obj: elevations from -1200004 to -1200000 m are no terrain's (tin.up_axis is z; "
+                         "meshing tools often write y up: set tin.up_axis: y"),
+            std::string::npos)
+      << far.err;
 
   // Resampled to a 1 m grid, the ground keeps its material.
   const Outcome g = run({"ground.obj", "--set", "tin.up_axis=y", "--set", "tin.mode=resample", "-o", "grid.h5"});

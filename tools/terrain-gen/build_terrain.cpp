@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <numbers>
 #include <set>
 #include <sstream>
 
@@ -57,6 +58,10 @@ struct Window {
   double xmin = -kInf, ymin = -kInf, xmax = kInf, ymax = kInf;
   bool contains(double x, double y) const { return x >= xmin && x <= xmax && y >= ymin && y <= ymax; }
 };
+
+// What the summary and the up-axis check count as wall: steeper than this (degrees from
+// horizontal).
+constexpr double kWallSlope = 80.0;
 
 io::UpAxis up_axis(const Settings& s) { return s.tin.up_axis == "y" ? io::UpAxis::y : io::UpAxis::z; }
 
@@ -341,6 +346,35 @@ Terrain resample_tin(const Terrain& tin, const Settings& s, const std::string& s
 }
 
 // A TIN (kept or resampled) from mesh files, one material per file.
+// A surveyed TIN read with the wrong up axis lies on its side: its elevations are then a
+// horizontal coordinate (a northing of 10⁶ m), or nearly all of its surface is wall. Neither
+// stops the build (a scan of a quarry face alone is three quarters wall), so both are
+// warned about, naming tin.up_axis.
+void warn_if_on_its_side(const Terrain& tin, const Settings& s, const std::string& source) {
+  const geometry::Aabb box = tin.mesh.bounds();
+  const double z_lo = box.lo.z() + tin.origin_shift.z(), z_hi = box.hi.z() + tin.origin_shift.z();
+  // Below the deepest ocean floor or above the highest summit: not an elevation (m).
+  constexpr double kLowest = -11000.0, kHighest = 9000.0;
+  const std::string hint = " (tin.up_axis is " + s.tin.up_axis + "; meshing tools often write y up: set tin.up_axis: " +
+                           (s.tin.up_axis == "y" ? "z" : "y") + " if the surface lies on its side)";
+  if (z_lo < kLowest || z_hi > kHighest) {
+    core::log_warn(source + ": elevations from " + format_number(z_lo) + " to " + format_number(z_hi) +
+                   " m are no terrain's" + hint);
+    return;
+  }
+  const double wall_nz = std::cos(kWallSlope * std::numbers::pi / 180.0);
+  double wall = 0.0, total = 0.0;
+  for (std::size_t k = 0; k < tin.mesh.triangles.size(); ++k) {
+    const Vec3 n = tin.mesh.area_normal(k);
+    const double area = n.norm();
+    total += area;
+    if (n.z() <= wall_nz * area) wall += area;
+  }
+  if (total > 0.0 && wall > 0.9 * total)
+    core::log_warn(source + ": " + format_number(std::round(100.0 * wall / total)) + " % of the surface is steeper than " +
+                   format_number(kWallSlope) + " degrees" + hint);
+}
+
 Terrain terrain_from_meshes(const Settings& s, const std::vector<std::string>& inputs,
                             const std::string& settings_source) {
   const io::MeshImportOptions options{.scale = s.tin.scale, .up = up_axis(s)};
@@ -368,6 +402,7 @@ Terrain terrain_from_meshes(const Settings& s, const std::vector<std::string>& i
   Terrain tin = terrain::build_tin_terrain(parts, part_names, source);
   merge_tin_materials(tin, s.materials);
   tin.origin_shift = shift;
+  warn_if_on_its_side(tin, s, source);
   return s.tin.mode == "resample" ? resample_tin(tin, s, source, settings_source) : tin;
 }
 
@@ -511,10 +546,19 @@ std::string summary(const Built& built) {
     out << "cell size: " << num(t.grid->dx) << " x " << num(t.grid->dy) << " m, triangulation: " << built.triangulation
         << " (" << cut0 << " cells cut (i,j)-(i+1,j+1), " << t.cell_diagonal.size() - cut0 << " cut (i+1,j)-(i,j+1))\n";
   } else {
-    // Walls and overhangs: triangles whose normal does not point up.
-    std::size_t steep = 0;
-    for (std::size_t k = 0; k < t.mesh.triangles.size(); ++k) steep += t.mesh.area_normal(k).z() <= 0.0;
-    out << "walls and overhangs: " << steep << " triangles face sideways or down\n";
+    // Walls and overhangs: triangles steeper than kWallSlope (a quarry face surveyed at
+    // 89.7° is a wall though its normal still points up), and of them those facing down.
+    const double wall_nz = std::cos(kWallSlope * std::numbers::pi / 180.0);
+    std::size_t steep = 0, down = 0;
+    for (std::size_t k = 0; k < t.mesh.triangles.size(); ++k) {
+      const Vec3 n = t.mesh.area_normal(k);
+      const double length = n.norm();
+      if (!(length > 0.0)) continue;
+      steep += n.z() <= wall_nz * length;
+      down += n.z() < 0.0;
+    }
+    out << "walls and overhangs: " << steep << " triangles steeper than " << num(kWallSlope) << " degrees, " << down
+        << " of them facing down\n";
   }
   const geometry::Aabb box = t.mesh.bounds();
   out << "extent (local): x [" << num(box.lo.x()) << ", " << num(box.hi.x()) << "] m, y [" << num(box.lo.y()) << ", "

@@ -130,7 +130,7 @@ TEST(DdaModel, BadSettingsAreOneLineErrors) {
   EXPECT_EQ(build_error(s, cube(1.0)), "dda settings: penetration_limit_ratio = 20: must be in (0, 0.5]");
   s = Settings{};
   s.rest_kinetic_energy = 1e6;
-  EXPECT_EQ(build_error(s, cube(1.0)), "dda settings: rest_kinetic_energy = 1000000: must be in [0, 0.5]");
+  EXPECT_EQ(build_error(s, cube(1.0)), "dda settings: rest_kinetic_energy = 1000000: must be in [0, 0.5] J/kg");
   // A step below the step control's floor names both fields.
   s = Settings{};
   s.time_step = 1e-9;
@@ -146,6 +146,13 @@ TEST(DdaModel, BadSettingsAreOneLineErrors) {
   s = Settings{};
   s.penalty_stiffness = std::numeric_limits<double>::quiet_NaN();
   EXPECT_NE(build_error(s, cube(1.0)).find("penalty_stiffness"), std::string::npos);
+  // The ranges are those the fields declare (Settings::visit), the reader's too.
+  s = Settings{};
+  s.penalty_stiffness = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(build_error(s, cube(1.0)), "dda settings: penalty_stiffness = inf: must be in [0, inf) N/m");
+  s = Settings{};
+  s.max_open_close_iterations = 0;
+  EXPECT_EQ(build_error(s, cube(1.0)), "dda settings: max_open_close_iterations = 0: must be in [1, 1000]");
 }
 
 TEST(DdaModel, BadBlocksAreOneLineErrors) {
@@ -191,7 +198,7 @@ TEST(DdaModel, StepEnergyGainBoundIsValidated) {
   EXPECT_NO_THROW(Model::build(set, testing::cube(1.0)));
   set.max_step_energy_gain = -0.01;
   EXPECT_EQ(build_error(set, testing::cube(1.0)),
-            "dda settings: max_step_energy_gain = -0.01: must be >= 0 (0 = never redo)");
+            "dda settings: max_step_energy_gain = -0.01: must be in [0, inf)");
 }
 
 // The step control is scaled by the block's thickness as well as its diameter: a needle

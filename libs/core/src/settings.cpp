@@ -1,7 +1,11 @@
 #include "talus/core/settings.hpp"
 
+#include "talus/core/error.hpp"
+
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <utility>
 #include <vector>
 
 namespace talus::core {
@@ -25,6 +29,68 @@ std::string Range::text(std::string_view unit) const {
                     ", " + end(max) + (max_open || max == std::numeric_limits<double>::infinity() ? ")" : "]");
   if (!unit.empty() && unit != "-") out += " " + std::string(unit);
   return out;
+}
+
+namespace {
+
+// The visitor of check_ranges: reads nothing, changes nothing; each bounded number is
+// checked (the values of bounded lists and triples by component).
+class RangeCheck final : public SettingsVisitor {
+ public:
+  RangeCheck(std::string source, std::string prefix) : source_(std::move(source)), prefix_(std::move(prefix)) {}
+
+  void field(std::string_view, double&, std::string_view, std::string_view) override {}
+  void field(std::string_view, std::optional<double>&, std::string_view, std::string_view) override {}
+  void field(std::string_view, std::int64_t&, std::string_view, std::string_view) override {}
+  void field(std::string_view, std::uint64_t&, std::string_view, std::string_view) override {}
+  void field(std::string_view, bool&, std::string_view) override {}
+  void field(std::string_view, std::string&, std::string_view) override {}
+  void field(std::string_view, std::array<double, 3>&, std::string_view, std::string_view) override {}
+  void field(std::string_view, std::vector<double>&, std::string_view, std::string_view) override {}
+  void field(std::string_view, std::vector<std::string>&, std::string_view) override {}
+  void field(std::string_view, std::vector<std::array<double, 2>>&, std::string_view, std::string_view) override {}
+  void bounded(std::string_view key, double& value, std::string_view unit, std::string_view,
+               const Range& range) override {
+    check(key, value, unit, range);
+  }
+  void bounded(std::string_view key, std::optional<double>& value, std::string_view unit, std::string_view,
+               const Range& range) override {
+    if (value) check(key, *value, unit, range);
+  }
+  void bounded(std::string_view key, std::array<double, 3>& value, std::string_view unit, std::string_view,
+               const Range& range) override {
+    for (const double v : value) check(key, v, unit, range);
+  }
+  void bounded(std::string_view key, std::int64_t& value, std::string_view unit, std::string_view,
+               const Range& range) override {
+    check(key, static_cast<double>(value), unit, range);
+  }
+  void choice(std::string_view, std::string&, std::initializer_list<std::string_view>, std::string_view) override {}
+  void section(std::string_view key, std::string_view, const std::function<void(SettingsVisitor&)>& body) override {
+    RangeCheck inner(source_, path(key) + ".");
+    body(inner);
+  }
+  void list(std::string_view key, std::string_view, const ListAccess& items) override {
+    for (std::size_t i = 0; i < items.size(); ++i) {
+      RangeCheck inner(source_, path(key) + "[" + std::to_string(i) + "].");
+      items.visit_item(i, inner);
+    }
+  }
+
+ private:
+  std::string path(std::string_view key) const { return prefix_ + std::string(key); }
+  void check(std::string_view key, double value, std::string_view unit, const Range& range) const {
+    if (range.contains(value) && std::isfinite(value)) return;
+    throw InputError(source_, path(key) + " = " + format_number(value) + ": must be in " + range.text(unit));
+  }
+  std::string source_, prefix_;
+};
+
+}  // namespace
+
+void check_ranges(const std::function<void(SettingsVisitor&)>& visit, const std::string& source) {
+  RangeCheck check(source, "");
+  visit(check);
 }
 
 std::size_t edit_distance(std::string_view a, std::string_view b) {

@@ -54,8 +54,8 @@ constexpr double kMaxOmega = 300.0;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 // Each field's range is part of its declaration: the reader refuses a value outside it
-// naming the file and line or the --set key (validate() checks the same on settings made
-// in code, and what relates two fields).
+// naming the file and line or the --set key (validate() checks the same declarations on
+// settings made in code, and what relates two fields).
 void Settings::visit(core::SettingsVisitor& v) {
   // The preset first: reading it sets the fields it names, and the fields that follow
   // in this visit override it where they are given.
@@ -142,53 +142,14 @@ namespace {
 
 const char* const kSettings = "dda settings";
 
-void require_range(bool ok, const char* key, double value, const char* what) {
-  if (!ok || !std::isfinite(value))
-    throw core::InputError(kSettings, std::string(key) + " = " + core::format_number(value) + ": " + what);
-}
-
+// The ranges each field declares (Settings::visit), then what relates two fields.
 void validate(const Settings& s) {
-  require_range(s.time_step > 0.0 && s.time_step <= 0.05, "time_step", s.time_step, "must be in (0, 0.05] s");
-  require_range(s.min_time_step > 0.0, "min_time_step", s.min_time_step, "must be > 0");
+  Settings declared = s;
+  core::check_ranges([&](core::SettingsVisitor& v) { declared.visit(v); }, kSettings);
   if (!(s.min_time_step <= s.time_step))
     throw core::InputError(kSettings, "time_step = " + core::format_number(s.time_step) +
                                           " s is below min_time_step = " + core::format_number(s.min_time_step) +
                                           " s, the shortest step the step control may cut to");
-  require_range(s.max_displacement_ratio > 0.0 && s.max_displacement_ratio <= 1.0,
-                "max_displacement_ratio", s.max_displacement_ratio, "must be in (0, 1]");
-  require_range(s.dynamic_coefficient >= 0.0 && s.dynamic_coefficient <= 1.0, "dynamic_coefficient",
-                s.dynamic_coefficient, "must be in [0, 1]");
-  require_range(s.penalty_stiffness >= 0.0, "penalty_stiffness", s.penalty_stiffness,
-                "must be >= 0 (0 = from the block)");
-  require_range(s.penalty_omega >= kMinOmega && s.penalty_omega <= kMaxOmega, "penalty_omega", s.penalty_omega,
-                "must be in [3, 300]");
-  require_range(s.shear_stiffness_ratio > 0.0, "shear_stiffness_ratio", s.shear_stiffness_ratio,
-                "must be > 0");
-  require_range(s.max_open_close_iterations >= 1 && s.max_open_close_iterations <= 1000,
-                "max_open_close_iterations", static_cast<double>(s.max_open_close_iterations),
-                "must be in [1, 1000]");
-  require_range(s.max_step_energy_gain >= 0.0, "max_step_energy_gain", s.max_step_energy_gain,
-                "must be >= 0 (0 = never redo)");
-  require_range(s.penetration_limit_ratio > 0.0 && s.penetration_limit_ratio <= 0.5, "penetration_limit_ratio",
-                s.penetration_limit_ratio, "must be in (0, 0.5]");
-  require_range(s.gravity >= 0.0 && s.gravity <= 1000.0, "gravity", s.gravity, "must be in [0, 1000]");
-  require_range(s.impact_min_normal_speed >= 0.0, "impact_min_normal_speed", s.impact_min_normal_speed,
-                "must be >= 0");
-  require_range(s.rest_kinetic_energy >= 0.0 && s.rest_kinetic_energy <= 0.5, "rest_kinetic_energy",
-                s.rest_kinetic_energy, "must be in [0, 0.5]");
-  require_range(s.rest_dwell >= 0.0, "rest_dwell", s.rest_dwell, "must be >= 0");
-  require_range(s.rest_step_ratio >= 1.0 && s.rest_step_ratio <= 100.0, "rest_step_ratio", s.rest_step_ratio,
-                "must be in [1, 100]");
-  require_range(s.flight_step_ratio >= 1.0 && s.flight_step_ratio <= 64.0, "flight_step_ratio", s.flight_step_ratio,
-                "must be in [1, 64]");
-  require_range(s.slow_kinetic_energy >= 0.0, "slow_kinetic_energy", s.slow_kinetic_energy, "must be >= 0");
-  require_range(s.max_time >= 0.0, "max_time", s.max_time, "must be >= 0 (0 = from the terrain)");
-  require_range(s.max_steps >= 0, "max_steps", static_cast<double>(s.max_steps), "must be >= 0 (0 = none)");
-  require_range(s.trajectory_interval >= 0.0, "trajectory_interval", s.trajectory_interval, "must be >= 0");
-  require_range(s.density > 0.0, "density", s.density, "must be > 0");
-  require_range(s.young_modulus > 0.0, "young_modulus", s.young_modulus, "must be > 0");
-  require_range(s.poisson_ratio > -1.0 && s.poisson_ratio < 0.5, "poisson_ratio", s.poisson_ratio,
-                "must be in (-1, 0.5)");
 }
 
 DofPath parse_dof(const std::string& text) {

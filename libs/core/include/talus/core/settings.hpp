@@ -118,6 +118,12 @@ class SettingsVisitor {
   }
 };
 
+/// Checks each number a settings struct declares as bounded (`visit` lets it declare its
+/// fields) against the declared range, and that it is finite: the check of settings made
+/// in code, which no reader has seen (the reader checks what it reads). Throws
+/// InputError(source, "KEY = VALUE: must be in RANGE"), KEY with its sections' prefix.
+void check_ranges(const std::function<void(SettingsVisitor&)>& visit, const std::string& source);
+
 /// Levenshtein distance between two words: the suggestion for a misspelt key or option.
 std::size_t edit_distance(std::string_view a, std::string_view b);
 

@@ -61,6 +61,17 @@ TEST(Scene, RefusesBadScenesWithOneLineReasons) {
       {[](SceneSettings& s) { s.materials = {restitution_override("slope", -0.5)}; }, "material 'slope': values must be finite"},
       {[](SceneSettings& s) { s.outputs.barriers = {{"b", {{1.0, 1.0}}}}; }, "barrier 'b' needs at least 2"},
       {[](SceneSettings& s) { s.stop_zones = {{"z", {3.0, 1.0}, {}}}; }, "x_range must be [x_min, x_max]"},
+      // Names of crossings' statistics must differ; lines and zones beside the terrain
+      // would give zeros that look like results.
+      {[](SceneSettings& s) { s.outputs.barriers[1].name = s.outputs.barriers[0].name; },
+       "barrier name 'lower slope' is taken by another barrier"},
+      {[](SceneSettings& s) { s.outputs.barriers = {{"far", {{100.0, 0.0}, {100.0, 20.0}}}}; },
+       "barrier 'far' lies outside the terrain (input coordinates: x in [0, 60], y in [0, 20]), so no block can "
+       "reach it"},
+      {[](SceneSettings& s) { s.stop_zones = {{"beyond", {70.0, 80.0}, {}}}; },
+       "stop zone 'beyond' lies outside the terrain"},
+      {[](SceneSettings& s) { s.stop_zones = {{"pond", {}, {{-9.0, -9.0}, {-5.0, -9.0}, {-5.0, -5.0}}}}; },
+       "stop zone 'pond' lies outside the terrain"},
       {[](SceneSettings& s) { s.outputs.hazard_cell_size = -1.0; }, "hazard_cell_size must be >= 0"},
       {[](SceneSettings& s) { s.engine.time_step = -1.0; }, "dda settings"},
   };
@@ -191,6 +202,25 @@ TEST(Scene, CoordinatesAreTheTerrainsInputCoordinates) {
       << message;
   EXPECT_NE(message.find("set frame: local"), std::string::npos) << message;
   EXPECT_EQ(message.find('\n'), std::string::npos);
+
+  // So are barriers and stop zones written in the shifted frame (the release right).
+  const auto local_line_message = [&](const std::function<void(SceneSettings&)>& edit) {
+    SceneSettings s = input;
+    edit(s);
+    try {
+      Scene::build(s, shifted, cube, "scene.yaml");
+    } catch (const core::InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  for (const std::string& m :
+       {local_line_message([](SceneSettings& s) { s.outputs.barriers = bench_scene().outputs.barriers; }),
+        local_line_message([](SceneSettings& s) { s.stop_zones = {{"run-out", {35.5, 61.0}, {}}}; })}) {
+    EXPECT_NE(m.find("lies outside the terrain (input coordinates: x in [2601000, 2601060]"), std::string::npos) << m;
+    EXPECT_NE(m.find("it lies on the terrain in its local frame"), std::string::npos) << m;
+    EXPECT_NE(m.find("set frame: local"), std::string::npos) << m;
+  }
 }
 
 TEST(Scene, HazardGridCoversTheTerrain) {

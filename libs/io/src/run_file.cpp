@@ -368,6 +368,12 @@ RunInfo read_info(const h5::Group& root) {
   info.blocks = run.read_strings("blocks");
   info.stop_classes = run.read_strings("stop_classes");
   info.barriers = run.read_strings("barriers");
+  // Barrier names name the statistics of their crossings (stats' columns and groups).
+  for (std::size_t k = 0; k < info.barriers.size(); ++k)
+    for (std::size_t j = 0; j < k; ++j)
+      if (info.barriers[j] == info.barriers[k])
+        throw InputError(root.file_name(), "/run/barriers: the name '" + info.barriers[k] +
+                                               "' is given to two barriers; barrier names must differ");
   const auto vertices = run.read_doubles("barrier_vertices", {0, 2});
   const auto offsets = run.read_int64("barrier_offsets", {info.barriers.size() + 1});
   for (std::size_t k = 0; k < info.barriers.size(); ++k) {

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <limits>
 #include <set>
+#include <utility>
 
 #include "talus/core/error.hpp"
 #include "talus/terrain/material_classes.hpp"
@@ -170,6 +171,37 @@ std::string extent_text(const geometry::Aabb& b, const Eigen::Vector2d& shift) {
 // Whether plan point p (local frame) lies within the plan bounds b.
 bool within_bounds(const geometry::Aabb& b, const Eigen::Vector2d& p) {
   return p.x() >= b.lo.x() && p.x() <= b.hi.x() && p.y() >= b.lo.y() && p.y() <= b.hi.y();
+}
+
+// Whether the plan box [lo, hi] (local frame) meets the plan bounds b.
+bool meets_bounds(const geometry::Aabb& b, const Eigen::Vector2d& lo, const Eigen::Vector2d& hi) {
+  return lo.x() <= b.hi.x() && hi.x() >= b.lo.x() && lo.y() <= b.hi.y() && hi.y() >= b.lo.y();
+}
+
+// A barrier line or stop zone (`what`, its plan box [lo, hi] in the local frame) must
+// meet the terrain: one that lies beside it never sees a block, and its statistics would
+// be zeros that look like results. The error gives the extent in the scene's frame and,
+// when the box meets the terrain in the local frame, says the scene is in the wrong one.
+void require_on_terrain(const geometry::Aabb& b, const Eigen::Vector2d& lo, const Eigen::Vector2d& hi,
+                        const Eigen::Vector2d& shift, bool input, const std::string& what, const std::string& source) {
+  if (meets_bounds(b, lo, hi)) return;
+  std::string hint;
+  if (input && shift.squaredNorm() > 0.0 && meets_bounds(b, lo + shift, hi + shift))
+    hint = "; it lies on the terrain in its local frame (input coordinates minus the origin shift [" +
+           format_number(shift.x()) + ", " + format_number(shift.y()) +
+           "]): give the scene's coordinates in the terrain's input coordinates, or set frame: local";
+  throw InputError(source, what + " lies outside the terrain (" + (input ? "input" : "local") +
+                               " coordinates: " + extent_text(b, shift) + "), so no block can reach it" + hint);
+}
+
+// The plan box of points (local frame).
+std::pair<Eigen::Vector2d, Eigen::Vector2d> plan_box(const std::vector<Eigen::Vector2d>& points) {
+  Eigen::Vector2d lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+  for (const auto& p : points) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  return {lo, hi};
 }
 
 // The release features of a vector file in the local frame, with their part sizes and
@@ -454,6 +486,13 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
   const double azimuth = s.release.main_direction_deg * M_PI / 180.0;
   scene.main_direction_ = Eigen::Vector2d(std::cos(azimuth), std::sin(azimuth));
 
+  const geometry::Aabb& plan = scene.base_->bounds();
+  const bool input_frame = s.frame == "input";
+  const auto on_terrain = [&](const std::vector<Eigen::Vector2d>& line, const std::string& what,
+                              const std::string& from, bool in_input_frame) {
+    const auto [lo, hi] = plan_box(line);
+    require_on_terrain(plan, lo, hi, in_input_frame ? input_shift : shift, in_input_frame, what, from);
+  };
   std::set<std::string> barrier_names;
   for (std::size_t k = 0; k < s.outputs.barriers.size(); ++k) {
     const BarrierSettings& b = s.outputs.barriers[k];
@@ -467,6 +506,7 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
           throw InputError(b.file, "barrier name '" + barrier.name + "' is taken by another barrier: give distinct " +
                                        (b.name_field.empty() ? "names (outputs.barriers[].name or name_field)"
                                                              : "names in field '" + b.name_field + "'"));
+        on_terrain(barrier.line, "barrier '" + barrier.name + "'", b.file, true);
         scene.barriers_.push_back(std::move(barrier));
       }
       continue;
@@ -474,10 +514,13 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
     if (!b.layer.empty() || !b.name_field.empty())
       throw InputError(source, "outputs.barriers entry " + std::to_string(k + 1) + ": layer and name_field need file");
     const std::string name = b.name.empty() ? "barrier " + std::to_string(k + 1) : b.name;
-    barrier_names.insert(name);
+    if (!barrier_names.insert(name).second)
+      throw InputError(source, "barrier name '" + name +
+                                   "' is taken by another barrier: give distinct names (outputs.barriers[].name)");
     if (b.line.size() < 2 || !finite_points(b.line))
       throw InputError(source, "barrier '" + name + "' needs at least 2 finite vertices in its line");
     Barrier barrier{name, local(b.line), {0.0}};
+    on_terrain(barrier.line, "barrier '" + name + "'", source, input_frame);
     for (std::size_t j = 1; j < barrier.line.size(); ++j) {
       const double len = (barrier.line[j] - barrier.line[j - 1]).norm();
       if (!(len > 0.0)) throw InputError(source, "barrier '" + name + "' has a zero-length segment");
@@ -496,10 +539,15 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
         throw InputError(source, "stop zone '" + z.name + "': x_range must be [x_min, x_max] with x_min < x_max");
       zone.x_min = z.x_range[0] - shift.x();
       zone.x_max = z.x_range[1] - shift.x();
+      // The zone spans every y.
+      const double all = std::numeric_limits<double>::infinity();
+      require_on_terrain(plan, Eigen::Vector2d(zone.x_min, -all), Eigen::Vector2d(zone.x_max, all), shift, input_frame,
+                         "stop zone '" + z.name + "'", source);
     } else {
       zone.polygon = local(z.polygon);
       if (zone.polygon.size() < 3 || !finite_points(z.polygon) || polygon_area(zone.polygon) == 0.0)
         throw InputError(source, "stop zone '" + z.name + "': polygon needs 3 or more vertices and an area");
+      on_terrain(zone.polygon, "stop zone '" + z.name + "'", source, input_frame);
     }
     scene.zones_.push_back(std::move(zone));
   }

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <string>
 
@@ -272,15 +273,28 @@ TEST(Crs, TravelsWithGeoTiffAndPrjFiles) {
   const std::string wkt = resolve_crs("EPSG:32632", "s");
   const std::string tif = temp_file("crs.tif");
   write_geotiff(tif, sample_dem(), -9999.0, wkt);
-  EXPECT_EQ(crs_name(dem_crs(tif)), "WGS 84 / UTM zone 32N (EPSG:32632)");
+  EXPECT_EQ(crs_name(dem_crs(tif).text), "WGS 84 / UTM zone 32N (EPSG:32632)");
+  EXPECT_EQ(dem_crs(tif).file, tif);
   const std::string asc = temp_file("crs.asc");
   write_esri_ascii(asc, sample_dem());
-  EXPECT_EQ(dem_crs(asc), "");  // no .prj beside it
+  EXPECT_EQ(dem_crs(asc).text, "");  // no .prj beside it
   const std::string prj = temp_file("crs.prj");
   write_prj(prj, wkt);
-  // ESRI's WKT, as GIS software reads it beside an .asc.
-  EXPECT_EQ(dem_crs(asc).rfind("PROJCS[\"WGS_1984_UTM_Zone_32N\"", 0), 0u) << dem_crs(asc);
-  EXPECT_EQ(crs_name(resolve_crs(dem_crs(asc), asc)), "WGS 84 / UTM zone 32N (EPSG:32632)");
+  // ESRI's WKT, as GIS software reads it beside an .asc; the .prj named as its source.
+  EXPECT_EQ(dem_crs(asc).text.rfind("PROJCS[\"WGS_1984_UTM_Zone_32N\"", 0), 0u) << dem_crs(asc).text;
+  EXPECT_EQ(dem_crs(asc).file, prj);
+  EXPECT_EQ(crs_name(resolve_crs(dem_crs(asc).text, asc)), "WGS 84 / UTM zone 32N (EPSG:32632)");
+  // gdalsrsinfo -o wkt_esri writes a blank line before the WKT.
+  const std::string esri = [&] {
+    std::ifstream in(prj);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  }();
+  write_file("crs.prj", "\n" + esri + "\n");
+  EXPECT_EQ(crs_name(resolve_crs(dem_crs(asc).text, asc)), "WGS 84 / UTM zone 32N (EPSG:32632)");
+  // Text that is no CRS is shown on one line.
+  const std::string bad = input_error([] { resolve_crs("not a\ncrs at all\n", "x.prj"); });
+  EXPECT_NE(bad.find("x.prj: CRS 'not a crs at all' is not"), std::string::npos) << bad;
+  EXPECT_EQ(bad.find('\n'), std::string::npos) << bad;
   write_file("crs.prj", "  \n");
   EXPECT_NE(input_error([&] { dem_crs(asc); }).find("crs.prj: is empty"), std::string::npos);
   for (const auto& path : {tif, asc, prj}) fs::remove(path);

@@ -367,7 +367,7 @@ TEST_F(Stats, HazardRastersInTerrainCoordinates) {
     for (const char* ext : {".tif", ".asc"}) {
       const std::string path = base.string() + ext;
       ASSERT_TRUE(fs::exists(path)) << path;
-      EXPECT_EQ(io::crs_name(io::dem_crs(path)), "WGS 84 / UTM zone 32N (EPSG:32632)") << path;
+      EXPECT_EQ(io::crs_name(io::dem_crs(path).text), "WGS 84 / UTM zone 32N (EPSG:32632)") << path;
     }
     const io::BandInfo band = io::read_band_info(base.string() + ".tif");
     EXPECT_EQ(band.unit, unit) << layer;

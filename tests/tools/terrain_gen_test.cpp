@@ -295,7 +295,7 @@ TEST_F(TerrainGen, CoordinateReferenceSystemIsReadStoredAndChecked) {
   expect_error(run({"utm.asc", "--set", "crs=EPSG:999999", "-o", "out.h5"}), 3, "not a coordinate reference system");
   write_text(dir_ / "utm.prj", "GEOGCS[\"GCS_WGS_1984\",DATUM[\"D_WGS_1984\",SPHEROID[\"WGS_1984\",6378137.0,"
                                "298.257223563]],PRIMEM[\"Greenwich\",0.0],UNIT[\"Degree\",0.0174532925199433]]\n");
-  expect_error(run({"utm.asc", "-o", "out.h5"}), 3, "utm.asc: CRS");
+  expect_error(run({"utm.asc", "-o", "out.h5"}), 3, "utm.prj: CRS");
 }
 
 TEST_F(TerrainGen, MaterialRasterAssignsIdsByNearestCell) {

@@ -500,8 +500,8 @@ Built build_terrain(const Settings& s, const std::vector<std::string>& inputs, c
   const io::CrsData data = built.kind == SourceKind::points ? io::CrsData::point_cloud : io::CrsData::raster;
   if (!s.crs.empty()) crs = io::resolve_crs(s.crs, settings_source, data);
   else if (built.kind == SourceKind::dem) {
-    if (const std::string declared = io::dem_crs(inputs.front()); !declared.empty())
-      crs = io::resolve_crs(declared, inputs.front());
+    if (const io::DemCrs declared = io::dem_crs(inputs.front()); !declared.text.empty())
+      crs = io::resolve_crs(declared.text, declared.file);
   } else if (built.kind == SourceKind::points) {
     crs = declared_cloud_crs(inputs);
   }

@@ -302,7 +302,7 @@ std::string gdal_description() {
   return std::string("GDAL ") + GDALVersionInfo("RELEASE_NAME") + (gtiff ? " (GeoTIFF read/write)" : " (no GeoTIFF driver)");
 }
 
-std::string dem_crs(const std::string& path) {
+DemCrs dem_crs(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
   if (ext == ".asc") {
@@ -313,9 +313,12 @@ std::string dem_crs(const std::string& path) {
       std::ifstream in(side, std::ios::binary);
       std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
       if (!in.good() && !in.eof()) throw InputError(side.string(), "cannot be read");
+      // gdalsrsinfo -o wkt_esri writes a blank line first.
       while (!text.empty() && std::isspace(static_cast<unsigned char>(text.back()))) text.pop_back();
+      const auto start = std::find_if(text.begin(), text.end(), [](unsigned char c) { return !std::isspace(c); });
+      text.erase(text.begin(), start);
       if (text.empty()) throw InputError(side.string(), "is empty (a .prj file holds the CRS as WKT)");
-      return text;
+      return {text, side.string()};
     }
     return {};
   }
@@ -323,13 +326,22 @@ std::string dem_crs(const std::string& path) {
   DatasetPtr ds(GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr));
   if (!ds) throw InputError(path, "cannot be opened as a raster" + QuietGdal::last_message());
   const char* wkt = GDALGetProjectionRef(static_cast<GDALDatasetH>(ds.get()));
-  return wkt ? std::string(wkt) : std::string();
+  if (wkt == nullptr || *wkt == '\0') return {};
+  return {std::string(wkt), path};
 }
 
 std::string resolve_crs(const std::string& text, const std::string& source, CrsData data) {
   QuietGdal quiet;
   const SrsPtr srs = parse_srs(text);
-  const std::string shown = text.size() > 60 ? text.substr(0, 57) + "..." : text;
+  // On one line: a .prj's WKT may span several.
+  std::string flat;
+  for (const char c : text) {
+    const bool space = std::isspace(static_cast<unsigned char>(c)) != 0;
+    if (!space) flat += c;
+    else if (!flat.empty() && flat.back() != ' ') flat += ' ';
+  }
+  while (!flat.empty() && flat.back() == ' ') flat.pop_back();
+  const std::string shown = flat.size() > 60 ? flat.substr(0, 57) + "..." : flat;
   if (!srs)
     throw InputError(source, "CRS '" + shown + "' is not a coordinate reference system GDAL knows (give EPSG:nnnn, "
                              "WKT or a .prj file)" + QuietGdal::last_message());

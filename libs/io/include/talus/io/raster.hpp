@@ -33,11 +33,15 @@ std::string gdal_description();
 /// True when `path` names a raster read_dem understands (.asc, .tif, .tiff, any case).
 bool is_dem_path(const std::string& path);
 
-/// The coordinate reference system a DEM file declares, as the user wrote it: a
+/// The coordinate reference system a DEM file declares, as the user wrote it (`text`): a
 /// GeoTIFF's spatial reference (WKT), or the text of the `.prj` file beside an `.asc`
-/// (same name, extension .prj or .PRJ). Empty when the file declares none. Throws
-/// core::InputError naming the file when it cannot be read.
-std::string dem_crs(const std::string& path);
+/// (same name, extension .prj or .PRJ; blank lines and spaces around it taken off), and
+/// the file that holds it (`file`, for messages). Empty when the file declares none.
+/// Throws core::InputError naming the file when it cannot be read.
+struct DemCrs {
+  std::string text, file;
+};
+DemCrs dem_crs(const std::string& path);
 
 /// What a CRS describes, for the command a refusal suggests to reproject it.
 enum class CrsData { raster, point_cloud };

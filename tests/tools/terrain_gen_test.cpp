@@ -320,6 +320,20 @@ TEST_F(TerrainGen, MaterialRasterAssignsIdsByNearestCell) {
   EXPECT_EQ(bad.code, 3);
   EXPECT_NE(bad.err.find("ids.asc: material id 1"), std::string::npos) << bad.err;
   EXPECT_FALSE(fs::exists(dir_ / "bad.h5"));
+
+  // In projected coordinates (the terrain shifted to a local frame), the raster point is
+  // named in the raster's own coordinates.
+  dem.spec.x0 = 2600000.0;
+  dem.spec.y0 = 1200000.0;
+  io::write_esri_ascii((dir_ / "far.asc").string(), dem);
+  ids.spec.x0 = 2600000.5;
+  ids.spec.y0 = 1200000.5;
+  io::write_esri_ascii((dir_ / "far-ids.asc").string(), ids);
+  const Outcome far = run({"far.asc", "--set", "material_raster=far-ids.asc", "-o", "far.h5"});
+  EXPECT_EQ(far.code, 3);
+  EXPECT_NE(far.err.find("far-ids.asc: material id 1 at raster point (i=2, j=0) at (x=2600002.5, y=1200000.5)"),
+            std::string::npos)
+      << far.err;
 }
 
 TEST_F(TerrainGen, SurveyedTinYUpOneFilePerMaterial) {

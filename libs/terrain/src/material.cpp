@@ -116,17 +116,20 @@ void assign_material_raster(Terrain& terrain, const DemGrid& ids, const std::str
     const Vec3 c = centroid(terrain, t);
     const double fi = std::round((c.x() - s.x0) / s.dx);
     const double fj = std::round((c.y() - s.y0) / s.dy);
+    // Messages give positions in the terrain's input coordinates (the raster's own).
+    const Vec3& shift = terrain.origin_shift;
     if (!(fi >= 0.0 && fi < s.nx && fj >= 0.0 && fj < s.ny)) {
-      throw core::InputError(source, "triangle " + std::to_string(t) + " centroid (" + format_number(c.x()) + ", " +
-                                         format_number(c.y()) + ") lies outside the material raster");
+      throw core::InputError(source, "triangle " + std::to_string(t) + " centroid (" + format_number(c.x() + shift.x()) +
+                                         ", " + format_number(c.y() + shift.y()) + ") lies outside the material raster");
     }
     const auto i = static_cast<std::int32_t>(fi);
     const auto j = static_cast<std::int32_t>(fj);
     const double id = ids.z[s.index(i, j)];
     if (!(id >= 0.0 && id < count && id == std::floor(id))) {
       throw core::InputError(source, "material id " + format_number(id) + " at raster point (i=" + std::to_string(i) +
-                                         ", j=" + std::to_string(j) + ") at (x=" + format_number(s.x0 + i * s.dx) +
-                                         ", y=" + format_number(s.y0 + j * s.dy) + ") is not in [0, " +
+                                         ", j=" + std::to_string(j) + ") at (x=" +
+                                         format_number(s.x0 + i * s.dx + shift.x()) +
+                                         ", y=" + format_number(s.y0 + j * s.dy + shift.y()) + ") is not in [0, " +
                                          std::to_string(terrain.materials.size()) + ")");
     }
     terrain.material_of_triangle[t] = static_cast<std::int32_t>(id);

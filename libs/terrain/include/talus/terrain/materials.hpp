@@ -26,7 +26,8 @@ void assign_zones(Terrain& terrain, const std::vector<MaterialZone>& zones, cons
 /// its centroid: raster point (i, j) stands for the cell of size dx × dy centred on it
 /// (local coordinates, as the terrain). Throws core::InputError(source, …) when a
 /// centroid lies outside the raster's cells, or when an id used is not an integer in
-/// [0, materials.size()) (NODATA included), naming the id and the raster point.
+/// [0, materials.size()) (NODATA included), naming the id and the raster point, with
+/// positions in the terrain's input coordinates (local + terrain.origin_shift).
 void assign_material_raster(Terrain& terrain, const DemGrid& ids, const std::string& source);
 
 }  // namespace talus::terrain

@@ -21,12 +21,14 @@ struct Example {
   double step = 1e-3;
   std::int64_t count = 3;
   double free = -5.0;  // not bounded: never checked
+  std::string mode = "fast";
   Item inner;
   std::vector<Item> items{Item{}, Item{}};
   void visit(SettingsVisitor& v) {
     v.bounded("step", step, "s", "time step", Range::positive(0.05));
     v.bounded("count", count, "-", "how many", Range::closed(1.0, 100.0));
     v.field("free", free, "m", "any number");
+    v.choice("mode", mode, {"fast", "exact"}, "how");
     v.section("inner", "nested", [this](SettingsVisitor& s) { inner.visit(s); });
     v.list_of("items", "listed", items);
   }
@@ -68,6 +70,10 @@ TEST(CoreSettings, CheckRangesNamesTheFieldItsValueAndItsDeclaredRange) {
                    },
                    "example settings"),
                InputError);
+  // A choice outside its values.
+  e = Example{};
+  e.mode = "slow";
+  EXPECT_EQ(range_error(e), "example settings: mode = 'slow': must be one of fast, exact");
   // A field without a range is not checked.
   e = Example{};
   e.free = -1e300;

@@ -139,7 +139,7 @@ TEST(DdaModel, BadSettingsAreOneLineErrors) {
             "may cut to");
   s = Settings{};
   s.dof = "twelve";
-  EXPECT_EQ(build_error(s, cube(1.0)), "dda settings: dof = 'twelve': expected rigid6 or full12");
+  EXPECT_EQ(build_error(s, cube(1.0)), "dda settings: dof = 'twelve': must be one of rigid6, full12");
   s = Settings{};
   s.dynamic_coefficient = 1.5;
   EXPECT_EQ(build_error(s, cube(1.0)), "dda settings: dynamic_coefficient = 1.5: must be in [0, 1]");

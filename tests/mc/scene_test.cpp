@@ -43,9 +43,9 @@ TEST(Scene, RefusesBadScenesWithOneLineReasons) {
   const std::vector<std::pair<std::function<void(SceneSettings&)>, std::string>> cases = {
       {[](SceneSettings& s) { s.schema_version = "2.0"; }, "scene schema version 2.0 is not supported"},
       {[](SceneSettings& s) { s.schema_version = "x"; }, "is not MAJOR.MINOR"},
-      {[](SceneSettings& s) { s.realizations = 0; }, "realizations must be positive, got 0"},
-      {[](SceneSettings& s) { s.realizations = -3; }, "realizations must be positive, got -3"},
-      {[](SceneSettings& s) { s.outputs.chunk = 0; }, "outputs.chunk must be positive"},
+      {[](SceneSettings& s) { s.realizations = 0; }, "scene.yaml: realizations = 0: must be in [1, 4294967295]"},
+      {[](SceneSettings& s) { s.realizations = -3; }, "scene.yaml: realizations = -3: must be in [1, 4294967295]"},
+      {[](SceneSettings& s) { s.outputs.chunk = 0; }, "outputs.chunk = 0: must be in [1, 4294967295]"},
       {[](SceneSettings& s) { s.release.points = {{70.0, 10.0}}; }, "release point (70, 10) is outside the terrain"},
       {[](SceneSettings& s) { s.release.kind = "line"; }, "needs at least 2 points"},
       {[](SceneSettings& s) { s.release.points.clear(); },
@@ -55,10 +55,10 @@ TEST(Scene, RefusesBadScenesWithOneLineReasons) {
          s.release.height = -0.1;
        },
        "release.height -0.1 m is negative"},
-      {[](SceneSettings& s) { s.release.clearance_gap = -1.0; }, "release.clearance_gap must be finite and >= 0"},
+      {[](SceneSettings& s) { s.release.clearance_gap = -1.0; }, "release.clearance_gap = -1: must be in [0, 1000] m"},
       {[](SceneSettings& s) { s.blocks = {"R9"}; }, "block 'R9' is not in the block file (it has: cube)"},
       {[](SceneSettings& s) { s.materials = {restitution_override("rock", 0.5)}; }, "material 'rock' is not in the terrain file"},
-      {[](SceneSettings& s) { s.materials = {restitution_override("slope", -0.5)}; }, "material 'slope': values must be finite"},
+      {[](SceneSettings& s) { s.materials = {restitution_override("slope", -0.5)}; }, "materials[0].restitution_mean = -0.5: must be in [0, 1]"},
       {[](SceneSettings& s) { s.outputs.barriers = {{"b", {{1.0, 1.0}}}}; }, "barrier 'b' needs at least 2"},
       {[](SceneSettings& s) { s.stop_zones = {{"z", {3.0, 1.0}, {}}}; }, "x_range must be [x_min, x_max]"},
       // Names of crossings' statistics must differ; lines and zones beside the terrain
@@ -72,8 +72,11 @@ TEST(Scene, RefusesBadScenesWithOneLineReasons) {
        "stop zone 'beyond' lies outside the terrain"},
       {[](SceneSettings& s) { s.stop_zones = {{"pond", {}, {{-9.0, -9.0}, {-5.0, -9.0}, {-5.0, -5.0}}}}; },
        "stop zone 'pond' lies outside the terrain"},
-      {[](SceneSettings& s) { s.outputs.hazard_cell_size = -1.0; }, "hazard_cell_size must be >= 0"},
-      {[](SceneSettings& s) { s.engine.time_step = -1.0; }, "dda settings"},
+      {[](SceneSettings& s) { s.outputs.hazard_cell_size = -1.0; }, "outputs.hazard_cell_size = -1: must be in [0, inf) m"},
+      {[](SceneSettings& s) { s.engine.time_step = -1.0; }, "engine.time_step = -1: must be in (0, 0.05] s"},
+      // The engine's refusal of one block names it and the engine's key.
+      {[](SceneSettings& s) { s.engine.penalty_stiffness = 1e4; },
+       "scene.yaml: block 'cube': engine.penalty_stiffness = 10000 N/m gives this block"},
   };
   for (const auto& [edit, expected] : cases) {
     SceneSettings s = bench_scene();
@@ -143,7 +146,8 @@ TEST(Scene, MaterialOverrideByClass) {
   EXPECT_EQ(m.lateral_tilt_sd_deg, 6.0);
   o.class_name = "granite";
   s.materials = {o};
-  EXPECT_NE(build_error(s).find("unknown class 'granite'"), std::string::npos) << build_error(s);
+  EXPECT_NE(build_error(s).find("materials[0].class = 'granite': must be one of none, bedrock"), std::string::npos)
+      << build_error(s);
 }
 
 TEST(Scene, ClassifiesStopsByZoneInOrder) {

@@ -189,8 +189,9 @@ TEST_F(DdaRun, BadScenesAreRefusedWithOneLine) {
       {{"--set", "terrain=missing.h5"}, "missing.h5: cannot open file"},
       {{"--set", "block_file=nowhere.h5"}, "nowhere.h5: cannot open file"},
       {{"--set", "schema_version=\"2.0\""}, "scene schema version 2.0 is not supported"},
-      {{"--set", "realizations=0"}, "realizations must be positive, got 0"},
-      {{"--set", "realizations=-5"}, "realizations must be positive"},
+      // Counts out of their range are named by their --set key (or the file's line).
+      {{"--set", "realizations=0"}, "--set realizations: must be in [1, 4294967295], got 0"},
+      {{"--set", "realizations=-5"}, "--set realizations: must be in [1, 4294967295], got -5"},
       {{"--set", "release.points=[[80, 10]]"}, "release point (80, 10) is outside the terrain"},
       {{"--set", "blocks=[R7]"}, "block 'R7' is not in the block file"},
       {{"--set", "terrain=scene.yaml"}, "scene.yaml: not an HDF5 file"},

@@ -292,6 +292,8 @@ TEST_F(TerrainGen, CoordinateReferenceSystemIsReadStoredAndChecked) {
   fs::remove(dir_ / "utm.prj");
   expect_error(run({"utm.asc", "--set", "crs=EPSG:4326", "-o", "out.h5"}), 3, "gdalwarp -t_srs");
   expect_error(run({"utm.asc", "--set", "crs=EPSG:2263", "-o", "out.h5"}), 3, "units of 0.3048");
+  // A value given by --set is named by its key.
+  expect_error(run({"utm.asc", "--set", "crs=EPSG:4326", "-o", "out.h5"}), 3, "--set crs: CRS WGS 84 (EPSG:4326)");
   expect_error(run({"utm.asc", "--set", "crs=EPSG:999999", "-o", "out.h5"}), 3, "not a coordinate reference system");
   write_text(dir_ / "utm.prj", "GEOGCS[\"GCS_WGS_1984\",DATUM[\"D_WGS_1984\",SPHEROID[\"WGS_1984\",6378137.0,"
                                "298.257223563]],PRIMEM[\"Greenwich\",0.0],UNIT[\"Degree\",0.0174532925199433]]\n");

@@ -2,10 +2,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "talus/core/error.hpp"
 
 namespace talus::stats_tool {
+
+namespace {
+constexpr double kInf = std::numeric_limits<double>::infinity();
+}  // namespace
 
 void Pool::visit(core::SettingsVisitor& v) {
   v.field("name", name, "name of the pooled run");
@@ -33,24 +38,30 @@ void Settings::visit(core::SettingsVisitor& v) {
             "{name, runs}; their realizations are pooled, numbered in the order given", pools);
   v.field("by_block", by_block, "also report each block of a run that mixes several blocks");
   v.field("quantiles", quantiles, "-", "probabilities of the reported quantiles");
-  v.field("confidence", confidence, "-", "level of the DKW bands and bootstrap intervals");
-  v.field("bootstrap_resamples", bootstrap_resamples, "", "bootstrap resamples (0 = no intervals)");
+  v.bounded("confidence", confidence, "-", "level of the DKW bands and bootstrap intervals",
+            core::Range{0.0, 1.0, true, true});
+  v.bounded("bootstrap_resamples", bootstrap_resamples, "", "bootstrap resamples (0 = no intervals)",
+            core::Range::closed(0.0, 1e6));
   v.field("seed", seed, "", "seed of the bootstrap resampling");
-  v.field("convergence_target", convergence_target, "-", "relative-error target of the convergence study");
+  v.bounded("convergence_target", convergence_target, "-", "relative-error target of the convergence study",
+            core::Range{0.0, kInf, true, false});
   v.field("convergence_quantiles", convergence_quantiles, "-", "quantiles followed besides the mean");
-  v.field("convergence_points", convergence_points, "", "points of each convergence curve");
+  v.bounded("convergence_points", convergence_points, "", "points of each convergence curve",
+            core::Range{2.0, kInf});
   v.field("reach_distances", reach_distances, "m", "runout distances whose exceedance fraction is reported");
   v.field("terrain", terrain, "terrain file (origin shift, plan view); empty = the one the run names");
   v.field("hazard_maps", hazard_maps, "write hazard rasters from the per-cell accumulators");
   v.field("raster_formats", raster_formats, "raster formats: asc (ESRI ASCII grid), tif (GeoTIFF)");
-  v.field("energy_unit", energy_unit, "unit of the energy rasters: J or kJ");
+  v.choice("energy_unit", energy_unit, {"J", "kJ"}, "unit of the energy rasters: J or kJ");
   v.choice("vector_format", vector_format, {"gpkg", "geojson", "none"},
            "vector layers of each run (stop points, first barrier crossings, trajectories; m, m/s, J, s): "
            "gpkg = one GeoPackage per run, geojson = one GeoJSON file per layer, none");
   v.field("plots", plots, "draw plots (PNG or SVG figures, drawn with Cairo)");
   v.field("plot_formats", plot_formats, "plot formats: png, svg");
-  v.field("plot_trajectories", plot_trajectories, "", "trajectories drawn in a plan view at most");
-  v.field("plot_jobs", plot_jobs, "", "figures drawn at once, one thread each (0 = one per available core)");
+  v.bounded("plot_trajectories", plot_trajectories, "", "trajectories drawn in a plan view at most",
+            core::Range{0.0, kInf});
+  v.bounded("plot_jobs", plot_jobs, "", "figures drawn at once, one thread each (0 = one per available core)",
+            core::Range{0.0, kInf});
 }
 
 namespace {
@@ -73,16 +84,13 @@ void require_subset(const std::vector<std::string>& values, std::initializer_lis
 
 }  // namespace
 
+// The ranges the fields declare (the reader checks them on what it reads, naming the line
+// or --set key), then the lists'.
 void Settings::validate() const {
+  Settings declared = *this;
+  core::check_ranges([&](core::SettingsVisitor& v) { declared.visit(v); }, "settings");
   require_probabilities(quantiles, "quantiles");
   require_probabilities(convergence_quantiles, "convergence_quantiles");
-  if (!(confidence > 0.0 && confidence < 1.0)) throw core::InputError("settings", "confidence must be in (0, 1)");
-  if (bootstrap_resamples < 0 || bootstrap_resamples > 1000000)
-    throw core::InputError("settings", "bootstrap_resamples must be in [0, 1000000]");
-  if (!(convergence_target > 0.0)) throw core::InputError("settings", "convergence_target must be positive");
-  if (convergence_points < 2) throw core::InputError("settings", "convergence_points must be at least 2");
-  if (plot_trajectories < 0) throw core::InputError("settings", "plot_trajectories must not be negative");
-  if (plot_jobs < 0) throw core::InputError("settings", "plot_jobs must not be negative");
   for (double d : reach_distances)
     if (!std::isfinite(d)) throw core::InputError("settings", "reach_distances must be finite");
   if (!observed.file.empty()) {
@@ -93,7 +101,6 @@ void Settings::validate() const {
   }
   require_subset(raster_formats, {"asc", "tif"}, "raster_formats");
   require_subset(plot_formats, {"png", "svg"}, "plot_formats");
-  require_subset({energy_unit}, {"J", "kJ"}, "energy_unit");
 }
 
 }  // namespace talus::stats_tool

@@ -481,7 +481,8 @@ std::string default_name(const Settings& s, SourceKind kind, const std::vector<s
 
 }  // namespace
 
-Built build_terrain(const Settings& s, const std::vector<std::string>& inputs, const std::string& settings_source) {
+Built build_terrain(const Settings& s, const std::vector<std::string>& inputs, const std::string& settings_source,
+                    const std::string& crs_source) {
   Built built;
   built.kind = resolve_source(s, inputs);
   if (built.kind == SourceKind::file) {
@@ -498,7 +499,7 @@ Built build_terrain(const Settings& s, const std::vector<std::string>& inputs, c
   // The CRS before the inputs: a DEM in degrees is refused before it is read.
   std::string crs;
   const io::CrsData data = built.kind == SourceKind::points ? io::CrsData::point_cloud : io::CrsData::raster;
-  if (!s.crs.empty()) crs = io::resolve_crs(s.crs, settings_source, data);
+  if (!s.crs.empty()) crs = io::resolve_crs(s.crs, crs_source.empty() ? settings_source : crs_source, data);
   else if (built.kind == SourceKind::dem) {
     if (const io::DemCrs declared = io::dem_crs(inputs.front()); !declared.text.empty())
       crs = io::resolve_crs(declared.text, declared.file);

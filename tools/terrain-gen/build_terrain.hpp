@@ -26,9 +26,10 @@ struct Built {
 };
 
 /// Builds the terrain the settings describe from the inputs. `settings_source` names the
-/// settings in messages (the -c file, or "settings"). Throws core::InputError for bad input.
+/// settings in messages (the -c file, or "settings"), `crs_source` the crs setting's (its
+/// --set key when given so; empty: settings_source). Throws core::InputError for bad input.
 Built build_terrain(const Settings& settings, const std::vector<std::string>& inputs,
-                    const std::string& settings_source);
+                    const std::string& settings_source, const std::string& crs_source = {});
 
 /// A human-readable description of the terrain (several lines).
 std::string summary(const Built& built);

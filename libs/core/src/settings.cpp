@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <utility>
 #include <vector>
 
@@ -21,9 +22,10 @@ std::string Range::text(std::string_view unit) const {
   const auto end = [](double v) {
     if (v == std::numeric_limits<double>::infinity()) return std::string("inf");
     if (v == -std::numeric_limits<double>::infinity()) return std::string("-inf");
+    // Short (%g), unless that rounds the bound (2^32 - 1 would read 4.29497e+09).
     char text[32];
     std::snprintf(text, sizeof text, "%g", v);
-    return std::string(text);
+    return std::strtod(text, nullptr) == v ? std::string(text) : format_number(v);
   };
   std::string out = std::string(min_open || min == -std::numeric_limits<double>::infinity() ? "(" : "[") + end(min) +
                     ", " + end(max) + (max_open || max == std::numeric_limits<double>::infinity() ? ")" : "]");
@@ -65,7 +67,13 @@ class RangeCheck final : public SettingsVisitor {
                const Range& range) override {
     check(key, static_cast<double>(value), unit, range);
   }
-  void choice(std::string_view, std::string&, std::initializer_list<std::string_view>, std::string_view) override {}
+  void choice(std::string_view key, std::string& value, std::initializer_list<std::string_view> allowed,
+              std::string_view) override {
+    if (std::find(allowed.begin(), allowed.end(), value) != allowed.end()) return;
+    std::string list;
+    for (const std::string_view a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
+    throw InputError(source_, path(key) + " = '" + value + "': must be one of " + list);
+  }
   void section(std::string_view key, std::string_view, const std::function<void(SettingsVisitor&)>& body) override {
     RangeCheck inner(source_, path(key) + ".");
     body(inner);

@@ -15,6 +15,9 @@ namespace talus::mc {
 using core::format_number;
 using core::InputError;
 
+// Realization indices are 32-bit (the random streams' counters): at most 2^32 − 1 of them.
+constexpr double kMaxRealizations = 4294967295.0;
+
 void MaterialOverride::visit(core::SettingsVisitor& v) {
   v.field("name", name, "name of the terrain file's material to override");
   terrain::visit_material_class(v, class_name, nullptr);
@@ -84,12 +87,14 @@ void StopZoneSettings::visit(core::SettingsVisitor& v) {
 }
 
 void OutputSettings::visit(core::SettingsVisitor& v) {
-  v.field("hazard_cell_size", hazard_cell_size, "m",
-          "cell of the hazard-map accumulators (reach, energy and height quantiles); 0 = none");
-  v.field("hazard_relative_accuracy", hazard_relative_accuracy, "-",
-          "relative error of the per-cell energy and height quantiles");
+  v.bounded("hazard_cell_size", hazard_cell_size, "m",
+            "cell of the hazard-map accumulators (reach, energy and height quantiles); 0 = none",
+            core::Range{0.0, std::numeric_limits<double>::infinity()});
+  v.bounded("hazard_relative_accuracy", hazard_relative_accuracy, "-",
+            "relative error of the per-cell energy and height quantiles", core::Range{0.0, 0.5, true, true});
   v.list_of("barriers", "barrier lines: every crossing is recorded", barriers);
-  v.field("chunk", chunk, "-", "realizations written to disk together (a crash loses at most one chunk)");
+  v.bounded("chunk", chunk, "-", "realizations written to disk together (a crash loses at most one chunk)",
+            core::Range::closed(1.0, kMaxRealizations));
 }
 
 void SceneSettings::visit(core::SettingsVisitor& v) {
@@ -109,7 +114,8 @@ void SceneSettings::visit(core::SettingsVisitor& v) {
   v.section("engine", "DDA numerical and physical settings", [this](core::SettingsVisitor& s) { engine.visit(s); });
   v.section("stochastic", "random ingredients (each can be switched off)",
             [this](core::SettingsVisitor& s) { stochastic.visit(s); });
-  v.field("realizations", realizations, "-", "number of realizations (0 … n-1)");
+  v.bounded("realizations", realizations, "-", "number of realizations (0 … n-1)",
+            core::Range::closed(1.0, kMaxRealizations));
   v.field("seed", seed, "-", "master seed of the release, block and impact draws");
   v.section("outputs", "what is recorded besides the per-realization summary",
             [this](core::SettingsVisitor& s) { outputs.visit(s); });
@@ -331,8 +337,6 @@ void check_release(const SceneSettings& s, const terrain::Surface& base, const E
   if (r.height_reference == "lowest_point" && r.height < 0.0)
     throw InputError(source, "release.height " + format_number(r.height) +
                                  " m is negative: with height_reference lowest_point it is the gap under the block");
-  if (!(r.clearance_gap >= 0.0) || !std::isfinite(r.clearance_gap))
-    throw InputError(source, "release.clearance_gap must be finite and >= 0, got " + format_number(r.clearance_gap));
   for (double c : r.velocity)
     if (!std::isfinite(c)) throw InputError(source, "release.velocity must be finite");
   for (double c : r.angular_velocity)
@@ -387,12 +391,12 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
       throw InputError(source, "scene schema version " + v + " is not supported (this build reads " +
                                    std::to_string(kSceneSchemaMajor) + ".x)");
   }
-  if (s.realizations <= 0)
-    throw InputError(source, "realizations must be positive, got " + std::to_string(s.realizations));
-  if (s.realizations > std::numeric_limits<std::uint32_t>::max())
-    throw InputError(source, "realizations must be below 2^32, got " + std::to_string(s.realizations));
-  if (s.outputs.chunk <= 0)
-    throw InputError(source, "outputs.chunk must be positive, got " + std::to_string(s.outputs.chunk));
+  // The ranges the fields declare (the reader checks them on what it reads, naming the
+  // line or --set key; these are settings made in code too).
+  {
+    SceneSettings declared = s;
+    core::check_ranges([&](core::SettingsVisitor& v) { declared.visit(v); }, source);
+  }
 
   // Blocks.
   if (library.empty()) throw InputError(source, "the block file holds no block");
@@ -415,7 +419,17 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
   for (const block::Block* b : chosen) {
     dda::Settings engine = s.engine;
     engine.density = b->density;
-    SceneBlock sb{b->name, dda::Model::build(engine, b->polyhedron), b->weight};
+    // The engine's refusal of a block (a penalty stiffness ill-posed for its mass, a
+    // polyhedron it cannot use) names the scene, the block and the engine's key.
+    auto model = [&] {
+      try {
+        return dda::Model::build(engine, b->polyhedron);
+      } catch (const InputError& e) {
+        throw InputError(source, "block '" + b->name + "': " + (e.source() == "dda settings" ? "engine." : "") +
+                                     e.detail());
+      }
+    }();
+    SceneBlock sb{b->name, std::move(model), b->weight};
     if (s.block_selection == "weighted" && !(sb.weight >= 0.0 && std::isfinite(sb.weight)))
       throw InputError(source, "block '" + b->name + "' has sampling weight " + format_number(sb.weight) +
                                    ": weights must be finite and >= 0");
@@ -553,10 +567,6 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
   }
 
   const double cell = s.outputs.hazard_cell_size;
-  if (!(cell >= 0.0) || !std::isfinite(cell))
-    throw InputError(source, "outputs.hazard_cell_size must be >= 0, got " + format_number(cell));
-  if (!(s.outputs.hazard_relative_accuracy > 0.0 && s.outputs.hazard_relative_accuracy < 0.5))
-    throw InputError(source, "outputs.hazard_relative_accuracy must be in (0, 0.5)");
   if (cell > 0.0) {
     const geometry::Aabb& b = scene.base_->bounds();
     double nx = 0.0, ny = 0.0;

@@ -4,6 +4,7 @@
 #include <functional>
 #include <limits>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "talus/io/file_header.hpp"
@@ -19,6 +20,12 @@ struct Invocation {
   std::string config_path;          ///< -c (empty if none)
   std::string settings_yaml;        ///< effective settings, defaults included
   std::string command_line;         ///< the invocation, for provenance
+  std::vector<std::string> overrides;  ///< the --set KEY=VALUE arguments, in order
+
+  /// Where the setting `key` (a top-level key path, e.g. "crs") was given, for a message
+  /// about its value: "--set KEY" when an override sets it, else the settings file, else
+  /// "settings" (its default).
+  std::string source_of(std::string_view key) const;
 
   /// The positional inputs and the settings file, for io::check_outputs_distinct.
   std::vector<io::NamedPath> named_inputs() const;

@@ -119,9 +119,10 @@ class SettingsVisitor {
 };
 
 /// Checks each number a settings struct declares as bounded (`visit` lets it declare its
-/// fields) against the declared range, and that it is finite: the check of settings made
-/// in code, which no reader has seen (the reader checks what it reads). Throws
-/// InputError(source, "KEY = VALUE: must be in RANGE"), KEY with its sections' prefix.
+/// fields) against the declared range, and that it is finite, and each choice against its
+/// values: the check of settings made in code, which no reader has seen (the reader checks
+/// what it reads). Throws InputError(source, "KEY = VALUE: must be in RANGE") or
+/// (source, "KEY = 'VALUE': must be one of A, B"), KEY with its sections' prefix.
 void check_ranges(const std::function<void(SettingsVisitor&)>& visit, const std::string& source);
 
 /// Levenshtein distance between two words: the suggestion for a misspelt key or option.

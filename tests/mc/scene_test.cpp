@@ -68,6 +68,14 @@ TEST(Scene, RefusesBadScenesWithOneLineReasons) {
       {[](SceneSettings& s) { s.outputs.barriers = {{"far", {{100.0, 0.0}, {100.0, 20.0}}}}; },
        "barrier 'far' lies outside the terrain (input coordinates: x in [0, 60], y in [0, 20]), so no block can "
        "reach it"},
+      // A polygon drawn crossing itself (a bowtie: zero area, or the area of neither lobe).
+      {[](SceneSettings& s) {
+         s.release.kind = "polygon";
+         s.release.points = {{20.0, 5.0}, {30.0, 15.0}, {30.0, 5.0}, {20.0, 15.0}};
+       },
+       "release polygon crosses itself (edges 1 and 3 of release.points meet)"},
+      {[](SceneSettings& s) { s.stop_zones = {{"toe", {}, {{40.0, 5.0}, {50.0, 15.0}, {50.0, 5.0}, {40.0, 12.0}}}}; },
+       "stop zone 'toe': polygon crosses itself (edges 1 and 3 meet)"},
       {[](SceneSettings& s) { s.stop_zones = {{"beyond", {70.0, 80.0}, {}}}; },
        "stop zone 'beyond' lies outside the terrain"},
       {[](SceneSettings& s) { s.stop_zones = {{"pond", {}, {{-9.0, -9.0}, {-5.0, -9.0}, {-5.0, -5.0}}}}; },
@@ -279,6 +287,10 @@ TEST(Release, DrawsAreFunctionsOfSeedAndIndex) {
   EXPECT_EQ(a.release.position, b.release.position);
   EXPECT_EQ(a.release.orientation.coeffs(), b.release.orientation.coeffs());
   EXPECT_NE(a.release.position, c.release.position);
+  // The closing vertex given again (as GeoJSON writes rings) is no crossing.
+  SceneSettings closed = s;
+  closed.release.points.push_back(closed.release.points.front());
+  EXPECT_NO_THROW(Scene::build(closed, bench_terrain(), library({block::SolidKind::cube}), "s"));
   // Inside the polygon, 2.5 m above the realized ground there; a unit quaternion.
   EXPECT_GE(a.release.position.x(), 1.0);
   EXPECT_LE(a.release.position.x(), 4.0);

@@ -158,6 +158,42 @@ double polygon_area(const std::vector<Eigen::Vector2d>& poly) {
   return 0.5 * a;
 }
 
+// The first pair of edges of a closed ring that meet though they are not neighbours
+// (the ring crosses or touches itself: its area and inside are then not what was drawn),
+// as "edges i and j" (1-based, edge k from vertex k to k + 1); empty when there is none.
+// Exact orientation signs on the given doubles; O(n²), rings are drawn by hand.
+std::string ring_crossing(const std::vector<Eigen::Vector2d>& drawn) {
+  // A vertex given twice in a row (the closing one repeated, as GeoJSON writes rings)
+  // makes an edge of no length, not a crossing.
+  std::vector<Eigen::Vector2d> ring;
+  for (const auto& p : drawn)
+    if (ring.empty() || p != ring.back()) ring.push_back(p);
+  while (ring.size() > 1 && ring.front() == ring.back()) ring.pop_back();
+  const std::size_t n = ring.size();
+  if (n < 4) return {};
+  const auto side = [](const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& c) {
+    const double d = (b.x() - a.x()) * (c.y() - a.y()) - (b.y() - a.y()) * (c.x() - a.x());
+    return (d > 0.0) - (d < 0.0);
+  };
+  const auto on = [](const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& c) {
+    return std::min(a.x(), b.x()) <= c.x() && c.x() <= std::max(a.x(), b.x()) && std::min(a.y(), b.y()) <= c.y() &&
+           c.y() <= std::max(a.y(), b.y());
+  };
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector2d &a = ring[i], &b = ring[(i + 1) % n];
+    for (std::size_t j = i + 2; j < n; ++j) {
+      if (i == 0 && j == n - 1) continue;  // neighbours through the closing vertex
+      const Eigen::Vector2d &c = ring[j], &d = ring[(j + 1) % n];
+      const int s1 = side(a, b, c), s2 = side(a, b, d), s3 = side(c, d, a), s4 = side(c, d, b);
+      const bool meet = (s1 != s2 && s3 != s4 && s1 * s2 <= 0 && s3 * s4 <= 0 && (s1 != 0 || s2 != 0)) ||
+                        (s1 == 0 && on(a, b, c)) || (s2 == 0 && on(a, b, d)) || (s3 == 0 && on(c, d, a)) ||
+                        (s4 == 0 && on(c, d, b));
+      if (meet) return "edges " + std::to_string(i + 1) + " and " + std::to_string(j + 1);
+    }
+  }
+  return {};
+}
+
 double polyline_length(const std::vector<Eigen::Vector2d>& line) {
   double length = 0.0;
   for (std::size_t k = 1; k < line.size(); ++k) length += (line[k] - line[k - 1]).norm();
@@ -236,6 +272,10 @@ std::vector<ReleaseFeature> local_release_features(const ReleaseSettings& r, con
       double part_size = 1.0;
       if (r.kind == "line") part_size = polyline_length(local[0]);
       if (r.kind == "polygon") {
+        for (const auto& ring : local)
+          if (const std::string crossing = ring_crossing(ring); !crossing.empty())
+            throw InputError(file, "release " + f.label + ": a ring crosses itself (" + crossing +
+                                       " meet): fix the polygon (e.g. QGIS's Fix geometries)");
         part_size = std::abs(polygon_area(local[0]));
         for (std::size_t k = 1; k < local.size(); ++k) part_size -= std::abs(polygon_area(local[k]));
       }
@@ -292,8 +332,12 @@ void check_release_points(const SceneSettings& s, const terrain::Surface& base, 
   if (r.kind == "polygon" && n < 3)
     throw InputError(source, "release.kind 'polygon' needs at least 3 points in release.points, got " + std::to_string(n));
   if (!finite_points(r.points)) throw InputError(source, "release.points must be finite");
-  if (r.kind == "polygon" && std::abs(polygon_area(to_vectors(r.points))) <= 0.0)
-    throw InputError(source, "release polygon has zero area");
+  if (r.kind == "polygon") {
+    if (const std::string crossing = ring_crossing(to_vectors(r.points)); !crossing.empty())
+      throw InputError(source, "release polygon crosses itself (" + crossing +
+                                   " of release.points meet): give its vertices in order around it");
+    if (std::abs(polygon_area(to_vectors(r.points))) <= 0.0) throw InputError(source, "release polygon has zero area");
+  }
   if (r.kind == "line") {
     double length = 0.0;
     for (std::size_t k = 1; k < n; ++k)
@@ -559,7 +603,12 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
                          "stop zone '" + z.name + "'", source);
     } else {
       zone.polygon = local(z.polygon);
-      if (zone.polygon.size() < 3 || !finite_points(z.polygon) || polygon_area(zone.polygon) == 0.0)
+      if (zone.polygon.size() < 3 || !finite_points(z.polygon))
+        throw InputError(source, "stop zone '" + z.name + "': polygon needs 3 or more vertices and an area");
+      if (const std::string crossing = ring_crossing(zone.polygon); !crossing.empty())
+        throw InputError(source, "stop zone '" + z.name + "': polygon crosses itself (" + crossing +
+                                     " meet): give its vertices in order around it");
+      if (polygon_area(zone.polygon) == 0.0)
         throw InputError(source, "stop zone '" + z.name + "': polygon needs 3 or more vertices and an area");
       on_terrain(zone.polygon, "stop zone '" + z.name + "'", source, input_frame);
     }

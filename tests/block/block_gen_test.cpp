@@ -105,6 +105,14 @@ TEST_F(BlockGen, MeshOnTheCommandLineInAnyPose) {
   EXPECT_NEAR((blocks[0].centroid - geometry::Vec3(10, 20, 30)).norm(), 0.0, 1e-12);
   EXPECT_TRUE(exists("cube_out.obj"));
   EXPECT_TRUE(contains(read_text(path("cube_out.obj")), "f "));
+  EXPECT_FALSE(contains(r.err, "inputs.scale")) << r.err;
+
+  // The same cube drawn in centimetres, read as metres: built, and said to be too large.
+  const Outcome cm = run({"cube.obj", "--set", "inputs.scale=50", "-o", "cm.h5"});
+  ASSERT_EQ(cm.code, 0) << cm.err;
+  EXPECT_TRUE(contains(cm.err, "block 'cube' has a volume of 125000 m^3, more than rockfall blocks have (1e4 m^3): "
+                               "if the mesh is in centimetres or millimetres, set inputs.scale to 0.01 or 0.001"))
+      << cm.err;
 }
 
 TEST_F(BlockGen, InsideOutMeshIsRefusedOrRepairedWhenAsked) {

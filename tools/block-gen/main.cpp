@@ -1,5 +1,6 @@
 // block-gen: rocks from meshes, point clouds and named solids, with exact properties,
 // into a block file (a block library). See docs/block.md.
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -133,6 +134,15 @@ int main(int argc, char** argv) {
     }
     const std::string settings_source = inv.config_path.empty() ? "settings" : inv.config_path;
     const std::vector<block::Block> blocks = block_gen::build_blocks(settings, inv.inputs, settings_source);
+    // A scan in centimetres read as metres is a million times too large, yet may still lie
+    // inside the volumes a block may have: say so for read blocks of volumes no rockfall
+    // block has (a solid asked for by volume is what was asked).
+    constexpr double kLargeBlock = 1e4;  // m^3
+    for (const auto& b : blocks)
+      if (b.volume_exact > kLargeBlock && std::find(inv.inputs.begin(), inv.inputs.end(), b.source) != inv.inputs.end())
+        core::log_warn(b.source + ": block '" + b.name + "' has a volume of " + core::format_number(b.volume_exact) +
+                       " m^3, more than rockfall blocks have (1e4 m^3): if the mesh is in centimetres or "
+                       "millimetres, set inputs.scale to 0.01 or 0.001");
     io::write_block_file(inv.output, blocks, inv.provenance("block-gen", block_gen::provenance_seed(settings)));
     if (settings.xdmf) io::write_block_xdmf(io::xdmf_sidecar_path(inv.output), inv.output, blocks);
     if (!export_path.empty()) export_meshes(export_path, blocks);

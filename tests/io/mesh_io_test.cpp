@@ -2,7 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdint>
 #include <filesystem>
+#include <string>
 
 #include "talus/core/error.hpp"
 #include "talus/io/atomic_output.hpp"
@@ -61,6 +63,39 @@ TEST(MeshImport, ErrorsNameTheFile) {
   EXPECT_THROW(import_mesh(temp_file("missing.obj")), core::InputError);
   std::filesystem::remove(empty);
   std::filesystem::remove(points);
+}
+
+// A binary STL cut short is said to be so, from its header's triangle count.
+TEST(MeshImport, TruncatedBinaryStlIsNamedSo) {
+  // 80-byte header, a count of 2, then 50 bytes a triangle: 12 floats and 2 spare bytes.
+  std::string data(80, ' ');
+  data.replace(0, 6, "binary");
+  const std::uint32_t count = 2;
+  data.append(reinterpret_cast<const char*>(&count), 4);
+  const float tri[12] = {0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 0};
+  for (int k = 0; k < 2; ++k) {
+    data.append(reinterpret_cast<const char*>(tri), sizeof tri);
+    data.append(2, '\0');
+  }
+  ASSERT_EQ(data.size(), 184u);
+  const std::string whole = temp_file("whole.stl"), cut = temp_file("cut.stl"), stub = temp_file("stub.stl");
+  write_text_file(whole, data);
+  write_text_file(cut, data.substr(0, 150));
+  write_text_file(stub, data.substr(0, 40));
+  EXPECT_EQ(import_mesh(whole).mesh.triangles.size(), 2u);
+  const auto message = [](const std::string& path) {
+    try {
+      import_mesh(path);
+    } catch (const core::InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(message(cut), cut + ": cannot read mesh: binary STL header counts 2 triangles (184 bytes) but the file "
+                                "has 150 bytes (truncated?)");
+  EXPECT_EQ(message(stub),
+            stub + ": cannot read mesh: a binary STL of 40 bytes is shorter than its 84-byte header (truncated?)");
+  for (const auto& path : {whole, cut, stub}) std::filesystem::remove(path);
 }
 
 TEST(MeshExport, ObjRoundTrips) {

@@ -4,8 +4,12 @@
 #include <assimp/scene.h>
 
 #include <assimp/Importer.hpp>
+#include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 
@@ -17,6 +21,31 @@ namespace talus::io {
 
 namespace {
 
+// Why a file named .stl that assimp cannot read is no STL, when its size tells: a
+// binary STL is an 80-byte header, a 4-byte triangle count n and 50 bytes a triangle
+// (84 + 50·n bytes). Empty when the size does not tell (an ASCII STL, a right size).
+std::string stl_size_problem(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (ext != ".stl") return {};
+  std::error_code ec;
+  const auto size = std::filesystem::file_size(path, ec);
+  if (ec) return {};
+  std::ifstream in(path, std::ios::binary);
+  char head[84] = {};
+  in.read(head, sizeof head);
+  if (std::string(head, std::min<std::size_t>(5, static_cast<std::size_t>(size))) == "solid" && size < 84) return {};
+  if (size < 84)
+    return "a binary STL of " + std::to_string(size) + " bytes is shorter than its 84-byte header (truncated?)";
+  std::uint32_t count = 0;
+  std::memcpy(&count, head + 80, 4);  // little-endian, as STL stores it and x86 reads it
+  const std::uint64_t expected = 84 + 50ULL * count;
+  if (expected == size) return {};
+  if (std::string(head, 5) == "solid") return {};  // an ASCII STL: assimp's message stands
+  return "binary STL header counts " + std::to_string(count) + " triangles (" + std::to_string(expected) +
+         " bytes) but the file has " + std::to_string(size) + " bytes" + (size < expected ? " (truncated?)" : "");
+}
+
 // Every triangle of a scene through assimp (32-bit float coordinates), meshes merged.
 ImportedMesh import_with_assimp(const std::string& path, const MeshImportOptions& options) {
   Assimp::Importer importer;
@@ -25,6 +54,8 @@ ImportedMesh import_with_assimp(const std::string& path, const MeshImportOptions
   const aiScene* scene = importer.ReadFile(
       path, aiProcess_Triangulate | aiProcess_PreTransformVertices | aiProcess_SortByPType);
   if (!scene || !scene->mRootNode) {
+    if (const std::string stl = stl_size_problem(path); !stl.empty())
+      throw core::InputError(path, "cannot read mesh: " + stl);
     std::string why = importer.GetErrorString();
     if (why.empty()) why = "unreadable mesh";
     throw core::InputError(path, "cannot read mesh: " + why);

@@ -11,6 +11,9 @@
 #include <string>
 #include <vector>
 
+#include "talus/block/block.hpp"
+#include "talus/block/solids.hpp"
+#include "talus/io/block_file.hpp"
 #include "talus/io/raster.hpp"
 #include "talus/io/terrain_file.hpp"
 #include "talus/terrain/terrain.hpp"
@@ -203,6 +206,12 @@ TEST_F(TerrainGen, SummaryAndMeshExportWithoutTerrainFile) {
   EXPECT_NE(again.out.find("(grid TRN, from terrain file)"), std::string::npos) << again.out;
   EXPECT_EQ(read_text(dir_ / "again.obj"), read_text(dir_ / "r2.obj"));
   expect_error(run({"t.h5", "-o", "copy.h5"}), 2, "a terrain file input is only inspected", "copy.h5");
+  // A block file given for a terrain is named as such, -o or not.
+  const block::Block cube = block::make_block("cube", block::make_solid(block::SolidSpec{}, "cube"), 2650.0, "cube");
+  io::write_block_file((dir_ / "lib.h5").string(), {cube}, io::Provenance{});
+  for (const std::vector<std::string>& args :
+       {std::vector<std::string>{"lib.h5", "-o", "copy.h5"}, std::vector<std::string>{"lib.h5", "--summary"}})
+    expect_error(run(args), 3, "lib.h5: is a Talus block file, expected a terrain file", "copy.h5");
 }
 
 TEST_F(TerrainGen, DemWithNodataBorderZonesAndAutomaticOriginShift) {

@@ -80,8 +80,10 @@ int main(int argc, char** argv) {
         throw core::UsageError("the output is the HDF5 terrain file; its .xmf sidecar is written next to it");
       io::AtomicOutput probe(inv.output);
     }
-    if (terrain_gen::resolve_source(settings, inv.inputs) == terrain_gen::SourceKind::file && !inv.output.empty())
+    if (terrain_gen::resolve_source(settings, inv.inputs) == terrain_gen::SourceKind::file && !inv.output.empty()) {
+      io::check_terrain_file(inv.inputs.front());  // a block or run file is named as such first
       throw core::UsageError("a terrain file input is only inspected (--summary, --export-mesh); drop -o");
+    }
     std::vector<io::NamedPath> inputs = inv.named_inputs();
     if (!settings.material_raster.empty()) inputs.push_back({"material_raster", settings.material_raster});
     io::check_outputs_distinct(

@@ -196,6 +196,11 @@ terrain::Terrain read_terrain_file(const std::string& path) {
   return read_terrain_file(path, info);
 }
 
+void check_terrain_file(const std::string& path) {
+  const h5::File file = h5::File::open(path);
+  check_header(file.root(), "terrain", kTerrainSchema);
+}
+
 terrain::Terrain read_terrain_file(const std::string& path, TerrainFileInfo& info) {
   const h5::File file = h5::File::open(path);
   const h5::Group root = file.root();

@@ -38,6 +38,11 @@ void write_terrain_file(const std::string& path, const terrain::Terrain& terrain
 /// core::InputError naming the file and the offending object when anything is wrong.
 terrain::Terrain read_terrain_file(const std::string& path);
 
+/// Checks that `path` is a Talus terrain file of a schema this build reads, from its
+/// header alone; throws core::InputError naming the file otherwise (a block or run file,
+/// not HDF5, another schema).
+void check_terrain_file(const std::string& path);
+
 /// Same, also returning the schema version, provenance and roughness index.
 terrain::Terrain read_terrain_file(const std::string& path, TerrainFileInfo& info);
 

@@ -157,7 +157,7 @@ TEST_F(BlockGen, CloudsEmptyFilesAndBadSettingsAreClearErrors) {
   write_text(path("typo.yaml"), "blocks:\n  - solid: cube\n    volumen: 2\n");
   r = run({"-c", "typo.yaml", "-o", "x.h5"});
   EXPECT_EQ(r.code, 3);
-  EXPECT_TRUE(contains(r.err, "unknown key 'blocks[0].volumen' (did you mean 'volume'?)")) << r.err;
+  EXPECT_TRUE(contains(r.err, "unknown key 'blocks[0].volumen' (did you mean 'blocks[0].volume'?)")) << r.err;
 
   write_text(path("two.yaml"), "blocks:\n  - {solid: cube}\n  - {solid: cube}\n");
   r = run({"-c", "two.yaml", "-o", "x.h5"});

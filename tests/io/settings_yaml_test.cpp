@@ -65,9 +65,21 @@ TEST(SettingsYaml, UnknownKeyNamesKeyFileAndLineWithSuggestion) {
     read_settings("sigma: 0.4\nnested:\n  innr: 3\n", "slope.yaml", {}, bind(e));
     FAIL() << "no error";
   } catch (const core::InputError& err) {
-    EXPECT_STREQ(err.what(), "slope.yaml:3: unknown key 'nested.innr' (did you mean 'inner'?)");
+    EXPECT_STREQ(err.what(), "slope.yaml:3: unknown key 'nested.innr' (did you mean 'nested.inner'?)");
     EXPECT_EQ(err.code(), core::ExitCode::bad_input);
   }
+  // A key given at the wrong level: the key of that name (or a close one) elsewhere.
+  const auto message = [&](const std::string& yaml, const std::vector<std::string>& overrides) {
+    try {
+      read_settings(yaml, "slope.yaml", overrides, bind(e));
+    } catch (const core::InputError& err) {
+      return std::string(err.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(message("inner: 3\n", {}), "slope.yaml:1: unknown key 'inner' (did you mean 'nested.inner'?)");
+  EXPECT_EQ(message("", {"nested.sigma=0.2"}), "--set nested.sigma: unknown key 'nested.sigma' (did you mean 'sigma'?)");
+  EXPECT_EQ(message("zzzz: 1\n", {}), "slope.yaml:1: unknown key 'zzzz'");
 }
 
 // A key given twice in one mapping, at the top, in a section or in a list item, is an

@@ -260,7 +260,7 @@ CASES = [
     (["terrain-gen", "--set", "synthetic.slope_angle_deg=90", "-o", "x.h5"], BAD_INPUT, ["--set synthetic.slope_angle_deg", "[0, 90) deg"]),
     (["terrain-gen", "--set", "synthetic.cell_size=0", "-o", "x.h5"], BAD_INPUT, ["--set synthetic.cell_size", "(0, 10000] m"]),
     (["terrain-gen", "-c", "plane.yaml", "--set", "roughness.sigam=0.2", "-o", "x.h5"], BAD_INPUT,
-     ["--set roughness.sigam", "unknown key", "did you mean 'sigma'"]),
+     ["--set roughness.sigam", "unknown key", "did you mean 'roughness.sigma'"]),
     (["terrain-gen", "-c", "plane.yaml", "--set", "origin.shift=[0,0,1e300]", "-o", "x.h5"], BAD_INPUT, ["--set origin.shift", "[-1e+09, 1e+09] m"]),
     (["terrain-gen", "high.asc", "-o", "x.h5"], BAD_INPUT, ["high.asc:8", "1e308", "[-1e6, 1e6] m"]),
     (["terrain-gen", "infdem.asc", "-o", "x.h5"], BAD_INPUT, ["infdem.asc:8", "non-finite"]),

@@ -38,13 +38,13 @@ void write_terrain_file(const std::string& path, const terrain::Terrain& terrain
 /// core::InputError naming the file and the offending object when anything is wrong.
 terrain::Terrain read_terrain_file(const std::string& path);
 
+/// Same, also returning the schema version, provenance and roughness index.
+terrain::Terrain read_terrain_file(const std::string& path, TerrainFileInfo& info);
+
 /// Checks that `path` is a Talus terrain file of a schema this build reads, from its
 /// header alone; throws core::InputError naming the file otherwise (a block or run file,
 /// not HDF5, another schema).
 void check_terrain_file(const std::string& path);
-
-/// Same, also returning the schema version, provenance and roughness index.
-terrain::Terrain read_terrain_file(const std::string& path, TerrainFileInfo& info);
 
 /// A 64-bit FNV-1a digest (16 hex digits) of everything a run depends on in a terrain:
 /// vertices, triangles, materials per triangle, material parameters, roughness and origin

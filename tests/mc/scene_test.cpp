@@ -235,6 +235,37 @@ TEST(Scene, CoordinatesAreTheTerrainsInputCoordinates) {
   }
 }
 
+// A block that could travel more than max_step_travel of its diameter in one nominal step
+// at the fastest its scene allows (free fall over the relief plus the release velocity)
+// gets a shorter time_step; the bench's 1 m³ blocks keep theirs.
+TEST(Scene, SmallFastBlocksGetAShorterTimeStep) {
+  const auto step_of = [](const SceneSettings& s, double volume) {
+    block::SolidSpec spec;
+    spec.volume = volume;
+    const std::vector<block::Block> lib = {
+        block::make_block("cube", block::make_solid(spec, "test"), 2800.0, "test")};
+    return Scene::build(s, bench_terrain(), lib, "s").blocks()[0].model.settings.time_step;
+  };
+  const SceneSettings bench = bench_scene();
+  EXPECT_EQ(step_of(bench, 1.0), 1e-3);
+  // Fired at 50 m/s, a 0.001 m³ cube (diameter 0.173 m) may reach 50 + √(2g·drop) m/s,
+  // the drop being the relief, 8 σ of roughness, the release height and its diameter:
+  // 3 % of its diameter per step is about 0.07 ms.
+  SceneSettings fast = bench;
+  fast.release.velocity = {50.0, 0.0, 0.0};
+  const double step = step_of(fast, 0.001);
+  const geometry::Aabb relief = bench_terrain().mesh.bounds();
+  const double fastest =
+      50.0 + std::sqrt(2.0 * 9.81 *
+                       (relief.hi.z() - relief.lo.z() + 8.0 * 0.1 + fast.release.height + std::sqrt(3.0) * 0.1));
+  EXPECT_NEAR(step, 0.03 * std::sqrt(3.0) * 0.1 / fastest, 1e-9);
+  EXPECT_LT(step, 1.2e-4);
+  // Off, or with a stiffness given in N/m (its Ω is the step's), the step is time_step.
+  SceneSettings off = fast;
+  off.engine.max_step_travel = 0.0;
+  EXPECT_EQ(step_of(off, 0.001), 1e-3);
+}
+
 TEST(Scene, HazardGridCoversTheTerrain) {
   // The bench terrain's DEM: 2 m cells, points x = 0 … 60, y = 0 … 20 (31 × 11). Hazard
   // cells of 4 m lie on the DEM grid: they start at the DEM's own raster corner (−1, −1)

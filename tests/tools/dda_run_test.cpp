@@ -418,9 +418,15 @@ TEST_F(DdaRun, WarnsOnceWhenRealizationsDoNotEndAtRest) {
   EXPECT_NE(cut.err.find("; ends: 6 step_limit\n"), std::string::npos) << cut.err;
   EXPECT_EQ(after_summary(cut.err, "cut.h5", 6),
             "dda-run: warning: cut.h5: 6 of 6 realizations did not end at rest: 6 step_limit\n");
-  // A step of 20 ms moves the cube more than 3 % of its diameter at its fastest: one
-  // line more, saying so.
-  const Outcome coarse = run({"-c", "scene.yaml", "--set", "engine.time_step=0.02", "-o", "coarse.h5"});
+  // A step of 20 ms would move the cube more than 3 % of its diameter at the fastest the
+  // slope allows: the scene shortens it (said with -v), and no warning follows.
+  const Outcome shortened = run({"-c", "scene.yaml", "--set", "engine.time_step=0.02", "-v", "-o", "short.h5"});
+  ASSERT_EQ(shortened.code, 0) << shortened.err;
+  EXPECT_NE(shortened.err.find("block 'cube': time_step "), std::string::npos) << shortened.err;
+  EXPECT_EQ(shortened.err.find("warning: short.h5: 6 of 6 realizations moved"), std::string::npos) << shortened.err;
+  // Kept at 20 ms (max_step_travel 0), it moves the cube that far: one line more, saying so.
+  const Outcome coarse = run({"-c", "scene.yaml", "--set", "engine.time_step=0.02", "--set",
+                              "engine.max_step_travel=0", "-o", "coarse.h5"});
   ASSERT_EQ(coarse.code, 0) << coarse.err;
   EXPECT_NE(coarse.err.find("dda-run: warning: coarse.h5: 6 of 6 realizations moved more than 3 % of their block's "
                             "diameter in one time step at their fastest (up to "),

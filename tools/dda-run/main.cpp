@@ -217,15 +217,17 @@ void warn_unrested(const std::string& path, const std::vector<mc::Record>& recor
 constexpr double kCoarseStepRatio = 0.03;
 
 // One warning line when realizations of the run moved faster than the step resolves for
-// their block: max speed × time_step over the block's diameter above kCoarseStepRatio.
+// their block: max speed × the block's time_step over its diameter above kCoarseStepRatio
+// (the scene shortens the step of blocks that could, unless engine.max_step_travel is 0 or
+// the stiffness is given in N/m).
 void warn_coarse_step(const std::string& path, const mc::Scene& scene, const std::vector<mc::Record>& records) {
-  const double dt = scene.settings().engine.time_step;
   std::size_t coarse = 0;
   double worst = 0.0;
   for (const auto& r : records) {
     const auto b = static_cast<std::size_t>(r.block);
     if (b >= scene.blocks().size()) continue;
-    const double ratio = r.max_speed * dt / (2.0 * scene.blocks()[b].model.radius);
+    const dda::Model& model = scene.blocks()[b].model;
+    const double ratio = r.max_speed * model.settings.time_step / (2.0 * model.radius);
     if (ratio > kCoarseStepRatio) ++coarse;
     worst = std::max(worst, ratio);
   }

@@ -66,7 +66,13 @@ void Settings::visit(core::SettingsVisitor& v) {
   if (preset != before) apply_preset(*this, preset);
   v.choice("dof", dof, {"rigid6", "full12"},
            "unknowns per block: rigid 6-DOF (fast default) or full 12-DOF DDA with strains");
-  v.bounded("time_step", time_step, "s", "nominal time step", core::Range::positive(0.05));
+  v.bounded("time_step", time_step, "s", "nominal time step (a block's scene may shorten it: max_step_travel)",
+            core::Range::positive(0.05));
+  v.bounded("max_step_travel", max_step_travel, "-",
+            "longest travel in one nominal step over the block's circumscribed diameter, at the fastest speed the "
+            "scene allows (free fall over the terrain's relief, plus the release velocity): the scene shortens "
+            "time_step for blocks that would travel farther; 0 = time_step for every block",
+            core::Range::closed(0.0, 1.0));
   v.bounded("min_time_step", min_time_step, "s", "smallest time step the step control may cut to",
             core::Range::positive(0.05));
   v.bounded("max_displacement_ratio", max_displacement_ratio, "-",

@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "talus/core/error.hpp"
+#include "talus/core/log.hpp"
 #include "talus/terrain/material_classes.hpp"
 
 namespace talus::mc {
@@ -460,9 +461,38 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
       chosen.push_back(found);
     }
   }
+  // The fastest a block can move in this scene (m/s), but for its own spin and size:
+  // free fall over the terrain's relief (with the roughness's few σ and a release above
+  // it) plus the release velocity; nothing in the model is a source of energy.
+  const geometry::Aabb relief = terrain.mesh.bounds();
+  const double rough = 8.0 * terrain.roughness.sigma;
+  double drop = relief.hi.z() - relief.lo.z() + rough + s.release.clearance_gap;
+  if (s.release.height_reference == "elevation") {
+    const double floor = relief.lo.z() + (s.frame == "input" ? terrain.origin_shift.z() : 0.0);
+    drop = std::max(drop, s.release.height - floor + rough);
+  } else {
+    drop += std::max(0.0, s.release.height);
+  }
+  const auto norm3 = [](const std::array<double, 3>& a) { return std::hypot(a[0], a[1], a[2]); };
   for (const block::Block* b : chosen) {
     dda::Settings engine = s.engine;
     engine.density = b->density;
+    // A nominal step in which the block could travel more than max_step_travel of its
+    // diameter is shortened to that (with the contact springs stiffened to keep Ω, as a
+    // shorter time_step does): coarser, a small fast block's impacts lose rebound (docs/
+    // dda-run.md, "Time step"). Not with a stiffness given in N/m, whose Ω the step sets.
+    double radius = 0.0;
+    for (const geometry::Vec3& v : b->polyhedron.vertices) radius = std::max(radius, v.norm());
+    const double fastest = norm3(s.release.velocity) + norm3(s.release.angular_velocity) * radius +
+                           std::sqrt(2.0 * engine.gravity * (drop + 2.0 * radius));
+    const double travel = fastest * engine.time_step / (2.0 * radius);
+    if (engine.max_step_travel > 0.0 && engine.penalty_stiffness == 0.0 && travel > engine.max_step_travel) {
+      engine.time_step = std::max(engine.min_time_step, engine.time_step * engine.max_step_travel / travel);
+      core::log_info(source + ": block '" + b->name + "': time_step " + format_number(engine.time_step) +
+                     " s (it may reach " + format_number(fastest) + " m/s; engine.max_step_travel " +
+                     format_number(engine.max_step_travel) + " of its " + format_number(2.0 * radius) +
+                     " m diameter per step)");
+    }
     // The engine's refusal of a block (a penalty stiffness ill-posed for its mass, a
     // polyhedron it cannot use) names the scene, the block and the engine's key.
     auto model = [&] {

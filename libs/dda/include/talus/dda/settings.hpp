@@ -29,6 +29,11 @@ struct Settings {
   std::string preset = "design";
   std::string dof = "rigid6";               ///< "rigid6" or "full12"
   double time_step = 1e-3;                  ///< nominal Δt (s)
+  /// Longest travel of a block in one nominal step, over its circumscribed diameter, at the
+  /// fastest speed its scene allows (-): a scene shortens time_step for a block that would
+  /// travel farther (mc::Scene::build; small fast blocks lose rebound otherwise, docs/dda-run.md,
+  /// "Time step"); 0 = time_step for every block. The engine itself reads time_step only.
+  double max_step_travel = 0.03;
   double min_time_step = 1e-7;              ///< smallest Δt the step control may cut to (s)
   /// Largest vertex displacement per contact step as a fraction of the block's
   /// circumscribed diameter (-). Scaled from the block, not the terrain (docs/dda.md).

@@ -534,6 +534,17 @@ TEST_F(Stats, ValidatesASeriesAgainstObservedStopPoints) {
   const std::string json_csv = read_text(dir_ / "out-valid-json" / "validation.csv");
   EXPECT_EQ(csv_value(json_csv, "whole,observed.geojson,runout,ks_distance"), csv_value(csv, key + "runout,ks_distance"));
   EXPECT_EQ(csv_value(json_csv, "whole,observed.geojson,lateral,observed_P25"), csv_value(csv, key + "lateral,observed_P25"));
+  // In another CRS they are refused, though these runs write no raster, layer or figure
+  // (the terrain is read for its CRS all the same).
+  {
+    std::string text = read_text(dir_ / "observed.geojson");
+    text.replace(text.find("EPSG::32632"), 11, "EPSG::2056");
+    std::ofstream(dir_ / "observed-2056.geojson") << text;
+  }
+  json_args = args({"whole.h5", "-o", "out-valid-crs"});
+  json_args[json_args.size() - 3] = "observed.file=observed-2056.geojson";
+  for (const char* a : {"--set", "hazard_maps=false", "--set", "vector_format=none"}) json_args.push_back(a);
+  expect_one_line_error(run_fast(json_args), 3, "not in the terrain's CRS WGS 84 / UTM zone 32N (EPSG:32632)");
 
   // The validation figure: simulated CDF and band, observed ECDF, for both variables (two
   // panels of 4.6 × 3.6 in at 120 pixels per inch).

@@ -385,7 +385,9 @@ RunResult run_result(const Run& run, const Settings& settings) {
   // unreferenced in a GIS: they need the terrain.
   const bool rasters = settings.hazard_maps && grid;
   const bool vectors = settings.vector_format != "none";
-  const bool need_terrain = rasters || vectors || settings.plots;
+  // Observed stops are checked against the terrain's CRS (a file in another is refused).
+  const bool observed = !settings.observed.file.empty();
+  const bool need_terrain = rasters || vectors || settings.plots || observed;
   const std::string path = terrain_path_of(run, settings);
   std::optional<terrain::Terrain> ground;
   if (need_terrain && !path.empty() && std::filesystem::exists(path)) {
@@ -401,10 +403,12 @@ RunResult run_result(const Run& run, const Settings& settings) {
     out.terrain_file = path;
     out.crs_wkt = ground->crs_wkt;
     out.origin_shift = {ground->origin_shift.x(), ground->origin_shift.y(), ground->origin_shift.z()};
-  } else if (rasters || vectors) {
-    const std::string without = rasters && vectors ? "--set hazard_maps=false --set vector_format=none"
-                                : rasters          ? "--set hazard_maps=false"
-                                                   : "--set vector_format=none";
+  } else if (rasters || vectors || observed) {
+    std::string without = rasters && vectors ? "--set hazard_maps=false --set vector_format=none"
+                          : rasters          ? "--set hazard_maps=false"
+                          : vectors          ? "--set vector_format=none"
+                                             : "";
+    if (observed) without += std::string(without.empty() ? "" : ", and ") + "no observed.file";
     throw core::InputError(run.files.front(),
                            path.empty() ? "the run names no terrain file: give it with --set terrain=FILE "
                                           "(or " + without + ")"

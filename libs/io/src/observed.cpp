@@ -19,23 +19,41 @@ std::string lower(std::string s) {
   return s;
 }
 
-// The fields of a CSV line (separators: comma, semicolon, tab or spaces; quotes dropped).
-std::vector<std::string> fields_of(const std::string& line) {
+// A CSV file's field separator, from its first line that is not a comment: a semicolon
+// if it has one (then a comma inside a field is a decimal comma), else a comma, else a
+// tab, else runs of spaces. One separator a file: a name with a space in it stays one field.
+char separator_of(const std::string& line) {
+  for (const char c : {';', ',', '\t'})
+    if (line.find(c) != std::string::npos) return c;
+  return ' ';
+}
+
+// The fields of a CSV line split at `sep` (' ': at runs of spaces and tabs), each with the
+// spaces around it and its quotes taken off; with ';' a decimal comma becomes a point.
+std::vector<std::string> fields_of(const std::string& line, char sep) {
   std::vector<std::string> out;
   std::string cur;
+  const auto finish = [&] {
+    const auto first = cur.find_first_not_of(" \t");
+    const auto last = cur.find_last_not_of(" \t");
+    out.push_back(first == std::string::npos ? std::string() : cur.substr(first, last - first + 1));
+    cur.clear();
+  };
   bool any = false;
   for (char c : line) {
-    if (c == ',' || c == ';' || c == '\t' || c == ' ' || c == '\r') {
-      if (any) out.push_back(cur);
-      cur.clear();
+    if (c == '\r') continue;
+    const bool split = sep == ' ' ? (c == ' ' || c == '\t') : c == sep;
+    if (split) {
+      if (sep != ' ' || any) finish();
       any = false;
       continue;
     }
     if (c == '"' || c == '\'') continue;
+    if (sep == ';' && c == ',') c = '.';
     cur += c;
-    any = true;
+    any = any || (c != ' ' && c != '\t');
   }
-  if (any) out.push_back(cur);
+  if (any || (sep != ' ' && !out.empty())) finish();
   return out;
 }
 
@@ -52,10 +70,14 @@ ObservedStops read_csv(const std::string& path) {
   std::string line;
   std::size_t number = 0, c0 = 0, c1 = 1;
   bool first = true, runouts = false, with_lateral = false;
+  char sep = 0;
   while (std::getline(in, line)) {
     ++number;
-    const auto f = fields_of(line);
-    if (f.empty() || f[0].rfind('#', 0) == 0) continue;
+    const auto start = line.find_first_not_of(" \t\r");
+    if (start == std::string::npos || line[start] == '#') continue;
+    if (sep == 0) sep = separator_of(line);
+    const auto f = fields_of(line, sep);
+    if (f.empty()) continue;
     double a = 0.0, b = 0.0;
     if (first) {
       first = false;

@@ -16,8 +16,10 @@ struct ObservedStops {
   bool has_points() const { return !points.empty(); }
 };
 
-/// Reads observed stops from a CSV (columns separated by commas, semicolons, tabs or
-/// spaces; `#` comment lines): a header naming x and y (or easting and northing) picks
+/// Reads observed stops from a CSV (`#` comment lines; one separator a file, from its first
+/// other line: a semicolon, whose files may write decimal commas, else a comma, else a tab,
+/// else runs of spaces; a name with a space in it is one field): a header naming x and y
+/// (or easting and northing) picks
 /// those columns; a header naming `runout` (and `lateral`) gives runouts; no header: the
 /// first two columns are x and y. A `.h5` is a dda-run run file: the stop points of its
 /// realizations at rest (a synthetic experiment). Any other extension is a vector file of points (read by

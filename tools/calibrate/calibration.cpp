@@ -80,9 +80,22 @@ Problem::Problem(const Settings& settings, const std::string& source, unsigned t
     if (!p.is_roughness() && p.material.empty()) throw InputError(source, where + "no material named");
     if (!labels.insert(p.label()).second) throw InputError(source, where + "fitted twice");
     if (!(std::isfinite(p.min) && std::isfinite(p.max) && p.min < p.max))
-      throw InputError(source, where + "the prior needs finite min < max");
-    if (p.prior == "normal" && !(p.sd > 0.0 && std::isfinite(p.mean)))
+      throw InputError(source, where + "the prior needs finite min < max (both given)");
+    if (p.prior == "normal" && !(p.sd > 0.0 && std::isfinite(p.sd) && std::isfinite(p.mean)))
       throw InputError(source, where + "a normal prior needs a finite mean and sd > 0");
+    if (p.prior == "uniform" && (!std::isnan(p.mean) || !std::isnan(p.sd)))
+      throw InputError(source, where + "a uniform prior takes no mean or sd (prior: normal uses them)");
+    if (p.prior == "normal") {
+      // Drawn by rejection inside [min, max]: a prior with almost none of its mass there
+      // says something else than was meant.
+      const auto cdf = [&](double x) { return 0.5 * std::erfc(-(x - p.mean) / (p.sd * std::sqrt(2.0))); };
+      const double mass = cdf(p.max) - cdf(p.min);
+      if (!(mass >= 1e-3))
+        throw InputError(source, where + "a normal prior of mean " + core::format_number(p.mean) + " and sd " +
+                                     core::format_number(p.sd) + " has " + core::format_number(mass) +
+                                     " of its mass in [" + core::format_number(p.min) + ", " +
+                                     core::format_number(p.max) + "] (at least 0.001 needed)");
+    }
     // The ranges the material is read with (terrain-gen, scene overrides).
     const terrain::Material::Ranges r = terrain::Material::ranges();
     const core::Range sigma_range = core::Range::closed(0.0, 100.0);  // the terrain file's

@@ -2,6 +2,7 @@
 #pragma once
 #include <cstdint>
 #include <optional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -14,10 +15,11 @@ struct FittedParameter {
   std::string material;                       ///< name of a terrain material (none for roughness_sigma)
   std::string parameter = "restitution_mean"; ///< one of the six material properties, or roughness_sigma
   std::string prior = "uniform";              ///< "uniform" on [min, max], or "normal" truncated to it
-  double min = 0.0;                           ///< in the parameter's unit
-  double max = 1.0;
-  double mean = 0.5;                          ///< normal prior
-  double sd = 0.1;                            ///< normal prior, > 0
+  // No defaults: a prior is the user's statement (NaN: not given).
+  double min = std::numeric_limits<double>::quiet_NaN();   ///< in the parameter's unit
+  double max = std::numeric_limits<double>::quiet_NaN();
+  double mean = std::numeric_limits<double>::quiet_NaN();  ///< normal prior
+  double sd = std::numeric_limits<double>::quiet_NaN();    ///< normal prior, > 0
   void visit(core::SettingsVisitor& v);
   /// "talus.restitution_mean" (or "terrain.roughness_sigma"): how outputs name it.
   std::string label() const { return (is_roughness() ? std::string("terrain") : material) + "." + parameter; }

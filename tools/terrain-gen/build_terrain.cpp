@@ -63,6 +63,13 @@ struct Window {
 // horizontal).
 constexpr double kWallSlope = 80.0;
 
+// Whether a triangle of area normal n (of any length; none for a degenerate one) is
+// steeper than kWallSlope.
+bool is_wall(const Vec3& n) {
+  const double length = n.norm();
+  return length > 0.0 && n.z() <= std::cos(kWallSlope * std::numbers::pi / 180.0) * length;
+}
+
 io::UpAxis up_axis(const Settings& s) { return s.tin.up_axis == "y" ? io::UpAxis::y : io::UpAxis::z; }
 
 // The crop window; unbounded when no side is given.
@@ -362,13 +369,11 @@ void warn_if_on_its_side(const Terrain& tin, const Settings& s, const std::strin
                    " m are no terrain's" + hint);
     return;
   }
-  const double wall_nz = std::cos(kWallSlope * std::numbers::pi / 180.0);
   double wall = 0.0, total = 0.0;
   for (std::size_t k = 0; k < tin.mesh.triangles.size(); ++k) {
     const Vec3 n = tin.mesh.area_normal(k);
-    const double area = n.norm();
-    total += area;
-    if (n.z() <= wall_nz * area) wall += area;
+    total += n.norm();
+    if (is_wall(n)) wall += n.norm();
   }
   if (total > 0.0 && wall > 0.9 * total)
     core::log_warn(source + ": " + format_number(std::round(100.0 * wall / total)) + " % of the surface is steeper than " +
@@ -549,13 +554,11 @@ std::string summary(const Built& built) {
   } else {
     // Walls and overhangs: triangles steeper than kWallSlope (a quarry face surveyed at
     // 89.7° is a wall though its normal still points up), and of them those facing down.
-    const double wall_nz = std::cos(kWallSlope * std::numbers::pi / 180.0);
     std::size_t steep = 0, down = 0;
     for (std::size_t k = 0; k < t.mesh.triangles.size(); ++k) {
       const Vec3 n = t.mesh.area_normal(k);
-      const double length = n.norm();
-      if (!(length > 0.0)) continue;
-      steep += n.z() <= wall_nz * length;
+      if (!is_wall(n)) continue;
+      ++steep;
       down += n.z() < 0.0;
     }
     out << "walls and overhangs: " << steep << " triangles steeper than " << num(kWallSlope) << " degrees, " << down

@@ -5,7 +5,6 @@
 
 #include <assimp/Importer.hpp>
 #include <algorithm>
-#include <cctype>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -16,6 +15,7 @@
 #include "mesh_text_readers.hpp"
 #include "talus/core/error.hpp"
 #include "talus/io/atomic_output.hpp"
+#include "talus/io/paths.hpp"
 
 namespace talus::io {
 
@@ -25,9 +25,7 @@ namespace {
 // binary STL is an 80-byte header, a 4-byte triangle count n and 50 bytes a triangle
 // (84 + 50·n bytes). Empty when the size does not tell (an ASCII STL, a right size).
 std::string stl_size_problem(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  if (ext != ".stl") return {};
+  if (lower_extension(path) != ".stl") return {};
   std::error_code ec;
   const auto size = std::filesystem::file_size(path, ec);
   if (ec) return {};

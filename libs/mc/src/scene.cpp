@@ -221,6 +221,14 @@ bool meets_bounds(const geometry::Aabb& b, const Eigen::Vector2d& lo, const Eige
   return lo.x() <= b.hi.x() && hi.x() >= b.lo.x() && lo.y() <= b.hi.y() && hi.y() >= b.lo.y();
 }
 
+// The end of a message about a position given in the terrain's local frame when the
+// scene's frame is its input coordinates: `where` ("inside", "on") says how it lies there.
+std::string local_frame_hint(const Eigen::Vector2d& shift, const std::string& where) {
+  return "; it lies " + where + " the terrain in its local frame (input coordinates minus the origin shift [" +
+         format_number(shift.x()) + ", " + format_number(shift.y()) +
+         "]): give the scene's coordinates in the terrain's input coordinates, or set frame: local";
+}
+
 // A barrier line or stop zone (`what`, its plan box [lo, hi] in the local frame) must
 // meet the terrain: one that lies beside it never sees a block, and its statistics would
 // be zeros that look like results. The error gives the extent in the scene's frame and,
@@ -230,9 +238,7 @@ void require_on_terrain(const geometry::Aabb& b, const Eigen::Vector2d& lo, cons
   if (meets_bounds(b, lo, hi)) return;
   std::string hint;
   if (input && shift.squaredNorm() > 0.0 && meets_bounds(b, lo + shift, hi + shift))
-    hint = "; it lies on the terrain in its local frame (input coordinates minus the origin shift [" +
-           format_number(shift.x()) + ", " + format_number(shift.y()) +
-           "]): give the scene's coordinates in the terrain's input coordinates, or set frame: local";
+    hint = local_frame_hint(shift, "on");
   throw InputError(source, what + " lies outside the terrain (" + (input ? "input" : "local") +
                                " coordinates: " + extent_text(b, shift) + "), so no block can reach it" + hint);
 }
@@ -351,18 +357,13 @@ void check_release_points(const SceneSettings& s, const terrain::Surface& base, 
     if (base.height_at(p[0] - shift.x(), p[1] - shift.y())) continue;
     std::string hint;
     // A scene written for the shifted frame (the only one before `frame` existed).
-    if (input && shift.squaredNorm() > 0.0 && base.height_at(p[0], p[1]))
-      hint = "; it lies inside the terrain in its local frame (input coordinates minus the origin shift [" +
-             format_number(shift.x()) + ", " + format_number(shift.y()) +
-             "]): give the scene's coordinates in the terrain's input coordinates, or set frame: local";
+    if (input && shift.squaredNorm() > 0.0 && base.height_at(p[0], p[1])) hint = local_frame_hint(shift, "inside");
     const bool within = within_bounds(b, Eigen::Vector2d(p[0], p[1]) - shift);
     throw InputError(source, "release point " + point_text(p) +
                                  (within ? " has no terrain under it (a hole or gap in the terrain's surface; "
                                          : " is outside the terrain (") +
-                                 (input ? "input" : "local") + " coordinates: x in [" +
-                                 format_number(b.lo.x() + shift.x()) + ", " + format_number(b.hi.x() + shift.x()) +
-                                 "], y in [" + format_number(b.lo.y() + shift.y()) + ", " +
-                                 format_number(b.hi.y() + shift.y()) + "])" + hint);
+                                 (input ? "input" : "local") + " coordinates: " + extent_text(b, shift) + ")" +
+                                 hint);
   }
 }
 

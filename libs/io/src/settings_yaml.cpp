@@ -29,6 +29,41 @@ struct SetValue {
 };
 using SetValues = std::vector<SetValue>;
 
+// Every key path of the settings `body` declares ("release.main_direction_deg"), from the
+// YAML of its effective settings (the items of lists are not entered).
+void key_paths(const YAML::Node& map, const std::string& prefix, std::vector<std::string>& out) {
+  for (const auto& kv : map) {
+    const std::string path = prefix + kv.first.as<std::string>();
+    out.push_back(path);
+    if (kv.second.IsMap()) key_paths(kv.second, path + ".", out);
+  }
+}
+
+// The declared key path an unknown key was likely meant for, at another level: one whose
+// last part is the unknown key's last part (`exact`), else within two edits of it (the
+// shortest such path). Empty when none is.
+std::string elsewhere(const std::string& unknown, const SettingsBody& body, bool& exact) {
+  std::vector<std::string> paths;
+  key_paths(YAML::Load(write_settings(body, false)), "", paths);
+  const auto last = [](const std::string& path) {
+    const auto dot = path.rfind('.');
+    return dot == std::string::npos ? path : path.substr(dot + 1);
+  };
+  const std::string key = last(unknown);
+  std::string best;
+  std::size_t best_distance = 3;
+  for (const std::string& path : paths) {
+    if (path == unknown) continue;
+    const std::size_t d = core::edit_distance(key, last(path));
+    if (d < best_distance || (d == best_distance && !best.empty() && path.size() < best.size())) {
+      best_distance = d;
+      best = path;
+    }
+  }
+  exact = !best.empty() && best_distance == 0;
+  return best;
+}
+
 // Reads one mapping node into a settings struct, remembering the keys it consumed.
 class Reader final : public SettingsVisitor {
  public:
@@ -36,6 +71,10 @@ class Reader final : public SettingsVisitor {
          bool from_set = false)
       : node_(std::move(node)), source_(std::move(source)), prefix_(std::move(prefix)),
         set_values_(set_values), from_set_(from_set) {}
+
+  /// The whole settings' declaration, for suggesting a key of another section (nested
+  /// readers share it).
+  void declared_by(const SettingsBody* body) { body_ = body; }
 
   void field(std::string_view key, double& value, std::string_view, std::string_view) override {
     if (auto n = take(key)) value = to_double(*n, key);
@@ -212,6 +251,14 @@ class Reader final : public SettingsVisitor {
           hint = " (did you mean '" + path(known) + "'?)";
         }
       }
+      // A key of another section (main_direction_deg given at the top for
+      // release.main_direction_deg): suggested when it has that key's very name, or when
+      // nothing at this level is close.
+      if (body_ != nullptr) {
+        bool exact = false;
+        const std::string meant = elsewhere(path(key), *body_, exact);
+        if (!meant.empty() && (hint.empty() || exact)) hint = " (did you mean '" + meant + "'?)";
+      }
       throw InputError(unknown_key_location(kv, path(key)), "unknown key '" + path(key) + "'" + hint);
     }
   }
@@ -256,13 +303,17 @@ class Reader final : public SettingsVisitor {
   }
   // The reader of a nested mapping: named after its --set key when --set gave all of it.
   Reader nested(const YAML::Node& n, std::string_view key, const std::string& prefix) const {
-    const std::string from = set_key(n);
-    if (!from.empty()) return Reader(n, "--set " + from, prefix, set_values_, true);
-    if (auto top = peek(key)) {
-      const std::string whole = set_key(*top);
-      if (!whole.empty()) return Reader(n, "--set " + whole, prefix, set_values_, true);
-    }
-    return Reader(n, source_, prefix, set_values_, from_set_);
+    Reader inner = [&] {
+      const std::string from = set_key(n);
+      if (!from.empty()) return Reader(n, "--set " + from, prefix, set_values_, true);
+      if (auto top = peek(key)) {
+        const std::string whole = set_key(*top);
+        if (!whole.empty()) return Reader(n, "--set " + whole, prefix, set_values_, true);
+      }
+      return Reader(n, source_, prefix, set_values_, from_set_);
+    }();
+    inner.declared_by(body_);
+    return inner;
   }
   void check_range(const YAML::Node& n, std::string_view key, double value, std::string_view unit,
                    const core::Range& range) const {
@@ -333,6 +384,7 @@ class Reader final : public SettingsVisitor {
   std::set<std::string> seen_all_;
   const SetValues& set_values_;
   bool from_set_ = false;
+  const SettingsBody* body_ = nullptr;
 };
 
 // Emits the effective settings.
@@ -555,45 +607,6 @@ void check_unique_keys(const YAML::Node& node, const std::string& source) {
 
 }  // namespace
 
-namespace {
-
-// Every key path of the settings `body` declares ("release.main_direction_deg"), from the
-// YAML of its effective settings (the items of lists are not entered).
-void key_paths(const YAML::Node& map, const std::string& prefix, std::vector<std::string>& out) {
-  for (const auto& kv : map) {
-    const std::string path = prefix + kv.first.as<std::string>();
-    out.push_back(path);
-    if (kv.second.IsMap()) key_paths(kv.second, path + ".", out);
-  }
-}
-
-// The declared key path an unknown key was likely meant for, at another level: one whose
-// last part is the unknown key's last part (`exact`), else within two edits of it (the
-// shortest such path). Empty when none is.
-std::string elsewhere(const std::string& unknown, const SettingsBody& body, bool& exact) {
-  std::vector<std::string> paths;
-  key_paths(YAML::Load(write_settings(body, false)), "", paths);
-  const auto last = [](const std::string& path) {
-    const auto dot = path.rfind('.');
-    return dot == std::string::npos ? path : path.substr(dot + 1);
-  };
-  const std::string key = last(unknown);
-  std::string best;
-  std::size_t best_distance = 3;
-  for (const std::string& path : paths) {
-    if (path == unknown) continue;
-    const std::size_t d = core::edit_distance(key, last(path));
-    if (d < best_distance || (d == best_distance && !best.empty() && path.size() < best.size())) {
-      best_distance = d;
-      best = path;
-    }
-  }
-  exact = !best.empty() && best_distance == 0;
-  return best;
-}
-
-}  // namespace
-
 void read_settings(const std::string& yaml_text, const std::string& source,
                    const std::vector<std::string>& overrides, const SettingsBody& body) {
   YAML::Node root;
@@ -608,24 +621,9 @@ void read_settings(const std::string& yaml_text, const std::string& source,
   SetValues set_values;
   for (const auto& o : overrides) apply_override(root, o, set_values);
   Reader reader(root, source, "", set_values);
-  try {
-    body(reader);
-    reader.check_unknown();
-  } catch (const InputError& e) {
-    // An unknown key may be one of another level (main_direction_deg given at the top for
-    // release.main_direction_deg): suggested when it has that key's very name, or when
-    // nothing at its own level is close.
-    const std::string& detail = e.detail();
-    const std::string mark = "unknown key '";
-    if (detail.rfind(mark, 0) != 0) throw;
-    const std::size_t end = detail.find('\'', mark.size());
-    const std::string unknown = detail.substr(mark.size(), end - mark.size());
-    bool exact = false;
-    const std::string meant = elsewhere(unknown, body, exact);
-    const bool hinted = detail.find("did you mean") != std::string::npos;
-    if (meant.empty() || (hinted && !exact)) throw;
-    throw InputError(e.source(), detail.substr(0, end + 1) + " (did you mean '" + meant + "'?)");
-  }
+  reader.declared_by(&body);
+  body(reader);
+  reader.check_unknown();
 }
 
 void read_settings_file(const std::string& path, const std::vector<std::string>& overrides,

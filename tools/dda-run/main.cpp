@@ -209,12 +209,9 @@ void warn_unrested(const std::string& path, const std::vector<mc::Record>& recor
                  " realizations did not end at rest: " + reasons);
 }
 
-// How far a block may move in one nominal step, over its circumscribed diameter, at its
-// fastest before the step costs it rebound: a 0.1 m cube striking a plane at 50 m/s
-// (0.29) rebounded to 3.7 m at 1 ms against 8.5 m at 0.1 ms, a 0.46 m cube (0.06) to 7.7
-// against 8.5 m; 1 m³ blocks at bench-slope speeds (0.01) agree with the 0.1 ms reference
-// (docs/dda-run.md, Presets).
-constexpr double kCoarseStepRatio = 0.03;
+// How far a block may move in one step at its fastest before the step costs it rebound:
+// the measured share the scene's step rule keeps to by default (dda::kMaxStepTravel).
+constexpr double kCoarseStepRatio = dda::kMaxStepTravel;
 
 // One warning line when realizations of the run moved faster than the step resolves for
 // their block: max speed × the block's time_step over its diameter above kCoarseStepRatio

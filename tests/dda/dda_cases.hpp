@@ -47,7 +47,8 @@ inline FlightResult projectile(const Settings& set, double seconds) {
   return out;
 }
 
-/// A cube (edge 1 m) set down on an incline of θ with friction μ, stepped for `seconds`.
+/// A cube (edge 1 m) set down on an incline of θ with friction μ, stepped for `seconds`;
+/// `turn_deg` turns it about the incline's normal (0: edges along and across the slope).
 struct SlideResult {
   double distance = 0.0;         ///< centroid displacement down the slope (m)
   double rotation = 0.0;         ///< rad
@@ -57,14 +58,16 @@ struct SlideResult {
   double time = 0.0;             ///< when the run stopped: `seconds`, or the step across it (s)
   EndReason end = EndReason::running;
 };
-inline SlideResult on_slope(Settings set, double theta_deg, double mu, double seconds, double settle = 0.1) {
+inline SlideResult on_slope(Settings set, double theta_deg, double mu, double seconds, double settle = 0.1,
+                            double turn_deg = 0.0) {
   const terrain::Surface surface = incline(theta_deg);
   const std::vector<terrain::Material> mats{material(mu)};
   const Ground g{&surface, mats};
   set.rest_dwell = 1e9;  // keep stepping: the cases watch the rest themselves
   set.max_steps = 1 << 30;
   const Model m = Model::build(set, cube(1.0));
-  const Release r = on_incline(theta_deg, 1.0, -5.0, 8.0);
+  Release r = on_incline(theta_deg, 1.0, -5.0, 8.0);
+  r.orientation = r.orientation * Eigen::Quaterniond(Eigen::AngleAxisd(turn_deg * M_PI / 180.0, Vec3::UnitZ()));
   State s = start(m, r, impact_stream());
   while (s.time < settle - 1e-9 && s.end == EndReason::running) step(m, g, s);
   const Vec3 settled = s.position;

@@ -190,6 +190,19 @@ struct Work {
   Vec3 s0;                              // shear spring stretch at the step start
   double g0 = 0.0;                      // gap − offset at the step start
   double mu = 1.0;                      // share of the friction coefficient a sliding contact gets
+  // A locked contact at its friction limit in this step: its shear spring is replaced in
+  // the solve by the Coulomb force μ·F_n against `limit_direction` (F_n implicit, as for a
+  // sliding contact), the exact return mapping of the spring; its anchor is moved to the
+  // limit once the step is accepted. `unloaded`: it was at the limit and its point moved
+  // back, so it is an elastic spring again for the rest of the step.
+  bool at_limit = false;
+  bool unloaded = false;
+  Vec3 limit_direction = Vec3::Zero();
+  // The direction follows the stretch (a radial return): linearised about the solution
+  // `limit_at` it was taken from, the force turns with the stretch at a stiffness
+  // `limit_turn` = μ·F_n/|stretch| (N/m) across it.
+  double limit_turn = 0.0;
+  VecN<N> limit_at = VecN<N>::Zero();
 };
 
 struct StepOutcome {
@@ -236,6 +249,8 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
       c.slip_direction = slip.norm() > 1e-9 ? Vec3(slip.normalized()) : Vec3::Zero();
       w.g0 = c.gap - c.gap_offset;
       w.mu = 1.0;
+      w.at_limit = false;
+      w.unloaded = false;
       if (c.anchored) {
         const Vec3 xa = pose.centre + pose.map * c.body_anchor;
         w.ta = dof_matrix<N>(xa - pose.centre);
@@ -326,11 +341,22 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
   // compression has no friction, and friction never works along the motion: once the
   // modes are final, such contacts slide without friction and the step is solved again
   // with the modes kept (each contact loses its friction at most once). True if any did.
+  // A contact at its friction limit pushes the same way in tension or once its point moves
+  // back against its stretch: it is an elastic spring again, and the step is solved again.
   auto drop_pushing_friction = [&]() {
     bool dropped = false;
     for (std::size_t i = 0; i < contacts.size(); ++i) {
       const Contact& c = contacts[i];
       Work<N>& w = work[i];
+      if (c.mode == ContactMode::locked && w.at_limit) {
+        const Vec3 da = w.ta * d;
+        if (w.g0 + w.gn.dot(d) >= 0.0 || (da - c.normal * c.normal.dot(da)).dot(w.limit_direction) < 0.0) {
+          w.at_limit = false;
+          w.unloaded = true;
+          dropped = true;
+        }
+        continue;
+      }
       if (c.mode != ContactMode::sliding || w.mu == 0.0 || !(friction > 0.0)) continue;
       const Vec3 du = w.t * d;
       if (w.g0 + w.gn.dot(d) >= 0.0 || (du - c.normal * c.normal.dot(du)).dot(c.slip_direction) < 0.0) {
@@ -340,7 +366,25 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
     }
     return dropped;
   };
+  // Return mapping: moves a locked contact's anchor so that its shear spring carries at
+  // most μ·F_n of this solution (F_n = −p·g, nothing in tension) once it carries more
+  // than `slack` times that. True if it moved.
+  auto cap_at_friction = [&](Contact& c, Work<N>& w, double g, double slack) {
+    const Vec3 sv = w.s0 + w.ta * d;
+    const Vec3 st = sv - c.normal * c.normal.dot(sv);
+    const double limit = friction * std::max(0.0, -p * g) / ps;
+    const double stretch = st.norm();
+    if (stretch <= slack * limit * (1.0 + 1e-9) + 1e-15 * model.radius) return false;
+    const Vec3 shift = st * (limit / stretch - 1.0);
+    w.s0 += shift;
+    c.ground_anchor -= shift;
+    return true;
+  };
   auto accept = [&]() {
+    // A contact at its friction limit ends the step with its anchor moved to the limit.
+    for (std::size_t i = 0; i < contacts.size(); ++i)
+      if (contacts[i].mode == ContactMode::locked && work[i].at_limit)
+        cap_at_friction(contacts[i], work[i], work[i].g0 + work[i].gn.dot(d), 1.0);
     out.converged = true;
     for (const std::uint8_t h : held) out.held += h > 0 ? 1 : 0;
     return out;
@@ -349,6 +393,7 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
   auto solve_modes = [&](VecN<N>& x) {
     MatN<N> k = k0;
     VecN<N> f = f0;
+    bool unsymmetric = false;  // a contact slides or is at its friction limit
     {
       PhaseTimer timer(timing, times.open_close);
       for (std::size_t i = 0; i < contacts.size(); ++i) {
@@ -366,6 +411,21 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
             w.ta = w.t;
             w.s0.setZero();
           }
+          if (w.at_limit) {
+            // At the friction limit: the Coulomb force μ·F_n against the stretch, at the
+            // anchored point, with F_n implicit in d, and its turn with the stretch.
+            const VecN<N> ts = w.ta.transpose() * w.limit_direction;
+            k.noalias() -= friction * p * ts * w.gn.transpose();
+            f += friction * p * w.g0 * ts;
+            const Mat3 across = Mat3::Identity() - c.normal * c.normal.transpose() -
+                                w.limit_direction * w.limit_direction.transpose();
+            const Eigen::Matrix<double, 3, N> turn = across * w.ta;
+            const MatN<N> kt = w.limit_turn * (turn.transpose() * turn);
+            k.noalias() += kt;
+            f.noalias() += kt * w.limit_at;
+            unsymmetric = true;
+            continue;
+          }
           // ps·(P T)ᵀ(P T) with P = I − nnᵀ equals ps·(TᵀT − (Tᵀn)(Tᵀn)ᵀ).
           const VecN<N> gt = w.ta.transpose() * c.normal;
           k.noalias() += ps * (gram<N>(w.ta) - gt * gt.transpose());
@@ -376,26 +436,26 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
           const VecN<N> ts = w.t.transpose() * c.slip_direction;
           k.noalias() -= w.mu * friction * p * ts * w.gn.transpose();
           f += w.mu * friction * p * w.g0 * ts;
+          unsymmetric = true;
         }
       }
     }
     {
       PhaseTimer timer(timing, times.solve);
-      // Symmetric positive definite unless a contact slides (implicit friction).
-      bool sliding = false;
-      for (const Contact& c : contacts) sliding = sliding || c.mode == ContactMode::sliding;
+      // Symmetric positive definite unless a contact slides or is at its friction limit
+      // (implicit friction).
       if constexpr (N == 12) {
         if (freeze_strain) {
           // Strain increments held at zero: the rigid block of the system.
           const Mat6 k6 = k.template topLeftCorner<6, 6>();
           const Eigen::Matrix<double, 6, 1> f6 = f.template head<6>();
           x.setZero();
-          if (sliding) x.template head<6>() = PivotedLu6(k6).solve(f6);
+          if (unsymmetric) x.template head<6>() = PivotedLu6(k6).solve(f6);
           else x.template head<6>() = Cholesky6(k6).solve(f6);
         }
       }
       if (!(N == 12 && freeze_strain)) {
-        if (sliding) x = GeneralSolver<N>(k).solve(f);
+        if (unsymmetric) x = GeneralSolver<N>(k).solve(f);
         else x = SymmetricSolver<N>(k).solve(f);
       }
     }
@@ -555,19 +615,12 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
     auto restick_stretch = [&](const Contact& c, double g) {
       return impact_phase ? 0.0 : friction * std::min(-p * g, c.normal_force) / ps;
     };
-    // Return mapping: moves a locked contact's anchor so that its shear spring carries at
-    // most μ·F_n of this solution (F_n = −p·g, nothing in tension) once it carries more
-    // than `slack` times that. True if it moved.
-    auto cap_at_friction = [&](Contact& c, Work<N>& w, double g, double slack) {
-      const Vec3 sv = w.s0 + w.ta * d;
-      const Vec3 st = sv - c.normal * c.normal.dot(sv);
-      const double limit = friction * std::max(0.0, -p * g) / ps;
-      const double stretch = st.norm();
-      if (stretch <= slack * limit * (1.0 + 1e-9) + 1e-15 * model.radius) return false;
-      const Vec3 shift = st * (limit / stretch - 1.0);
-      w.s0 += shift;
-      c.ground_anchor -= shift;
-      return true;
+    // A contact at its friction limit takes the direction of its stretch `st` in this
+    // solution, and is linearised about it.
+    auto set_limit = [&](Work<N>& w, const Vec3& st, double g) {
+      w.limit_direction = st.normalized();
+      w.limit_turn = friction * std::max(0.0, -p * g) / st.norm();
+      w.limit_at = d;
     };
     for (std::size_t i = 0; i < contacts.size(); ++i) {
       Contact& c = contacts[i];
@@ -654,17 +707,53 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
         const Vec3 sv = w.s0 + w.ta * d;
         const Vec3 st = sv - c.normal * c.normal.dot(sv);
         const double fs = ps * st.norm();
+        if (w.at_limit) {
+          // At the limit while its anchored point moves on along the stretch; moved back
+          // (or no longer stretched past the limit), it unloads: an elastic spring again.
+          // Its force follows the stretch's direction (a radial return): the solution is
+          // redone until the direction holds, and only then may a larger slip slide.
+          const Vec3 da = w.ta * d;
+          if ((da - c.normal * c.normal.dot(da)).dot(w.limit_direction) < 0.0 || !(fs > friction * (-p * g))) {
+            w.at_limit = false;
+            w.unloaded = true;
+            shifted = true;
+            continue;
+          }
+          const Vec3 direction = st.normalized();
+          if (direction.dot(w.limit_direction) < 1.0 - 1e-9) {
+            set_limit(w, st, g);
+            shifted = true;
+            continue;
+          }
+        }
         if (fs > friction * (-p * g) * (1.0 + 1e-12) && st.norm() > 0.0) {
-          // A slip within the shear spring's elastic range (μ·F_n/k_s) is taken up by
-          // moving the anchor to the friction limit (a return mapping, as in
-          // elastoplastic friction): a sticking contact at its limit -- the uphill edge
-          // of a block resting on a slope -- stays locked instead of alternating between
-          // sliding and re-sticking each step, which made a resting block creep. A larger
-          // slip slides, with the Coulomb force implicit and opposite the motion.
+          // A slip within the shear spring's elastic range (μ·F_n/k_s) leaves the contact
+          // locked at its friction limit (a return mapping, as in elastoplastic
+          // friction): a sticking contact at its limit -- the uphill edge of a block
+          // resting on a slope -- stays locked instead of alternating between sliding
+          // and re-sticking each step, which made a resting block creep. A larger slip
+          // slides, with the Coulomb force implicit and opposite the motion.
           const Vec3 du = w.t * d;
           const double slipped = (du - c.normal * c.normal.dot(du)).norm();
           if (slipped <= friction * (-p * g) / ps) {
-            shifted = cap_at_friction(c, w, g, 1.0) || shifted;
+            // The spring is replaced by the Coulomb force along the stretch and the step
+            // solved again: the exact return mapping. Moving the anchor to the limit of
+            // each solution instead converged by a factor Σk_s / (2m/Δt² + Σk_s), 0.997 for
+            // four springs of a 1 m³ cube at 1 ms, and the iteration's bound stopped it
+            // at a few percent of the displacement: a cube whose contacts were all at
+            // their limit on a plane 0.5 % steeper than its friction angle did not slide.
+            // A contact that unloaded in this step has its anchor moved instead, as
+            // before (bounded: it cannot cycle between the two). So has every contact on
+            // the 12-DOF path: there the Coulomb force let a cube whose friction angle
+            // exceeds the slope by 0.05° slide off at 2.5 mm/s (its strain mode keeps
+            // vibrating), while with anchors moved it stays.
+            if (N == 12 || w.unloaded) {
+              shifted = cap_at_friction(c, w, g, 1.0) || shifted;
+            } else if (!w.at_limit) {
+              w.at_limit = true;
+              set_limit(w, st, g);
+              shifted = true;
+            }
             continue;
           }
           next = ContactMode::sliding;
@@ -689,6 +778,7 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
           // exactly μ·F_n along the stretch of this solution (a return mapping): a
           // sticking block that just stopped keeps its load shared, without more slip.
           if (c.mode == ContactMode::locked) {
+            w.at_limit = false;
             shifted = cap_at_friction(c, w, g, 1.0) || shifted;
             continue;
           }
@@ -716,6 +806,7 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
             changed = true;
             c.resume = c.mode;
             c.mode = next;
+            w.at_limit = false;
             continue;
           }
           const Vec3 du = w.t * d;
@@ -756,6 +847,7 @@ StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, dou
         w.ta = w.t;
       }
       c.mode = next;
+      w.at_limit = false;
     }
     // Anchor moves of held contacts converge geometrically; the last iteration accepts
     // what is left of them.

@@ -40,6 +40,31 @@ TEST(Sample, MeanAndSd) {
   EXPECT_NEAR(s.sd(), std::sqrt(32.0 / 7.0), 1e-15);  // Σ(x−5)² = 32, n−1 = 7
 }
 
+// The sample standard deviation of one value is undefined (n − 1 = 0): NaN, not 0, which
+// would read as a sample without scatter; two values have one.
+TEST(Sample, SdOfOneValueIsUndefined) {
+  EXPECT_TRUE(std::isnan(Sample({3.5}).sd()));
+  EXPECT_TRUE(std::isnan(Sample({}).sd()));
+  EXPECT_DOUBLE_EQ(Sample({1.0, 3.0}).sd(), std::sqrt(2.0));
+}
+
+// Every resample of one value is that value: no interval, rather than one of zero width.
+TEST(Bootstrap, OneValueHasNoInterval) {
+  double se = 0.0;
+  const Interval i = bootstrap_quantile_interval(Sample({7.0}), 0.5, 0.05, 100, 3, &se);
+  EXPECT_TRUE(std::isnan(i.lo));
+  EXPECT_TRUE(std::isnan(i.hi));
+  EXPECT_TRUE(std::isnan(se));
+  for (const Interval& k : bootstrap_quantile_intervals(Sample({7.0}), {0.05, 0.95}, 0.05, 100, 3)) {
+    EXPECT_TRUE(std::isnan(k.lo));
+    EXPECT_TRUE(std::isnan(k.hi));
+  }
+  // Two values already spread: a proper interval around the median.
+  const Interval two = bootstrap_quantile_interval(Sample({1.0, 3.0}), 0.5, 0.05, 100, 3);
+  EXPECT_LE(two.lo, 2.0);
+  EXPECT_GE(two.hi, 2.0);
+}
+
 TEST(Sample, RejectsNonFinite) {
   EXPECT_THROW(Sample({1.0, std::nan("")}, "run.h5"), core::InputError);
 }
@@ -156,7 +181,8 @@ std::vector<Interval> sorted_resample_intervals(const Sample& s, const std::vect
 }
 
 // Counting the drawn indices gives the intervals of sorting every resample, bit for bit:
-// sizes 1 to 700, ties, unsorted and extreme probabilities, one plan for several samples.
+// sizes 2 to 700, ties, unsorted and extreme probabilities, one plan for several samples.
+// A sample of one value has no interval (NaN; OneValueHasNoInterval).
 TEST(Bootstrap, PlanEqualsSortingEveryResample) {
   const std::vector<double> ps = {0.99, 0.0, 0.05, 0.5, 0.25, 1.0, 0.95, 0.1, 0.75, 0.9};
   for (std::size_t n : {1u, 2u, 3u, 7u, 10u, 64u, 250u, 701u}) {
@@ -171,6 +197,10 @@ TEST(Bootstrap, PlanEqualsSortingEveryResample) {
       }
       const Sample s(v);
       const auto fast = plan.intervals(s, 0.05);
+      if (n == 1) {
+        for (const Interval& i : fast) EXPECT_TRUE(std::isnan(i.lo) && std::isnan(i.hi)) << "variant " << variant;
+        continue;
+      }
       const auto slow = sorted_resample_intervals(s, ps, 0.05, 120, 3 + n);
       ASSERT_EQ(fast.size(), slow.size());
       for (std::size_t k = 0; k < ps.size(); ++k) {

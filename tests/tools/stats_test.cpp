@@ -172,6 +172,7 @@ class Stats : public ::testing::Test {
     write_run(dir_ / "whole.h5", 0, 1);
     for (std::uint32_t k = 0; k < 3; ++k) write_run(dir_ / ("part-" + std::to_string(k) + ".h5"), k, 3);
     write_run(dir_ / "foreign-1.h5", 1, 3, "seed: 2\n");
+    write_run(dir_ / "one.h5", 0, 12);  // realization 0 alone (at rest)
     write_run(dir_ / "longer.h5", 0, 1, "seed: 3\n", 5.0);
     io::RunInfo info = run_info("0/1");
     mc::RunData empty;
@@ -396,6 +397,34 @@ TEST_F(Stats, ShardsGiveTheStatisticsOfTheWholeRun) {
   // Without names the joined run is named after its shards.
   ASSERT_EQ(run_fast({"part-0.h5", "part-1.h5", "part-2.h5", "-o", "out-parts2"}).code, 0);
   EXPECT_NE(read_text(dir_ / "out-parts2" / "summary.csv").find("\npart,all,runout,mean,"), std::string::npos);
+}
+
+// A series of one value has no spread: its sd and bootstrap intervals are undefined (nan
+// in summary.csv and summary.h5, empty in table.csv), never 0 or an interval of zero width,
+// and it has no relative error.
+TEST_F(Stats, OneValueHasNoSdAndNoInterval) {
+  const Outcome o = run_fast({"one.h5", "-o", "out-one", "--print-table", "--set", "allow_partial=true"});
+  ASSERT_EQ(o.code, 0) << o.err;
+  const std::string csv = read_text(dir_ / "out-one" / "summary.csv");
+  EXPECT_EQ(csv_value(csv, "one,all,runout,n"), 1.0);
+  EXPECT_EQ(csv_value(csv, "one,all,runout,mean"), runout_of(0));
+  EXPECT_EQ(csv_value(csv, "one,all,runout,P95"), runout_of(0));
+  EXPECT_NE(csv.find("\none,all,runout,sd,nan,m\n"), std::string::npos) << csv;
+  EXPECT_NE(csv.find("\none,all,runout,P50_ci_low,nan,m\n"), std::string::npos) << csv;
+  EXPECT_NE(csv.find("\none,all,runout,P50_ci_high,nan,m\n"), std::string::npos) << csv;
+  EXPECT_EQ(csv.find("one,all,runout,mean_relative_error"), std::string::npos) << csv;
+  // The side-by-side table leaves the cell empty ("-" when printed); the one block's
+  // series is the run's, so the run is the only column.
+  const std::string table = read_text(dir_ / "out-one" / "table.csv");
+  EXPECT_NE(table.find("\nrunout,sd,m,\n"), std::string::npos) << table;
+  const auto line = o.out.find("runout sd (m)");
+  ASSERT_NE(line, std::string::npos) << o.out;
+  const std::string printed = o.out.substr(line, o.out.find('\n', line) - line);
+  EXPECT_EQ(printed.back(), '-') << printed;
+  const io::h5::File h5 = io::h5::File::open((dir_ / "out-one" / "summary.h5").string());
+  const io::h5::Group runout = h5.root().open_group("series").open_group("0").open_group("variable").open_group("runout");
+  EXPECT_TRUE(std::isnan(runout.attr_double("sd")));
+  for (double x : runout.read_doubles("quantile_ci_low")) EXPECT_TRUE(std::isnan(x));
 }
 
 TEST_F(Stats, ComparesRunsSideBySide) {

@@ -162,7 +162,9 @@ std::vector<WideRow> wide_rows(const Analysis& a) {
     rows.push_back({variable, statistic, unit, std::vector<std::string>(a.series.size())});
     return rows.back();
   };
+  // An undefined statistic (the sd of one value) stays empty: "-" in the printed table.
   const auto shown = [](double x) {
+    if (std::isnan(x)) return std::string();
     char buffer[32];
     std::snprintf(buffer, sizeof buffer, "%.4g", x);
     return std::string(buffer);

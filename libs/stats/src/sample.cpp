@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <thread>
 
@@ -39,7 +40,8 @@ double Sample::mean() const {
 }
 
 double Sample::sd() const {
-  if (sorted_.size() < 2) return 0.0;
+  // One value has no spread to measure: 0 would read as a sample without scatter.
+  if (sorted_.size() < 2) return std::numeric_limits<double>::quiet_NaN();
   const double m = mean();
   double ss = 0.0;
   for (double v : sorted_) ss += (v - m) * (v - m);
@@ -144,6 +146,13 @@ std::vector<Interval> BootstrapPlan::intervals(const Sample& sample, double alph
   if (x.size() != n_)
     throw core::InputError("sample", "bootstrap plan of " + std::to_string(n_) + " values used for " +
                                          std::to_string(x.size()));
+  // Every resample of one value is that value: a zero-width interval would claim a
+  // certainty the sample cannot give.
+  if (n_ < 2) {
+    constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+    if (se_first) *se_first = nan;
+    return std::vector<Interval>(ps_.size(), Interval{nan, nan});
+  }
   std::vector<Interval> out;
   std::vector<double> estimates(resamples_);
   for (std::size_t k = 0; k < ps_.size(); ++k) {

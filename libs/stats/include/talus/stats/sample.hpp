@@ -26,7 +26,7 @@ class Sample {
   /// h = (n−1)p, Q = x[⌊h⌋] + (h − ⌊h⌋)(x[⌊h⌋+1] − x[⌊h⌋]).
   double quantile(double p) const;
   double mean() const;
-  /// Sample standard deviation (n − 1 in the denominator); 0 for n < 2.
+  /// Sample standard deviation (n − 1 in the denominator); NaN for n < 2 (undefined).
   double sd() const;
 
  private:
@@ -64,7 +64,9 @@ class BootstrapPlan {
 
   std::size_t n() const { return n_; }
   /// Percentile-bootstrap intervals (level 1 − α) of the quantiles at ps of `sample`, which
-  /// must hold n values: bit for bit those of sorting every resample.
+  /// must hold n values: bit for bit those of sorting every resample. NaN bounds (and
+  /// standard error) for n = 1: every resample of one value is that value, and the
+  /// interval of zero width it would give says nothing about the sampling error.
   std::vector<Interval> intervals(const Sample& sample, double alpha, double* se_first = nullptr) const;
 
  private:
@@ -81,6 +83,7 @@ class BootstrapPlan {
 /// Percentile-bootstrap confidence interval (level 1 − α) of the p-quantile: `resamples`
 /// resamples with replacement, resample b drawn from stream (seed, bootstrap, b), so the
 /// interval is reproducible. Also returns the bootstrap standard error in `se` if given.
+/// NaN for a sample of one value (BootstrapPlan::intervals).
 Interval bootstrap_quantile_interval(const Sample& sample, double p, double alpha,
                                      std::size_t resamples, std::uint64_t seed,
                                      double* se = nullptr);

@@ -256,6 +256,38 @@ TEST_F(VectorFiles, PolygonFeaturesAreDrawnInProportionToTheirWeights) {
   expect_binomial(draw_counts(build(s), n), {9.0, 32.0, 20.0}, n);
 }
 
+TEST_F(VectorFiles, OverlappingPartsOfAMultiPolygonAreOneZone) {
+  // Two boxes of 36 m² that share 18 m² (local x 23–26): their union, 54 m², drawn with
+  // uniform density, so a third of the draws fall in the shared strip (counted twice, it
+  // would get half of them).
+  const std::string path = file("overlap.geojson");
+  write_layer(path, "GeoJSON", "overlap", 2056,
+              {{"MULTIPOLYGON ((" + box(20, 2, 26, 8) + "), (" + box(23, 2, 29, 8) + "))", {}, ""},
+               {"MULTIPOLYGON ((" + box(20, 12, 24, 16) + "), (" + box(24, 12, 28, 16) + "))", {}, ""}});
+  const mc::Scene scene = build(release_scene(path, "polygon"));
+  ASSERT_EQ(scene.release_features().size(), 2u);
+  const mc::ReleaseFeature& merged = scene.release_features()[0];
+  ASSERT_EQ(merged.parts.size(), 1u);
+  EXPECT_NEAR(merged.part_sizes[0], 54.0, 1e-6);  // coordinates near 2.6e6 m: 1e-6 m² of round-off
+  EXPECT_NEAR(merged.weight, 54.0, 1e-6);
+  // Parts that only touch along an edge stay two parts (nothing is drawn twice).
+  EXPECT_EQ(scene.release_features()[1].parts.size(), 2u);
+  EXPECT_NEAR(scene.release_features()[1].weight, 32.0, 1e-6);
+  constexpr std::uint32_t n = 4000;
+  std::vector<int> count(3, 0);  // first feature: shared strip, the rest; second feature
+  const terrain::Surface ground = scene.base_surface().realization(std::nullopt);
+  for (std::uint32_t i = 0; i < n; ++i) {
+    const Eigen::Vector2d p = mc::draw_release(scene, ground, i).release.position.head<2>();
+    if (p.y() >= 2.0 && p.y() <= 8.0 && p.x() >= 20.0 && p.x() <= 29.0)
+      ++count[p.x() > 23.0 && p.x() < 26.0 ? 0 : 1];
+    else if (p.y() >= 12.0 && p.y() <= 16.0 && p.x() >= 20.0 && p.x() <= 28.0)
+      ++count[2];
+    else
+      ADD_FAILURE() << "realization " << i << " at " << p.transpose() << " is in no feature";
+  }
+  expect_binomial(count, {18.0, 36.0, 32.0}, n);
+}
+
 TEST_F(VectorFiles, LineAndPointFeaturesAreDrawnInProportionToTheirWeights) {
   const std::string lines = file("lines.geojson");
   write_layer(lines, "GeoJSON", "lines", 2056,

@@ -10,6 +10,7 @@
 
 #include "gdal_support.hpp"
 #include "talus/core/error.hpp"
+#include "talus/core/log.hpp"
 #include "talus/io/atomic_output.hpp"
 
 namespace talus::io {
@@ -220,6 +221,16 @@ std::vector<OGRGeometryH> parts_of(OGRGeometryH g, const std::string& kind, std:
   return parts;
 }
 
+// The first two parts of a MultiPolygon whose interiors overlap, "parts 1 and 3" (numbered
+// from 1, in the file's order), or empty when none do (parts that only touch do not).
+std::string overlapping_parts(const std::vector<OGRGeometryH>& parts) {
+  for (std::size_t i = 0; i < parts.size(); ++i)
+    for (std::size_t j = i + 1; j < parts.size(); ++j)
+      if (OGR_G_Intersects(parts[i], parts[j]) && !OGR_G_Touches(parts[i], parts[j]))
+        return "parts " + std::to_string(i + 1) + " and " + std::to_string(j + 1);
+  return {};
+}
+
 // A GeoPackage's placeholders for "no CRS" (srs_id -1, undefined Cartesian, and 0,
 // undefined geographic), as GDAL reports them: no CRS to compare.
 bool undefined_crs(OGRSpatialReferenceH srs) {
@@ -318,8 +329,23 @@ std::vector<mc::PlanFeature> read_plan_features(const VectorRequest& request, co
       g = linear.get();
     }
     std::string wrong;
-    const std::vector<OGRGeometryH> parts = parts_of(g, request.kind, wrong);
+    std::vector<OGRGeometryH> parts = parts_of(g, request.kind, wrong);
     if (!wrong.empty()) bad(wrong + " (" + request.key + " takes " + accepted(request.kind) + " features)");
+    // A MultiPolygon is one zone: parts that overlap would be drawn twice where they do,
+    // so the zone is their union (GEOS through OGR), as a GIS's Dissolve would make it.
+    GeometryPtr dissolved;
+    if (request.kind == "polygon" && parts.size() > 1) {
+      if (const std::string overlap = overlapping_parts(parts); !overlap.empty()) {
+        dissolved.reset(OGR_G_UnionCascaded(g));
+        if (!dissolved || OGR_G_IsEmpty(dissolved.get()))
+          bad("has overlapping " + overlap + " that GDAL cannot merge" + gdal::Quiet::last_message() +
+              ": fix the geometry (e.g. QGIS's Fix geometries, then Dissolve)");
+        parts = parts_of(dissolved.get(), request.kind, wrong);
+        if (!wrong.empty()) bad("has overlapping " + overlap + " whose union " + wrong);
+        core::log_info(path + ": " + where + ": " + overlap + " overlap: the zone is their union (" +
+                       std::to_string(parts.size()) + " part(s))");
+      }
+    }
     for (OGRGeometryH part : parts) {
       feature.parts.push_back(part_of(part, request.kind, bad));
       for (const auto& list : feature.parts.back())

@@ -146,6 +146,33 @@ TEST_F(DdaRun, ThreeShardsMergeToTheSingleRun) {
   EXPECT_FALSE(fs::exists(dir_ / "twice.h5"));
 }
 
+TEST_F(DdaRun, MergeIgnoresTheChunkSizeButNotSettingsThatChangeRecords) {
+  // Shards written in chunks of 1 and 5 (the scene's: 2) hold the records of the one run.
+  ASSERT_EQ(run({"-c", "scene.yaml", "--shard", "0/2", "--set", "outputs.chunk=1", "-o", "chunk0.h5"}).code, 0);
+  ASSERT_EQ(run({"-c", "scene.yaml", "--shard", "1/2", "--set", "outputs.chunk=5", "-o", "chunk1.h5"}).code, 0);
+  const Outcome m = run({"merge", "chunk0.h5", "chunk1.h5", "-o", "chunk-merged.h5"});
+  ASSERT_EQ(m.code, 0) << m.err;
+  const io::RunFile merged = load("chunk-merged.h5");
+  EXPECT_EQ(merged.info.shard, "0/1");
+  expect_same_run(load("single.h5"), merged);
+  // A setting that changes the records is refused, and named; so is another seed.
+  ASSERT_EQ(run({"-c", "scene.yaml", "--shard", "1/2", "--set", "engine.max_steps=3000", "-o", "steps1.h5"}).code, 0);
+  const Outcome steps = run({"merge", "chunk0.h5", "steps1.h5", "-o", "steps-merged.h5"});
+  EXPECT_EQ(steps.code, 3);
+  EXPECT_EQ(steps.err, "dda-run merge: error: steps1.h5: is not a shard of the same run as chunk0.h5 (the setting "
+                       "engine.max_steps differs)\n");
+  EXPECT_FALSE(fs::exists(dir_ / "steps-merged.h5"));
+  ASSERT_EQ(run({"-c", "scene.yaml", "--shard", "1/2", "--set", "seed=6", "--set", "outputs.chunk=1", "-o",
+                 "seed1.h5"}).code,
+            0);
+  const Outcome seed = run({"merge", "chunk0.h5", "seed1.h5", "-o", "seed-merged.h5"});
+  EXPECT_EQ(seed.code, 3);
+  EXPECT_NE(seed.err.find("seed1.h5: is not a shard of the same run as chunk0.h5 (the setting seed differs)"),
+            std::string::npos)
+      << seed.err;
+  EXPECT_FALSE(fs::exists(dir_ / "seed-merged.h5"));
+}
+
 TEST_F(DdaRun, KilledRunResumesToTheUninterruptedResult) {
   // Dies (as if killed) right after the first chunk of two realizations reached the journal.
   const Outcome killed = run({"-c", "scene.yaml", "--threads", "2", "-o", "resumed.h5"},
@@ -159,8 +186,9 @@ TEST_F(DdaRun, KilledRunResumesToTheUninterruptedResult) {
   EXPECT_NE(again.err.find("add --resume"), std::string::npos) << again.err;
   const Outcome other = run({"-c", "scene.yaml", "--set", "seed=6", "--resume", "-o", "resumed.h5"});
   EXPECT_EQ(other.code, 3);
-  EXPECT_NE(other.err.find("other settings"), std::string::npos) << other.err;
-  const Outcome resumed = run({"-c", "scene.yaml", "--resume", "-v", "-o", "resumed.h5"});
+  EXPECT_NE(other.err.find("other settings or inputs (the setting seed differs)"), std::string::npos) << other.err;
+  // outputs.chunk only sets how the journal is written: resumed in chunks of 3.
+  const Outcome resumed = run({"-c", "scene.yaml", "--set", "outputs.chunk=3", "--resume", "-v", "-o", "resumed.h5"});
   ASSERT_EQ(resumed.code, 0) << resumed.err;
   EXPECT_NE(resumed.err.find("4 realizations to run (2 already done)"), std::string::npos) << resumed.err;
   EXPECT_FALSE(fs::exists(dir_ / "resumed.h5.journal"));

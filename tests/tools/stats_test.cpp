@@ -172,6 +172,9 @@ class Stats : public ::testing::Test {
     write_run(dir_ / "whole.h5", 0, 1);
     for (std::uint32_t k = 0; k < 3; ++k) write_run(dir_ / ("part-" + std::to_string(k) + ".h5"), k, 3);
     write_run(dir_ / "foreign-1.h5", 1, 3, "seed: 2\n");
+    // Shards of one run written in chunks of 2 and 64: outputs.chunk does not change records.
+    write_run(dir_ / "chunked-0.h5", 0, 2, "seed: 1\noutputs:\n  chunk: 2\n");
+    write_run(dir_ / "chunked-1.h5", 1, 2, "seed: 1\noutputs:\n  chunk: 64\n");
     write_run(dir_ / "one.h5", 0, 12);  // realization 0 alone (at rest)
     write_run(dir_ / "longer.h5", 0, 1, "seed: 3\n", 5.0);
     io::RunInfo info = run_info("0/1");
@@ -397,6 +400,10 @@ TEST_F(Stats, ShardsGiveTheStatisticsOfTheWholeRun) {
   // Without names the joined run is named after its shards.
   ASSERT_EQ(run_fast({"part-0.h5", "part-1.h5", "part-2.h5", "-o", "out-parts2"}).code, 0);
   EXPECT_NE(read_text(dir_ / "out-parts2" / "summary.csv").find("\npart,all,runout,mean,"), std::string::npos);
+  // Shards that differ only in outputs.chunk are one run.
+  const Outcome chunked = run_fast({"chunked-0.h5", "chunked-1.h5", "-o", "out-chunked", "--set", "names=[ref]"});
+  ASSERT_EQ(chunked.code, 0) << chunked.err;
+  EXPECT_EQ(read_text(dir_ / "out-chunked" / "summary.csv"), read_text(dir_ / "out-ref" / "summary.csv"));
 }
 
 // A series of one value has no spread: its sd and bootstrap intervals are undefined (nan

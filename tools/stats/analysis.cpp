@@ -42,11 +42,6 @@ bool unusable_run_name(const std::string& name) {
   return name.empty() || name.find_first_of("/\\\n,\"") != std::string::npos;
 }
 
-// Files of the same run share these; shards of different runs do not.
-std::string run_key(const io::RunInfo& info) {
-  return info.provenance.settings_yaml + '\x1f' + info.provenance.inputs + '\x1f' +
-         std::to_string(info.realizations);
-}
 
 }  // namespace
 
@@ -62,7 +57,7 @@ std::vector<Run> load_runs(const std::vector<std::string>& paths, const Settings
       shards.emplace_back();
       continue;
     }
-    const auto [it, fresh] = shard_group.try_emplace(run_key(file.info), runs.size());
+    const auto [it, fresh] = shard_group.try_emplace(io::run_identity(file.info), runs.size());
     if (fresh) {
       runs.push_back({run_name_of_shards(path), {}, {}});
       shards.emplace_back();

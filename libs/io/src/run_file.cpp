@@ -10,6 +10,8 @@
 #include <map>
 #include <sstream>
 
+#include <yaml-cpp/yaml.h>
+
 #include "talus/core/error.hpp"
 #include "talus/io/atomic_output.hpp"
 #include "talus/io/xdmf.hpp"
@@ -406,10 +408,63 @@ mc::HazardAccumulator empty_hazard(const RunInfo& info) {
   return mc::HazardAccumulator(info.hazard, info.hazard_relative_accuracy);
 }
 
-// Inputs and settings that make two files parts of the same run.
-bool same_run(const RunInfo& a, const RunInfo& b) {
-  return a.provenance.settings_yaml == b.provenance.settings_yaml && a.provenance.inputs == b.provenance.inputs &&
-         a.realizations == b.realizations && a.terrain_fingerprint == b.terrain_fingerprint;
+// Settings that leave a run's records unchanged, ignored when files are matched as parts
+// of one run: outputs.chunk only sets how many finished realizations the journal writes
+// together.
+const std::vector<std::vector<std::string>> kRecordNeutralSettings = {{"outputs", "chunk"}};
+
+// A run's settings as a tree without the record-neutral ones; null when the text is not
+// YAML (then it is compared as text).
+YAML::Node result_settings(const std::string& settings_yaml) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(settings_yaml);
+  } catch (const YAML::Exception&) {
+    return YAML::Node();
+  }
+  for (const auto& path : kRecordNeutralSettings) {
+    // Nodes are references: reset() moves to the section, an assignment would overwrite it.
+    YAML::Node map = root;
+    bool found = true;
+    for (std::size_t k = 0; k + 1 < path.size() && found; ++k) {
+      const YAML::Node& parent = map;
+      const YAML::Node section = parent.IsMap() ? parent[path[k]] : YAML::Node();
+      found = section.IsDefined() && section.IsMap();
+      if (found) map.reset(section);
+    }
+    if (found && map.IsMap()) map.remove(path.back());
+  }
+  return root;
+}
+
+// The first key where two settings trees differ ("engine.max_steps"), or "" when they
+// agree: maps key by key, anything else (a value, a list) as a whole.
+std::string first_difference(const YAML::Node& a, const YAML::Node& b, const std::string& path) {
+  if (a.IsMap() && b.IsMap()) {
+    const auto key_path = [&](const YAML::Node& key) { return path.empty() ? key.Scalar() : path + "." + key.Scalar(); };
+    for (const auto& entry : a) {
+      const YAML::Node other = b[entry.first.Scalar()];
+      if (!other) return key_path(entry.first);
+      if (std::string d = first_difference(entry.second, other, key_path(entry.first)); !d.empty()) return d;
+    }
+    for (const auto& entry : b)
+      if (!a[entry.first.Scalar()]) return key_path(entry.first);
+    return {};
+  }
+  return YAML::Dump(a) == YAML::Dump(b) ? std::string() : path.empty() ? std::string("settings") : path;
+}
+
+// Why file `b` is not part of the run of `a` ("" when it is): a setting that changes the
+// records, the inputs read, the realization count or the terrain differ.
+std::string run_difference(const RunInfo& a, const RunInfo& b) {
+  if (run_identity(a) == run_identity(b)) return {};
+  if (a.realizations != b.realizations)
+    return "it is of a run of " + std::to_string(b.realizations) + " realizations, not " + std::to_string(a.realizations);
+  const YAML::Node sa = result_settings(a.provenance.settings_yaml), sb = result_settings(b.provenance.settings_yaml);
+  const std::string setting = sa && sb ? first_difference(sa, sb, "") : std::string("settings");
+  if (!setting.empty()) return "the setting " + setting + " differs";
+  if (a.provenance.inputs != b.provenance.inputs) return "its inputs differ: a file it read is another or has changed";
+  return "its terrain differs";
 }
 
 const char* kJournalKind = "run-journal";
@@ -500,9 +555,9 @@ RunJournal RunJournal::resume(const std::string& path, const RunInfo& info) {
     check_header(file.root(), kJournalKind, kRunSchema);
     stored = read_info(file.root());
   }
-  if (!same_run(stored, info))
-    throw InputError(path, "the journal belongs to a run with other settings or inputs; refusing to resume "
-                           "(delete it to start afresh)");
+  if (const std::string why = run_difference(stored, info); !why.empty())
+    throw InputError(path, "the journal belongs to a run with other settings or inputs (" + why +
+                               "); refusing to resume (delete it to start afresh)");
   if (stored.shard != info.shard)
     throw InputError(path, "the journal is of shard " + stored.shard + ", not " + info.shard);
   RunJournal journal(path, info);
@@ -685,6 +740,12 @@ RunFile read_run_file(const std::string& path) {
   return f;
 }
 
+std::string run_identity(const RunInfo& info) {
+  const YAML::Node settings = result_settings(info.provenance.settings_yaml);
+  return (settings ? YAML::Dump(settings) : info.provenance.settings_yaml) + '\x1f' + info.provenance.inputs + '\x1f' +
+         std::to_string(info.realizations) + '\x1f' + info.terrain_fingerprint;
+}
+
 RunFile merge_run_files(const std::vector<RunFile>& shards, const std::vector<std::string>& names) {
   if (shards.empty()) throw core::UsageError("merge needs at least one run file");
   RunFile merged;
@@ -692,9 +753,8 @@ RunFile merge_run_files(const std::vector<RunFile>& shards, const std::vector<st
   merged.data.hazard = empty_hazard(merged.info);
   for (std::size_t k = 0; k < shards.size(); ++k) {
     const RunInfo& info = shards[k].info;
-    if (!same_run(info, merged.info))
-      throw InputError(names[k], "is not a shard of the same run as " + names.front() +
-                                     " (settings, inputs or realization count differ)");
+    if (const std::string why = run_difference(merged.info, info); !why.empty())
+      throw InputError(names[k], "is not a shard of the same run as " + names.front() + " (" + why + ")");
     mc::RunData copy = shards[k].data;
     merged.data.append(std::move(copy));
   }

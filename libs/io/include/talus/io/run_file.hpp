@@ -45,8 +45,8 @@ class RunJournal {
   /// Creates an empty journal at `path` (a directory; removed first if it exists).
   static RunJournal create(const std::string& path, const RunInfo& info);
   /// Reopens the journal of an interrupted run for appending. Throws core::InputError
-  /// naming the journal if it is not one, or if its settings, inputs or shard differ from
-  /// `info` (a resume must continue the same run).
+  /// naming the journal if it is not one, or if its run_identity or shard differ from
+  /// `info` (a resume must continue the same run; outputs.chunk may change).
   static RunJournal resume(const std::string& path, const RunInfo& info);
 
   /// Writes finished realizations (any order) as one more chunk file.
@@ -84,11 +84,18 @@ struct RunFile {
 /// one-line core::InputError naming the file otherwise.
 RunFile read_run_file(const std::string& path);
 
-/// Joins shards of one run (same settings and inputs, disjoint shards) into one: the
-/// records of realizations in ascending order, crossings and trajectories in the same
-/// order, hazard accumulators merged exactly. Throws core::InputError naming the file
-/// that does not belong or repeats realizations. The result's shard is "0/1" when every
-/// realization of the run is present.
+/// What files of one run share, as text (equal for its shards, its journal, and the run
+/// file): the settings that change the records (every one but outputs.chunk, which only
+/// sets how realizations are written), the inputs read, the realization count and the
+/// terrain's fingerprint.
+std::string run_identity(const RunInfo& info);
+
+/// Joins shards of one run (same run_identity, disjoint shards) into one: the records of
+/// realizations in ascending order, crossings and trajectories in the same order, hazard
+/// accumulators merged exactly; the info (provenance included) is the first shard's.
+/// Throws core::InputError naming the file that does not belong (and the first setting
+/// that differs, or the inputs, realization count or terrain) or repeats realizations.
+/// The result's shard is "0/1" when every realization of the run is present.
 RunFile merge_run_files(const std::vector<RunFile>& shards, const std::vector<std::string>& names);
 
 }  // namespace talus::io

@@ -38,5 +38,13 @@ TEST(ObservedStops, CsvSeparatorsNamesWithSpacesAndDecimalCommas) {
   EXPECT_THROW(read_text("short.csv", "name,x,y\nstone 1,2601068.4\n"), core::InputError);
 }
 
+// Each stop knows its line, comments and header counted, so a message can name it.
+TEST(ObservedStops, EachStopKnowsItsLine) {
+  const ObservedStops points = read_text("rows.csv", "# surveyed\nx,y\n1,2\n\n3,4\n");
+  EXPECT_EQ(points.rows, (std::vector<std::string>{"line 3", "line 5"}));
+  const ObservedStops runouts = read_text("runouts.csv", "runout,lateral\n10,1\n12,-1\n");
+  EXPECT_EQ(runouts.rows, (std::vector<std::string>{"line 2", "line 3"}));
+}
+
 }  // namespace
 }  // namespace talus::io

@@ -138,6 +138,11 @@ def make_fixtures(bin_dir, root):
     write(os.path.join(root, "scene.yaml"), SCENE_YAML)
     write(os.path.join(root, "calibrate.yaml"), CALIBRATE_YAML)
     write(os.path.join(root, "stops.csv"), "x,y\n12,5\n14,5.5\n15,4\n")
+    write(os.path.join(root, "one.csv"), "x,y\n12,5\n")
+    write(os.path.join(root, "far.csv"), "x,y\n12,5\n14,5.5\n# mapped past the DEM\n515,4\n")
+    write(os.path.join(root, "local.csv"), "x,y\n1012,2005\n1014,2005.5\n")
+    write(os.path.join(root, "runouts.csv"), "runout\n9\n40\n")
+    write(os.path.join(root, "flat.csv"), "runout,lateral\n9,0\n11,0\n")
     write(os.path.join(root, "dem.asc"), DEM_ASC)
     write(os.path.join(root, "cube.obj"), CUBE_OBJ)
     # The cube's top face missing: an open surface.
@@ -195,6 +200,10 @@ def make_fixtures(bin_dir, root):
     tool("dda-run", "-c", "scene.yaml", "--threads", "1", "-o", "run.h5")
     tool("terrain-gen", "-c", "plane.yaml", "--set", "synthetic.slope_angle_deg=30", "-o", "other.h5")
     os.remove(os.path.join(root, "other.xmf"))
+    # The plane with local coordinates [1000, 1020] x [2000, 2010] (input ones [0, 20] x [0, 10]).
+    tool("terrain-gen", "-c", "plane.yaml", "--set", "origin.mode=given", "--set", "origin.shift=[-1000,-2000,0]",
+         "-o", "shifted.h5")
+    os.remove(os.path.join(root, "shifted.xmf"))
     os.remove(os.path.join(root, "t.xmf")) if os.path.exists(os.path.join(root, "t.xmf")) else None
     os.symlink("dem.asc", os.path.join(root, "link.asc"))
     os.link(os.path.join(root, "run.h5"), os.path.join(root, "hard.h5"))
@@ -361,6 +370,26 @@ CASES = [
     (["calibrate", "-c", "calibrate.yaml", "--set", "parameters[0].sd=0.1", "-o", "c"], BAD_INPUT,
      ["a uniform prior takes no mean or sd"]),
     (["calibrate", "-c", "calibrate.yaml", "--set", "scene=missing.yaml", "-o", "c"], BAD_INPUT, ["missing.yaml"]),
+    # A budget that cannot reach generation 1 could only return the prior.
+    (["calibrate", "-c", "calibrate.yaml", "--set", "max_simulations=7", "-o", "c"], BAD_INPUT,
+     ["calibrate.yaml", "max_simulations 7 is below 2 x particles (8)", "no posterior"]),
+    # The distance's scale is the observed stops' standard deviation: none for one stop, or
+    # for values that do not spread.
+    (["calibrate", "-c", "calibrate.yaml", "--set", "groups[0].observed=one.csv", "-o", "c"], BAD_INPUT,
+     ["one.csv", "holds a single observed stop", "at least 2"]),
+    (["calibrate", "-c", "calibrate.yaml", "--set", "groups[0].observed=flat.csv", "-o", "c"], BAD_INPUT,
+     ["flat.csv", "the observed lateral offsets do not spread", "variables: runout"]),
+    # Observed stops off the terrain can never be matched: named by file and row.
+    (["calibrate", "-c", "calibrate.yaml", "--set", "groups[0].observed=far.csv", "-o", "c"], BAD_INPUT,
+     ["far.csv: line 5: observed stop (515, 4) is outside the terrain (input coordinates: x in [0, 20], y in [0, 10])",
+      "no simulated block can stop there"]),
+    (["calibrate", "-c", "calibrate.yaml", "--set", "groups[0].observed=runouts.csv", "--set", "variables=runout",
+      "-o", "c"], BAD_INPUT, ["runouts.csv: line 3: observed runout 40 m lies beyond the terrain", "[-3, 17] m"]),
+    (["calibrate", "-c", "calibrate.yaml", "--set", "groups[0].observed=local.csv", "--set", "set=[terrain=shifted.h5]",
+      "-o", "c"], BAD_INPUT,
+     ["local.csv: line 2: observed stop (1012, 2005) is outside the terrain (input coordinates: x in [0, 20]",
+      "it lies inside the terrain in its local frame (input coordinates minus the origin shift [-1000, -2000])",
+      "give the observed stops in the terrain's input coordinates"]),
     (["calibrate", "-c", "calibrate.yaml", "--predict", "missing.h5", "-o", "c"], BAD_INPUT, ["missing.h5"]),
     (["calibrate", "-c", "calibrate.yaml", "--predict", "t.h5", "-o", "c"], BAD_INPUT, ["t.h5"]),
     (["calibrate", "-c", "calibrate.yaml", "--predict", "run.h5", "--resume", "-o", "c"], USAGE, ["--resume"]),

@@ -12,6 +12,8 @@ parameters to drop point A, then predicts drop point B with the posterior. Check
   and the pooled predictive runout is not refused by a KS test at 1 %;
 - a calibration killed after its first generation and resumed (on one thread) gives the
   posterior an uninterrupted run (on two threads) gives, byte for byte;
+- a simulation budget that runs out during generation 1 is an error, not the prior's
+  sample returned as a posterior, and --predict refuses the checkpoint it leaves;
 - with --mpiexec (a build with MPI), the same calibration on 2 MPI ranks of one thread
   gives that posterior too.
 
@@ -96,6 +98,18 @@ def main():
                 if a.read() != b.read():
                     failures.append("%s differs between the uninterrupted calibration and the %s one" % (name, label))
 
+    # A budget that runs out during generation 1 leaves only the prior's sample: an error,
+    # no posterior, and a checkpoint that --predict refuses (docs/calibration.md, Method).
+    budget = os.path.join(work, "budget")
+    particles = int(next(kv for kv in size if kv.startswith("particles=")).split("=")[1])
+    r = tool("calibrate", *common, "--set", "max_simulations=%d" % (2 * particles), "-o", budget, "--threads", "2",
+             "-q", expect=1)
+    if not r.stderr.startswith("calibrate: error: the simulation budget (max_simulations %d) ran out during "
+                               "generation 1" % (2 * particles)) or "there is no posterior" not in r.stderr:
+        failures.append("a budget spent in generation 1 is not reported as such: %s" % r.stderr.strip())
+    if r.stdout or any(os.path.exists(os.path.join(budget, n)) for n in ("posterior.csv", "summary.csv")):
+        failures.append("a budget spent in generation 1 still gave a posterior: %s" % sorted(os.listdir(budget)))
+
     with open(os.path.join(fit, "summary.csv")) as f:
         rows = {r["parameter"]: r for r in csv.DictReader(f)}
     statistical = not args.sanitized
@@ -122,6 +136,10 @@ def main():
     for kv in draws:
         pargs += ["--set", kv]
     tool("calibrate", *pargs, "--predict", os.path.join(fit, "posterior.h5"), "-o", predict, "-q")
+    r = tool("calibrate", *pargs, "--predict", os.path.join(budget, "posterior.h5"), "-o", predict + "-prior", "-q",
+             expect=3)
+    if "holds generation 0 only (the prior's sample)" not in r.stderr:
+        failures.append("--predict took the prior's sample for a posterior: %s" % r.stderr.strip())
     with open(os.path.join(predict, "predictive.csv")) as f:
         runout = [r for r in csv.DictReader(f) if r["variable"] == "runout"]
     inside = sum(int(r["inside"]) for r in runout)

@@ -1,6 +1,8 @@
 #include "calibration.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <set>
 
@@ -45,12 +47,68 @@ void set_property(mc::MaterialOverride& o, const std::string& parameter, double 
   else throw std::logic_error("unknown material property " + parameter);
 }
 
+// The sample standard deviation of at least 2 values.
 double sample_sd(const std::vector<double>& x) {
-  if (x.size() < 2) return 0.0;
   const double mean = std::accumulate(x.begin(), x.end(), 0.0) / static_cast<double>(x.size());
   double s = 0.0;
   for (double v : x) s += (v - mean) * (v - mean);
   return std::sqrt(s / static_cast<double>(x.size() - 1));
+}
+
+std::string point_text(const Eigen::Vector2d& p) {
+  return "(" + core::format_number(p.x()) + ", " + core::format_number(p.y()) + ")";
+}
+
+// Every observed stop must lie where a simulated block can come to rest: on the terrain.
+// A stop beyond it (mapped past the DEM's edge, or given in another frame) can never be
+// matched and would pull every distance, and the scale of its variable, off. Stops given
+// as runouts without lateral offsets are checked against the terrain's extent along the
+// runout direction. `shift` is the terrain's origin shift (input minus local coordinates).
+void check_on_terrain(const io::ObservedStops& stops, const Case& c, const terrain::Surface& base,
+                      const Eigen::Vector2d& shift, const std::string& file) {
+  const geometry::Aabb& b = base.bounds();
+  const Eigen::Vector2d left(-c.direction.y(), c.direction.x());
+  const std::string cannot = ": no simulated block can stop there";
+  auto check_point = [&](std::size_t k, const Eigen::Vector2d& p, const std::string& what) {
+    const Eigen::Vector2d local = p - shift;
+    if (base.height_at(local.x(), local.y())) return;
+    const bool within = local.x() >= b.lo.x() && local.x() <= b.hi.x() && local.y() >= b.lo.y() && local.y() <= b.hi.y();
+    std::string hint;
+    if (shift.squaredNorm() > 0.0 && base.height_at(p.x(), p.y()))
+      hint = mc::local_frame_hint(shift, "inside") + ": give the observed stops in the terrain's input coordinates";
+    throw InputError(file, stops.rows[k] + ": " + what +
+                               (within ? " has no terrain under it (a hole or gap in the terrain's surface; "
+                                       : " is outside the terrain (") +
+                               "input coordinates: " + mc::extent_text(b, shift) + ")" + cannot + hint);
+  };
+  if (stops.has_points()) {
+    for (std::size_t k = 0; k < stops.points.size(); ++k) {
+      const Eigen::Vector2d p(stops.points[k][0], stops.points[k][1]);
+      check_point(k, p, "observed stop " + point_text(p));
+    }
+    return;
+  }
+  if (!stops.lateral.empty()) {
+    for (std::size_t k = 0; k < stops.runout.size(); ++k) {
+      const Eigen::Vector2d p = c.origin + stops.runout[k] * c.direction + stops.lateral[k] * left;
+      check_point(k, p, "the observed stop at runout " + core::format_number(stops.runout[k]) + " m, lateral " +
+                            core::format_number(stops.lateral[k]) + " m " + point_text(p));
+    }
+    return;
+  }
+  // Runouts alone: the terrain's extent along the runout direction, from the origin.
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (const double x : {b.lo.x(), b.hi.x()})
+    for (const double y : {b.lo.y(), b.hi.y()}) {
+      const double along = c.direction.dot(Eigen::Vector2d(x, y) + shift - c.origin);
+      lo = std::min(lo, along);
+      hi = std::max(hi, along);
+    }
+  for (std::size_t k = 0; k < stops.runout.size(); ++k)
+    if (!(stops.runout[k] >= lo && stops.runout[k] <= hi))
+      throw InputError(file, stops.rows[k] + ": observed runout " + core::format_number(stops.runout[k]) +
+                                 " m lies beyond the terrain, which spans runouts [" + core::format_number(lo) + ", " +
+                                 core::format_number(hi) + "] m from the origin along the runout direction" + cannot);
 }
 
 }  // namespace
@@ -67,6 +125,13 @@ Problem::Problem(const Settings& settings, const std::string& source, unsigned t
   if (!(s.quantile > 0.0 && s.quantile < 1.0)) throw InputError(source, "quantile must be in (0, 1)");
   if (!(s.min_acceptance >= 0.0 && s.min_acceptance < 1.0)) throw InputError(source, "min_acceptance must be in [0, 1)");
   if (s.max_simulations < 0) throw InputError(source, "max_simulations must be >= 0");
+  // Generation 0 (the prior) takes `particles` simulations and generation 1 at least as
+  // many: a smaller budget could only return the prior.
+  if (s.max_simulations > 0 && s.max_simulations < 2 * s.particles)
+    throw InputError(source, "max_simulations " + std::to_string(s.max_simulations) + " is below 2 x particles (" +
+                                 std::to_string(2 * s.particles) + "): generation 0 (the prior) takes particles "
+                                 "simulations and generation 1 at least as many, so no posterior could be computed "
+                                 "(0 = no limit)");
   if (s.predictive_draws < 2) throw InputError(source, "predictive_draws must be at least 2");
   variables_ = s.variables == "runout" ? std::vector<std::string>{"runout"} : std::vector<std::string>{"runout", "lateral"};
 
@@ -165,6 +230,7 @@ Problem::Problem(const Settings& settings, const std::string& source, unsigned t
     if (group.observed.empty()) throw InputError(source, where + "observed: no file of observed stops given");
     const io::ObservedStops stops =
         io::read_observed_stops(group.observed, group.layer, terrain->crs_wkt, "groups[" + std::to_string(g) + "].observed");
+    check_on_terrain(stops, c, scene.base_surface(), terrain->origin_shift.head<2>(), group.observed);
     if (stops.has_points()) {
       for (const auto& p : stops.points) {
         const Eigen::Vector2d d = Eigen::Vector2d(p[0], p[1]) - c.origin;
@@ -182,13 +248,27 @@ Problem::Problem(const Settings& settings, const std::string& source, unsigned t
     cases_.push_back(std::move(c));
   }
 
-  // Each variable is compared in units of its observed spread, over every case.
+  // Each variable is compared in units of its observed spread over every case: the
+  // sample standard deviation, undefined for a single stop and no scale when the stops
+  // do not spread. No length stands in for it: it would weigh the variables arbitrarily.
+  const std::string observed_source = cases_.size() == 1 ? s.groups[0].observed : source;
+  std::size_t stops = 0;
+  for (const Case& c : cases_) stops += c.observed.size();
+  if (stops < 2)
+    throw InputError(observed_source, "holds a single observed stop: at least 2 are needed (over all groups), since "
+                                      "each compared variable is measured in units of the observed stops' standard "
+                                      "deviation, undefined for one stop");
   for (std::size_t v = 0; v < variables_.size(); ++v) {
     std::vector<double> all;
     for (const Case& c : cases_)
       for (const auto& o : c.observed) all.push_back(o[v]);
     const double sd = sample_sd(all);
-    scale_.push_back(sd > 1e-6 ? sd : 1.0);
+    if (!(sd > 1e-6))
+      throw InputError(observed_source, "the observed " + std::string(variables_[v] == "runout" ? "runouts" : "lateral offsets") +
+                                            " do not spread (standard deviation " + core::format_number(sd) +
+                                            " m): the distance measures each variable in units of that spread" +
+                                            (variables_[v] == "lateral" ? "; compare runouts alone (variables: runout)" : ""));
+    scale_.push_back(sd);
   }
 }
 

@@ -252,6 +252,9 @@ AbcGeneration read_posterior(const Problem& problem, const std::string& posterio
   const auto names = gens.children();
   if (names.empty()) throw core::InputError(posterior_path, "holds no generation");
   const io::h5::Group last = gens.open_group(*std::max_element(names.begin(), names.end()));
+  if (last.attr_int("index") == 0)
+    throw core::InputError(posterior_path, "holds generation 0 only (the prior's sample): its calibration completed no "
+                                           "generation after the prior, so there is no posterior to predict with");
   AbcGeneration g;
   g.weight = last.read_doubles("weight");
   const auto theta = last.read_doubles("theta");
@@ -491,6 +494,14 @@ int main(int argc, char** argv) {
       }
       AbcGeneration g = abc.next(cp.generations.back(), simulate, budget);
       if (static_cast<std::int64_t>(g.theta.size()) < settings.particles) {
+        // Generation 0 is the prior's sample: returned as the posterior, it would say the
+        // stops taught nothing when the budget only stopped the fit.
+        if (cp.generations.back().index == 0)
+          throw core::RuntimeError("the simulation budget (max_simulations " + std::to_string(settings.max_simulations) +
+                                   ") ran out during generation 1, which accepted " + std::to_string(g.theta.size()) +
+                                   " of its " + std::to_string(settings.particles) + " particles in " +
+                                   std::to_string(g.proposed) + " simulations: there is no posterior, only the prior's "
+                                   "sample (" + posterior_path + "); raise max_simulations and start afresh");
         if (ranks.writer())
           core::log_warn("the simulation budget (max_simulations) ran out during generation " + std::to_string(g.index) +
                        ": the posterior is generation " + std::to_string(cp.generations.back().index));

@@ -40,7 +40,8 @@ void Settings::visit(core::SettingsVisitor& v) {
   v.field("generations", generations, "", "generations after the prior's, at most");
   v.field("quantile", quantile, "-", "tolerance of a generation: this quantile of the previous one's distances");
   v.field("min_acceptance", min_acceptance, "-", "stop once a generation accepts fewer of its proposals than this");
-  v.field("max_simulations", max_simulations, "", "parameter sets simulated at most (0 = no limit)");
+  v.field("max_simulations", max_simulations, "",
+          "parameter sets simulated at most (0 = no limit; otherwise at least 2 x particles)");
   v.field("seed", seed, "", "seed of the proposals and of every simulation");
   v.field("predictive_draws", predictive_draws, "", "posterior draws simulated by --predict");
   v.field("plots", plots, "draw plots with the talus-plot helper (Python 3, matplotlib, h5py)");

@@ -108,6 +108,7 @@ ObservedStops read_csv(const std::string& path) {
     if (f.size() <= std::max(c0, c1) || !parse_number(f[c0], a) || !parse_number(f[c1], b))
       throw core::InputError(path, "line " + std::to_string(number) +
                                        (runouts ? ": expected a runout (m)" : ": expected the x and y of a stop point (m)"));
+    out.rows.push_back("line " + std::to_string(number));
     if (runouts) {
       out.runout.push_back(a);
       if (with_lateral) out.lateral.push_back(b);
@@ -135,8 +136,10 @@ ObservedStops read_observed_stops(const std::string& path, const std::string& la
     const RunFile run = read_run_file(path);
     ObservedStops out;
     for (const mc::Record& r : run.data.records)
-      if (r.end == dda::EndReason::rest)
+      if (r.end == dda::EndReason::rest) {
         out.points.push_back({r.final_position.x() + run.info.origin_shift[0], r.final_position.y() + run.info.origin_shift[1]});
+        out.rows.push_back("realization " + std::to_string(r.realization));
+      }
     if (out.points.empty()) throw core::InputError(path, "holds no realization at rest");
     return out;
   }
@@ -149,7 +152,10 @@ ObservedStops read_observed_stops(const std::string& path, const std::string& la
   for (const mc::PlanFeature& f : read_plan_features(request, terrain_crs_wkt))
     for (const auto& part : f.parts)
       for (const auto& ring : part)
-        for (const Eigen::Vector2d& p : ring) out.points.push_back({p.x(), p.y()});
+        for (const Eigen::Vector2d& p : ring) {
+          out.points.push_back({p.x(), p.y()});
+          out.rows.push_back(f.label);
+        }
   if (out.points.empty()) throw core::InputError(path, "holds no observed stop point");
   return out;
 }

@@ -131,6 +131,16 @@ std::int64_t HazardGridSpec::cell(double x, double y) const {
   return static_cast<std::int64_t>(fy) * nx + static_cast<std::int64_t>(fx);
 }
 
+std::string extent_text(const geometry::Aabb& b, const Eigen::Vector2d& shift) {
+  return "x in [" + format_number(b.lo.x() + shift.x()) + ", " + format_number(b.hi.x() + shift.x()) + "], y in [" +
+         format_number(b.lo.y() + shift.y()) + ", " + format_number(b.hi.y() + shift.y()) + "]";
+}
+
+std::string local_frame_hint(const Eigen::Vector2d& shift, const std::string& where) {
+  return "; it lies " + where + " the terrain in its local frame (input coordinates minus the origin shift [" +
+         format_number(shift.x()) + ", " + format_number(shift.y()) + "])";
+}
+
 namespace {
 
 bool finite_points(const std::vector<std::array<double, 2>>& points) {
@@ -205,12 +215,6 @@ std::string point_text(const Eigen::Vector2d& p) {
   return "(" + format_number(p.x()) + ", " + format_number(p.y()) + ")";
 }
 
-// "x in [a, b], y in [c, d]": the terrain's plan extent shifted into a frame.
-std::string extent_text(const geometry::Aabb& b, const Eigen::Vector2d& shift) {
-  return "x in [" + format_number(b.lo.x() + shift.x()) + ", " + format_number(b.hi.x() + shift.x()) + "], y in [" +
-         format_number(b.lo.y() + shift.y()) + ", " + format_number(b.hi.y() + shift.y()) + "]";
-}
-
 // Whether plan point p (local frame) lies within the plan bounds b.
 bool within_bounds(const geometry::Aabb& b, const Eigen::Vector2d& p) {
   return p.x() >= b.lo.x() && p.x() <= b.hi.x() && p.y() >= b.lo.y() && p.y() <= b.hi.y();
@@ -221,12 +225,11 @@ bool meets_bounds(const geometry::Aabb& b, const Eigen::Vector2d& lo, const Eige
   return lo.x() <= b.hi.x() && hi.x() >= b.lo.x() && lo.y() <= b.hi.y() && hi.y() >= b.lo.y();
 }
 
-// The end of a message about a position given in the terrain's local frame when the
-// scene's frame is its input coordinates: `where` ("inside", "on") says how it lies there.
-std::string local_frame_hint(const Eigen::Vector2d& shift, const std::string& where) {
-  return "; it lies " + where + " the terrain in its local frame (input coordinates minus the origin shift [" +
-         format_number(shift.x()) + ", " + format_number(shift.y()) +
-         "]): give the scene's coordinates in the terrain's input coordinates, or set frame: local";
+// The end of a message about a position of the scene given in the terrain's local frame
+// when the scene's frame is its input coordinates.
+std::string scene_frame_hint(const Eigen::Vector2d& shift, const std::string& where) {
+  return local_frame_hint(shift, where) + ": give the scene's coordinates in the terrain's input coordinates, or set "
+                                          "frame: local";
 }
 
 // A barrier line or stop zone (`what`, its plan box [lo, hi] in the local frame) must
@@ -238,7 +241,7 @@ void require_on_terrain(const geometry::Aabb& b, const Eigen::Vector2d& lo, cons
   if (meets_bounds(b, lo, hi)) return;
   std::string hint;
   if (input && shift.squaredNorm() > 0.0 && meets_bounds(b, lo + shift, hi + shift))
-    hint = local_frame_hint(shift, "on");
+    hint = scene_frame_hint(shift, "on");
   throw InputError(source, what + " lies outside the terrain (" + (input ? "input" : "local") +
                                " coordinates: " + extent_text(b, shift) + "), so no block can reach it" + hint);
 }
@@ -357,7 +360,7 @@ void check_release_points(const SceneSettings& s, const terrain::Surface& base, 
     if (base.height_at(p[0] - shift.x(), p[1] - shift.y())) continue;
     std::string hint;
     // A scene written for the shifted frame (the only one before `frame` existed).
-    if (input && shift.squaredNorm() > 0.0 && base.height_at(p[0], p[1])) hint = local_frame_hint(shift, "inside");
+    if (input && shift.squaredNorm() > 0.0 && base.height_at(p[0], p[1])) hint = scene_frame_hint(shift, "inside");
     const bool within = within_bounds(b, Eigen::Vector2d(p[0], p[1]) - shift);
     throw InputError(source, "release point " + point_text(p) +
                                  (within ? " has no terrain under it (a hole or gap in the terrain's surface; "

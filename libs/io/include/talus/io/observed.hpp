@@ -13,6 +13,9 @@ struct ObservedStops {
   std::vector<std::array<double, 2>> points;  ///< when the file gives points
   std::vector<double> runout;                 ///< when the file gives runouts (a `runout` column)
   std::vector<double> lateral;                ///< with runouts, when it has a `lateral` column
+  /// Where each stop (point or runout) is in the file, for messages: "line 7" of a CSV,
+  /// "feature 3" of a vector file (its OGR feature id), "realization 12" of a run file.
+  std::vector<std::string> rows;
   bool has_points() const { return !points.empty(); }
 };
 

@@ -266,6 +266,16 @@ bool point_in_polygon(const std::vector<Eigen::Vector2d>& polygon, const Eigen::
 /// even–odd over all rings, so a point in a hole is outside.
 bool point_in_rings(const std::vector<std::vector<Eigen::Vector2d>>& rings, const Eigen::Vector2d& p);
 
+/// "x in [a, b], y in [c, d]": the plan extent of bounds `b` (local frame, m) shifted by
+/// `shift` into another frame (by the origin shift: the terrain's input coordinates), for
+/// messages about positions off the terrain.
+std::string extent_text(const geometry::Aabb& b, const Eigen::Vector2d& shift);
+/// "; it lies WHERE the terrain in its local frame (input coordinates minus the origin shift
+/// [x, y])": the middle of a message about a position given in input coordinates that lies
+/// on the terrain when read in its local frame (`where`: "inside", "on"); the caller adds
+/// what to do.
+std::string local_frame_hint(const Eigen::Vector2d& shift, const std::string& where);
+
 /// Parses "K/N" (0 ≤ K < N) as a shard; throws core::UsageError otherwise.
 struct Shard {
   std::uint32_t index = 0;  ///< K

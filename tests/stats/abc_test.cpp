@@ -6,7 +6,9 @@
 
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <numeric>
+#include <stdexcept>
 
 #include "talus/core/random.hpp"
 
@@ -146,6 +148,36 @@ TEST(Abc, StopsAtTheProposalBudgetAndOnLowAcceptance) {
   const AbcGeneration last = run(abc, sim);
   EXPECT_LT(last.index, 50);  // the acceptance fell below 0.2 first
   EXPECT_LT(last.acceptance(), 0.2);
+}
+
+// Simulations that cannot be compared have infinite distances. With more than the quantile
+// of a generation so, the next tolerance is not finite: next() refuses at once (it looped
+// forever on a NaN tolerance). Fewer: the tolerance is the quantile of the distances, and
+// an infinite distance past it changes nothing.
+TEST(Abc, InfiniteDistancesBeyondTheQuantileGiveNoTolerance) {
+  AbcSettings s;
+  s.particles = 4;
+  s.quantile = 0.5;
+  const AbcSmc abc({Prior{"uniform", -5.0, 5.0}}, s);
+  int batches = 0;
+  const AbcSimulator never = [&](const std::vector<std::vector<double>>& b) {
+    if (++batches > 100) throw std::runtime_error("looping");
+    return std::vector<double>(b.size(), std::numeric_limits<double>::infinity());
+  };
+  const AbcGeneration g0 = abc.first(never);
+  EXPECT_TRUE(std::isinf(abc.tolerance(g0)));
+  EXPECT_THROW(abc.next(g0, never), std::domain_error);
+  EXPECT_EQ(batches, 1);  // generation 0's only
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  AbcGeneration some = g0;
+  some.distance = {0.1, inf, inf, 0.2};
+  EXPECT_TRUE(std::isinf(abc.tolerance(some)));  // h = 1.5: between 0.2 and ∞
+  some.distance = {0.3, inf, 0.1, 0.2};
+  EXPECT_DOUBLE_EQ(abc.tolerance(some), 0.25);  // h = 1.5: between 0.2 and 0.3
+  some.distance = {0.3, inf, 0.1, 0.2, inf};
+  EXPECT_EQ(abc.tolerance(some), 0.3);  // h = 2 exactly: 0.3 itself (0.3 + 0 · ∞ gave NaN)
+  some.distance = {0.3, inf, inf, 0.2, inf};
+  EXPECT_TRUE(std::isinf(abc.tolerance(some)));  // h = 2 exactly, on an infinite distance
 }
 
 TEST(Abc, EnergyDistanceIsZeroForEqualSamplesAndGrowsWithShift) {

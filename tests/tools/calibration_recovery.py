@@ -14,6 +14,8 @@ parameters to drop point A, then predicts drop point B with the posterior. Check
   posterior an uninterrupted run (on two threads) gives, byte for byte;
 - a simulation budget that runs out during generation 1 is an error, not the prior's
   sample returned as a posterior, and --predict refuses the checkpoint it leaves;
+- a calibration whose simulations leave no block at rest stops after generation 0 with
+  an error (it never ended);
 - with --mpiexec (a build with MPI), the same calibration on 2 MPI ranks of one thread
   gives that posterior too.
 
@@ -109,6 +111,16 @@ def main():
         failures.append("a budget spent in generation 1 is not reported as such: %s" % r.stderr.strip())
     if r.stdout or any(os.path.exists(os.path.join(budget, n)) for n in ("posterior.csv", "summary.csv")):
         failures.append("a budget spent in generation 1 still gave a posterior: %s" % sorted(os.listdir(budget)))
+
+    # No block comes to rest within 10 steps: every distance is infinite, and calibrate stops
+    # after generation 0 saying so (it looped forever on a tolerance of NaN).
+    stuck = os.path.join(work, "stuck")
+    r = tool("calibrate", *common, "--set", "set=[terrain=%s, block_file=%s, engine.max_steps=10]" % (terrain, blocks),
+             "-o", stuck, "-q", expect=1)
+    if "generation 0: %s of its %s simulations had fewer than 2 realizations at rest" % (particles, particles) \
+            not in r.stderr:
+        failures.append("a calibration whose simulations cannot be compared is not reported as such: %s"
+                        % r.stderr.strip())
 
     with open(os.path.join(fit, "summary.csv")) as f:
         rows = {r["parameter"]: r for r in csv.DictReader(f)}

@@ -492,7 +492,20 @@ int main(int argc, char** argv) {
         budget = settings.max_simulations - simulations();
         if (budget <= 0) break;
       }
-      AbcGeneration g = abc.next(cp.generations.back(), simulate, budget);
+      // A distance is infinite when a case had fewer than 2 realizations at rest: with more
+      // than `quantile` of them so, no tolerance can choose among the particles.
+      const AbcGeneration& prev = cp.generations.back();
+      if (!std::isfinite(abc.tolerance(prev))) {
+        const auto infinite = std::count_if(prev.distance.begin(), prev.distance.end(),
+                                            [](double d) { return std::isinf(d); });
+        throw core::RuntimeError(
+            "generation " + std::to_string(prev.index) + ": " + std::to_string(infinite) + " of its " +
+            std::to_string(prev.distance.size()) + " simulations had fewer than 2 realizations at rest in a case "
+            "(nothing to compare), more than the quantile " + num(settings.quantile) + ": no tolerance can be set; "
+            "the scene's blocks leave the terrain or reach the step limit over much of the prior (check the "
+            "terrain's extent, engine.max_time and the priors)");
+      }
+      AbcGeneration g = abc.next(prev, simulate, budget);
       if (static_cast<std::int64_t>(g.theta.size()) < settings.particles) {
         // Generation 0 is the prior's sample: returned as the posterior, it would say the
         // stops taught nothing when the budget only stopped the fit.

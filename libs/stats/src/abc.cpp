@@ -7,6 +7,7 @@
 #include <limits>
 #include <numeric>
 #include <stdexcept>
+#include <string>
 
 #include "talus/core/random.hpp"
 
@@ -99,15 +100,12 @@ AbcGeneration AbcSmc::next(const AbcGeneration& prev, const AbcSimulator& simula
   const auto n = static_cast<std::size_t>(settings_.particles);
   AbcGeneration g;
   g.index = prev.index + 1;
-  {
-    std::vector<double> d = prev.distance;
-    std::sort(d.begin(), d.end());
-    // Type-7 quantile of the previous distances.
-    const double h = settings_.quantile * static_cast<double>(d.size() - 1);
-    const auto lo = static_cast<std::size_t>(std::floor(h));
-    const std::size_t hi = std::min(lo + 1, d.size() - 1);
-    g.tolerance = d[lo] + (h - static_cast<double>(lo)) * (d[hi] - d[lo]);
-  }
+  g.tolerance = tolerance(prev);
+  // A NaN tolerance (∞ − ∞ between two infinite distances) accepted no candidate, and the
+  // generation never ended; an infinite one would accept every candidate.
+  if (!std::isfinite(g.tolerance))
+    throw std::domain_error("the tolerance of generation " + std::to_string(g.index) +
+                            " is not finite: too many distances of the previous generation are infinite");
 
   // The kernel: twice the weighted covariance of the previous generation (Beaumont et al.
   // 2009), with a floor so a parameter the data pin down still moves a little.
@@ -184,6 +182,22 @@ AbcGeneration AbcSmc::next(const AbcGeneration& prev, const AbcSimulator& simula
   if (!(total > 0.0)) throw std::runtime_error("every importance weight is zero");
   for (double& x : g.weight) x /= total;
   return g;
+}
+
+double AbcSmc::tolerance(const AbcGeneration& prev) const {
+  std::vector<double> d = prev.distance;
+  if (d.empty()) throw std::invalid_argument("a generation without distances");
+  std::sort(d.begin(), d.end());
+  // Type-7 quantile of the previous distances.
+  const double h = settings_.quantile * static_cast<double>(d.size() - 1);
+  const auto lo = static_cast<std::size_t>(std::floor(h));
+  const std::size_t hi = std::min(lo + 1, d.size() - 1);
+  const double fraction = h - static_cast<double>(lo);
+  // Written so that an infinite distance beyond the quantile gives no ∞ − ∞ (NaN); the
+  // same value as the interpolation wherever that is finite.
+  if (fraction == 0.0 || d[hi] == d[lo]) return d[lo];
+  if (!std::isfinite(d[hi])) return std::numeric_limits<double>::infinity();
+  return d[lo] + fraction * (d[hi] - d[lo]);
 }
 
 bool AbcSmc::finished(const AbcGeneration& g) const {

@@ -59,11 +59,17 @@ class AbcSmc {
 
   /// Generation 0: N draws from the prior, all kept (ε = ∞).
   AbcGeneration first(const AbcSimulator& simulate) const;
+  /// The tolerance of the generation after `prev`: the α-quantile (type 7) of its
+  /// distances; not finite when more than about α of them are infinite (simulations that
+  /// could not be compared), and then no next generation can be drawn.
+  double tolerance(const AbcGeneration& prev) const;
   /// Generation prev.index + 1: tolerance the α-quantile of prev's distances; candidates
   /// drawn from prev by weight and moved by a normal kernel of twice prev's weighted
   /// covariance, refused outside the priors' supports; simulated in batches until N are
   /// within the tolerance. With `max_proposals` > 0 the generation stops after that many
-  /// simulations: it then holds fewer than N particles and must not be used.
+  /// simulations: it then holds fewer than N particles and must not be used. Throws
+  /// std::domain_error when the tolerance is not finite (it would accept nothing, or
+  /// everything).
   AbcGeneration next(const AbcGeneration& prev, const AbcSimulator& simulate, std::int64_t max_proposals = 0) const;
 
   /// Whether the run should stop after `g` (acceptance below min_acceptance, or the last

@@ -1085,15 +1085,10 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
     }
     spring_energy += 0.5 * p * std::min(0.0, g) * std::min(0.0, g);
     // A contact whose point still approaches at an impact's speed is in an impact's
-    // compression, not at rest on the ground: it is not settled. A locked one may be given
-    // the friction its shear spring leaves over the step, none at its friction limit: the
-    // spring carries μ·F_n there, and a settling impulse on top of it held a block that
-    // should slip (docs/dda.md, Persistent contacts are settled).
-    if (start_modes[i] != ContactMode::open && point_approach < set.impact_min_normal_speed) {
-      const double spring = std::isfinite(c.spring_shear) ? c.spring_shear : 0.0;
-      const double left = c.mode == ContactMode::locked ? std::max(0.0, friction * c.normal_force - spring) : 0.0;
-      persistent.push_back({c.point + du, c.normal, left * dt});
-    }
+    // compression, not at rest on the ground: it is not settled.
+    if (start_modes[i] != ContactMode::open && point_approach < set.impact_min_normal_speed)
+      persistent.push_back({c.point + du, c.normal,
+                            c.mode == ContactMode::locked ? friction * c.normal_force * dt : 0.0});
     closed_end.emplace_back(c.point + du, c.normal);
     s.contacts.push_back(c);
   }

@@ -203,7 +203,7 @@ TEST(Clearance, PrunedAsTheExhaustiveSearch) {
                                           model_of(dented_box()), model_of(block::make_solid(detailed, "e5120"))};
   ASSERT_EQ(blocks.back().faces.size(), 5120u);
   const core::RandomStream rs(5, core::Stream::release, 0);
-  int below = 0, missed = 0;
+  int below = 0, missed = 0, settled = 0;
   for (std::uint64_t k = 0; k < 160; ++k) {
     const dda::Model& m = blocks[k % blocks.size()];
     const Eigen::Quaterniond q = random_rotation(rs, 8 * k);
@@ -215,6 +215,12 @@ TEST(Clearance, PrunedAsTheExhaustiveSearch) {
       const Clearance every = vertical_clearance(m, centroid + shift, q, *s, false);
       EXPECT_EQ(fast.gap, every.gap) << k;
       EXPECT_EQ(fast.point, every.point) << k;
+      // The bound that settles releases clear of the ground lies below the clearance,
+      // within the block's diameter and the relief under it (3 m here at most).
+      const double bound = clearance_lower_bound(m, centroid + shift, *s);
+      EXPECT_LE(bound, fast.gap) << k;
+      EXPECT_GT(bound, fast.gap - 2.0 * m.radius - 3.0) << k;
+      settled += bound >= 0.0 ? 1 : 0;
       below += fast.gap < 0.0 ? 1 : 0;
       missed += std::isfinite(fast.gap) ? 0 : 1;
     }
@@ -222,6 +228,16 @@ TEST(Clearance, PrunedAsTheExhaustiveSearch) {
   EXPECT_GT(below, 60);  // in the ground and over it
   EXPECT_LT(below, 420);
   EXPECT_EQ(missed, 0);  // every placement is over the terrain
+  EXPECT_GT(settled, 20);  // the bound settles the placements high over the ground
+}
+
+TEST(Clearance, LowerBoundOfABlockBesideTheTerrainIsInfinite) {
+  const terrain::Terrain t = testing::plane_terrain(45.0);
+  const terrain::Surface ground = terrain::Surface::realize(t, std::nullopt);
+  const dda::Model cube = solid(block::SolidKind::cube);
+  const Vec3 beside(ground.bounds().hi.x() + 5.0, 5.0, 3.0);
+  EXPECT_TRUE(std::isinf(clearance_lower_bound(cube, beside, ground)));
+  EXPECT_TRUE(std::isinf(vertical_clearance(cube, beside, Eigen::Quaterniond::Identity(), ground).gap));
 }
 
 // Generalized winding number of the closed block surface around p: 1 inside, 0 outside

@@ -216,4 +216,25 @@ Clearance vertical_clearance(const dda::Model& model, const Vec3& position, cons
   return best;
 }
 
+double clearance_lower_bound(const dda::Model& model, const Vec3& position, const terrain::Surface& ground) {
+  const Aabb& bounds = ground.bounds();
+  const double r = model.radius;
+  const Aabb query{Vec3(position.x() - r, position.y() - r, bounds.lo.z()),
+                   Vec3(position.x() + r, position.y() + r, bounds.hi.z())};
+  thread_local std::vector<std::int32_t> triangles;
+  triangles.clear();
+  ground.triangles_in_box(query, triangles);
+  double top = -std::numeric_limits<double>::infinity();
+  double magnitude = std::abs(position.z()) + r;
+  for (const std::int32_t t : triangles)
+    for (const Vec3& p : ground.triangle_vertices(static_cast<std::size_t>(t))) {
+      top = std::max(top, p.z());
+      magnitude = std::max(magnitude, std::abs(p.z()));
+    }
+  if (triangles.empty()) return std::numeric_limits<double>::infinity();
+  // A rotated vertex keeps its distance from the centroid to a few ulps of the radius,
+  // and the exact clearance's differences are within a few ulps of the values.
+  return position.z() - r - top - 1e-9 * magnitude;
+}
+
 }  // namespace talus::mc

@@ -286,6 +286,9 @@ void place_block(const Scene& scene, const SceneBlock& block, const terrain::Sur
   // An elevation is in the scene's frame: the terrain's input coordinates (frame: input)
   // less the origin shift the engine works in.
   rel.position = Vec3(xy.x(), xy.y(), r.height_reference == "elevation" ? r.height - shift.z() : ground_z + r.height);
+  // Most releases float well clear of the ground: the bound settles them without the
+  // block's geometry (a 5 120-face block's exact clearance costs some 2 M instructions).
+  if (clearance_lower_bound(block.model, rel.position, ground) >= r.clearance_gap) return;
   const Clearance c = vertical_clearance(block.model, rel.position, rel.orientation, ground);
   if (!(c.gap < r.clearance_gap)) return;
   const double raise = r.clearance_gap - c.gap;

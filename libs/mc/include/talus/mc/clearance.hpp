@@ -32,4 +32,14 @@ Clearance vertical_clearance(const dda::Model& model, const geometry::Vec3& posi
                              const Eigen::Quaterniond& orientation, const terrain::Surface& ground,
                              bool prune = true);
 
+/// A lower bound of vertical_clearance(model, position, …, ground).gap (m) that reads no
+/// block geometry: the centroid's height less the circumscribed radius, less the highest
+/// terrain vertex of the triangles under the block's plan square (the centroid ± the
+/// radius), less an allowance for round-off. Every block point lies above the first and
+/// every ground height the exact clearance reads lies on one of those triangles. Infinity
+/// when no triangle lies under the square. A release that floats well clear of the
+/// ground is settled by it without the block's vertices, faces and edges.
+double clearance_lower_bound(const dda::Model& model, const geometry::Vec3& position,
+                             const terrain::Surface& ground);
+
 }  // namespace talus::mc

@@ -1385,20 +1385,49 @@ void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, dou
     // Every point's motion since pairs were gathered is bounded first by the sum of the
     // motions between the searches since (one bound per search), and computed from the
     // two poses only when that sum does not show them to serve.
-    const double step = moved_since(c.last_search, model, pose);
-    c.travelled = std::isfinite(step) ? c.travelled + step : 0.0;
+    if (c.last_search.model == &model) {
+      const Motion step = motion_since(model, pose, c.last_search);
+      c.travelled += step.moved;
+      c.turned += step.turn;
+    } else {
+      c.travelled = 0.0;
+      c.turned = 0.0;
+    }
     start_gathering(at, 0.0, 0.0, 0.0, c.last_search);
-    const auto serves = [&](const TerrainPatch::Candidates::Pairs& p) {
-      if (p.basis == TerrainPatch::Candidates::Pairs::Basis::none || p.model != &model) return false;
+    const double slack = 1e-9 * (pose.centre.cwiseAbs().maxCoeff() + model.radius);
+    const auto serves = [&](TerrainPatch::Candidates::Pairs& p) {
+      using Basis = TerrainPatch::Candidates::Pairs::Basis;
+      if (p.basis == Basis::none || p.model != &model) return false;
+      // The motion since the gathering is at most the sum's growth since then, and at
+      // most what the last test on the poses found plus the sum's growth since that test
+      // (a bound of the motion between the two searches; the same for the turn).
       Motion bound;
       bound.moved = c.travelled - p.travelled;
+      const TerrainPatch::Candidates::Pairs::Checked& k = p.checked;
+      const double grown = c.travelled - k.travelled, turned = c.turned - k.turned;
+      const bool checked = std::isfinite(k.moved) && grown >= 0.0 && turned >= 0.0;
+      if (checked && !(bound.moved >= 0.0 && bound.moved <= k.moved + grown)) bound.moved = k.moved + grown;
       if (bound.moved >= 0.0 && pairs_serve(p, bound, ds, depth_limit)) return true;
+      if (checked && p.basis == Basis::walked) {
+        // The cap's test of pairs_serve on those bounds: the pivot moves and the block
+        // turns by at most what the last test found plus the sums' growth.
+        const double swing = (k.turn + turned) * (1.0 + 1e-9) * p.cap.reach * (1.0 + 1e-9);
+        const double motion = k.pivot + grown + swing + slack;
+        if (swing + slack <= p.cap.rise && ds + motion <= p.ds && depth_limit + motion <= p.depth &&
+            motion <= p.motion)
+          return true;
+      }
       auto known = std::find_if(since.begin(), since.end(), [&](const Motion& m) { return m.search == p.search; });
       if (known == since.end()) {
         since.push_back(motion_since(model, pose, p));
         since.back().search = p.search;
         known = since.end() - 1;
       }
+      p.checked.moved = known->moved;
+      p.checked.pivot = p.basis == Basis::walked ? (known->shift + known->change * p.cap.pivot).norm() : 0.0;
+      p.checked.turn = known->turn;
+      p.checked.travelled = c.travelled;
+      p.checked.turned = c.turned;
       return pairs_serve(p, *known, ds, depth_limit);
     };
     // The pairs of the features (`ids`, of `features`) whose boxes meet the reach, gathered
@@ -1416,6 +1445,7 @@ void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, dou
         gather(feature, pairs[j]);
         pairs[j].search = search;
         pairs[j].travelled = c.travelled;
+        pairs[j].checked = {};
       }
     };
     refresh(c.triangles, patch.triangles, c.triangle_pairs, live.triangles,

@@ -229,6 +229,17 @@ struct TerrainPatch {
       std::uint64_t search = 0;  ///< the search that gathered them (Candidates::searches)
       double travelled = 0.0;    ///< Candidates::travelled then (m)
       double room = 0.0;
+      /// The last search that tested their reuse on the two poses (detect_contacts): the
+      /// motion since they were gathered it found, that of the walk's pivot and the turn
+      /// (m, m, -; Motion), with Candidates::travelled and turned then. Later searches bound
+      /// these by adding what the sums grew by since, and test on the poses only when
+      /// that bound does not show them to serve.
+      struct Checked {
+        double moved = std::numeric_limits<double>::infinity();
+        double pivot = 0.0, turn = 0.0;
+        double travelled = 0.0, turned = 0.0;
+      };
+      Checked checked;
       Cap cap;
       std::vector<std::int32_t> features;  ///< block vertices or edges, ascending
       /// The features' body-frame points by coordinate, for the search's first tests in
@@ -254,6 +265,9 @@ struct TerrainPatch {
     /// since the search before (m), and the pose of the last search: the difference of
     /// two sums bounds every point's motion between those searches.
     double travelled = 0.0;
+    /// The same sum of how far the block turned at most since the search before (the
+    /// bound ‖ΔF‖ of Motion::turn), which bounds its turn between those searches.
+    double turned = 0.0;
     Gathering last_search;
   };
   Candidates candidates;

@@ -607,6 +607,23 @@ TEST_F(Stats, ValidatesASeriesAgainstObservedStopPoints) {
                         "observed.series: no run named 'nope'");
   expect_one_line_error(run_fast({"whole.h5", "-o", "out-valid-bad", "--set", "observed.file=observed.csv"}), 3,
                         "observed.origin must be [x, y]");
+  // A stop where no simulated block can stop: past the terrain's edge, or given in the
+  // terrain's local frame instead of its input coordinates.
+  std::ofstream(dir_ / "observed-off.csv") << std::setprecision(17) << "x,y\n"
+                                           << ox + 30.0 << "," << oy << "\n"
+                                           << ox + 5000.0 << "," << oy << "\n";
+  bad[bad.size() - 3] = "observed.file=observed-off.csv";
+  expect_one_line_error(run_fast(bad), 3, "observed-off.csv: line 3: observed stop");
+  const Outcome off = run_fast(bad);
+  EXPECT_NE(off.err.find("is outside the terrain of run 'whole'"), std::string::npos) << off.err;
+  EXPECT_NE(off.err.find("no simulated block can stop there"), std::string::npos) << off.err;
+  EXPECT_FALSE(fs::exists(dir_ / "out-valid-bad" / "validation.csv"));
+  std::ofstream(dir_ / "observed-local.csv") << "x,y\n31,10\n";
+  bad[bad.size() - 3] = "observed.file=observed-local.csv";
+  const Outcome local = run_fast(bad);
+  EXPECT_EQ(local.code, 3) << local.err;
+  EXPECT_NE(local.err.find("observed-local.csv: line 2: observed stop (31, 10)"), std::string::npos) << local.err;
+  EXPECT_NE(local.err.find("in its local frame"), std::string::npos) << local.err;
 }
 
 TEST_F(Stats, DrawsPlots) {

@@ -19,6 +19,7 @@
 #include "talus/io/paths.hpp"
 #include "talus/io/terrain_file.hpp"
 #include "talus/io/vector.hpp"
+#include "talus/mc/scene.hpp"
 
 namespace talus::stats_tool {
 
@@ -384,9 +385,9 @@ RunResult run_result(const Run& run, const Settings& settings) {
   const bool observed = !settings.observed.file.empty();
   const bool need_terrain = rasters || vectors || settings.plots || observed;
   const std::string path = terrain_path_of(run, settings);
-  std::optional<terrain::Terrain> ground;
+  std::shared_ptr<const terrain::Terrain> ground;
   if (need_terrain && !path.empty() && std::filesystem::exists(path)) {
-    ground = io::read_terrain_file(path);
+    ground = std::make_shared<const terrain::Terrain>(io::read_terrain_file(path));
     // Hazard rasters and plan views on another terrain would be silently wrong.
     if (const std::string& expected = info.terrain_fingerprint; !expected.empty()) {
       const std::string found = io::terrain_fingerprint(*ground);
@@ -397,6 +398,7 @@ RunResult run_result(const Run& run, const Settings& settings) {
     }
     out.terrain_file = path;
     out.crs_wkt = ground->crs_wkt;
+    if (observed) out.terrain = ground;
     out.origin_shift = {ground->origin_shift.x(), ground->origin_shift.y(), ground->origin_shift.z()};
   } else if (rasters || vectors || observed) {
     std::string without = rasters && vectors ? "--set hazard_maps=false --set vector_format=none"
@@ -579,6 +581,30 @@ std::optional<Validation> validate_against_observed(const Analysis& a, const Set
     throw core::InputError(o.file, "gives runouts; stats compares stop points (x and y columns), as the simulated "
                                    "ones are measured from observed.origin");
   const std::vector<std::array<double, 2>>& observed = stops.points;
+  // A stop off the run's terrain (mapped past the DEM's edge, or given in another frame)
+  // can never be matched by a simulated one: its runout and offset would be compared as
+  // if it could.
+  const RunResult& run = a.runs[series->run_index];
+  if (run.terrain != nullptr) {
+    const terrain::Surface ground = terrain::Surface::realize(*run.terrain, std::nullopt);
+    const Eigen::Vector2d shift(run.origin_shift[0], run.origin_shift[1]);
+    const geometry::Aabb& b = ground.bounds();
+    for (std::size_t k = 0; k < observed.size(); ++k) {
+      const Eigen::Vector2d p(observed[k][0], observed[k][1]);
+      const Eigen::Vector2d local = p - shift;
+      if (ground.height_at(local.x(), local.y())) continue;
+      const bool within = local.x() >= b.lo.x() && local.x() <= b.hi.x() && local.y() >= b.lo.y() && local.y() <= b.hi.y();
+      std::string hint;
+      if (shift.squaredNorm() > 0.0 && ground.height_at(p.x(), p.y()))
+        hint = mc::local_frame_hint(shift, "inside") + ": give the observed stops in the terrain's input coordinates";
+      throw core::InputError(o.file, stops.rows[k] + ": observed stop (" + core::format_number(p.x()) + ", " +
+                                         core::format_number(p.y()) + ")" +
+                                         (within ? " has no terrain under it (a hole or gap in the terrain's surface; "
+                                                 : " is outside the terrain of run '" + series->run + "' (") +
+                                         "input coordinates: " + mc::extent_text(b, shift) +
+                                         "): no simulated block can stop there" + hint);
+    }
+  }
 
   const double azimuth = o.main_direction_deg * M_PI / 180.0;
   const double dx = std::cos(azimuth), dy = std::sin(azimuth);

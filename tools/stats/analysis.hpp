@@ -2,6 +2,7 @@
 #pragma once
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -119,6 +120,8 @@ struct RunResult {
   std::array<double, 3> origin_shift = {0.0, 0.0, 0.0};  ///< m, added to the run's local coordinates
   std::string terrain_file;  ///< the terrain used for the shift ("" if none)
   std::string crs_wkt;       ///< that terrain's CRS (WKT; "" if none or not known)
+  /// That terrain, kept when observed stops are compared (they must lie on it).
+  std::shared_ptr<const terrain::Terrain> terrain;
 };
 
 /// One variable of the comparison of a series with observed stop points.
@@ -164,7 +167,8 @@ HazardMaps hazard_maps(const io::RunFile& run, const std::array<double, 3>& orig
 /// is empty): runout and lateral offset of the observed points and of the series' stop
 /// points (realizations at rest) from the same origin along the same direction. Throws
 /// core::InputError naming the file (unreadable, no point, a row without x and y, a
-/// vector layer in another CRS) or the settings (unknown series, no simulated stop).
+/// vector layer in another CRS, a point off the run's terrain, where no simulated block
+/// can stop) or the settings (unknown series, no simulated stop).
 std::optional<Validation> validate_against_observed(const Analysis& a, const Settings& settings);
 
 }  // namespace talus::stats_tool

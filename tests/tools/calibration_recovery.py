@@ -13,7 +13,8 @@ parameters to drop point A, then predicts drop point B with the posterior. Check
 - a calibration killed after its first generation and resumed (on one thread) gives the
   posterior an uninterrupted run (on two threads) gives, byte for byte;
 - a simulation budget that runs out during generation 1 is an error, not the prior's
-  sample returned as a posterior, and --predict refuses the checkpoint it leaves;
+  sample returned as a posterior, and --predict refuses the checkpoint it leaves, and that
+  of a calibration killed before its end;
 - a calibration whose simulations leave no block at rest stops after generation 0 with
   an error (it never ended);
 - with --mpiexec (a build with MPI), the same calibration on 2 MPI ranks of one thread
@@ -87,6 +88,8 @@ def main():
     resumed = os.path.join(work, "resumed")
     env = dict(os.environ, TALUS_CALIBRATE_ABORT_AFTER_GENERATION="1")
     tool("calibrate", *common, "-o", resumed, "--threads", "2", "-q", env=env, expect=137)
+    interrupted = os.path.join(work, "interrupted-posterior.h5")
+    shutil.copyfile(os.path.join(resumed, "posterior.h5"), interrupted)
     tool("calibrate", *common, "-o", resumed, "--threads", "1", "--resume", "-q")
     others = [("resumed", resumed)]
     if args.mpiexec:
@@ -152,6 +155,10 @@ def main():
              expect=3)
     if "holds generation 0 only (the prior's sample)" not in r.stderr:
         failures.append("--predict took the prior's sample for a posterior: %s" % r.stderr.strip())
+    # The checkpoint of the calibration killed after generation 1 is a stage of the fit.
+    r = tool("calibrate", *pargs, "--predict", interrupted, "-o", predict + "-interrupted", "-q", expect=3)
+    if "is the checkpoint of a calibration that did not finish (its last complete generation is 1)" not in r.stderr:
+        failures.append("--predict took an unfinished calibration's checkpoint for a posterior: %s" % r.stderr.strip())
     with open(os.path.join(predict, "predictive.csv")) as f:
         runout = [r for r in csv.DictReader(f) if r["variable"] == "runout"]
     inside = sum(int(r["inside"]) for r in runout)

@@ -255,6 +255,13 @@ AbcGeneration read_posterior(const Problem& problem, const std::string& posterio
   if (last.attr_int("index") == 0)
     throw core::InputError(posterior_path, "holds generation 0 only (the prior's sample): its calibration completed no "
                                            "generation after the prior, so there is no posterior to predict with");
+  // A calibration stopped before its end (killed, out of time) left its last complete
+  // generation as a checkpoint: a stage of the fit, not its posterior.
+  if (root.attr_int("finished") == 0)
+    throw core::InputError(posterior_path, "is the checkpoint of a calibration that did not finish (its last complete "
+                                           "generation is " + std::to_string(last.attr_int("index")) +
+                                           "): complete it with calibrate --resume and the same settings and OUTDIR "
+                                           "before predicting with it");
   AbcGeneration g;
   g.weight = last.read_doubles("weight");
   const auto theta = last.read_doubles("theta");

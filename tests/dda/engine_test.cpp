@@ -593,7 +593,8 @@ TEST(DdaStep, SlowBlockTakesLongerStepsAndStopsWhereItShould) {
 // motion), with none set aside (every candidate in every solve: the reference), and with
 // nearly all set aside (a margin of 1e-9 of the motion, so that the step must widen again
 // and again). Each accepted solution leaves every candidate consistent, so the three roll
-// alike (to 1e-6 of the distance); the invariants hold throughout.
+// alike (to 1e-6 of the distance); the invariants hold throughout. Passing over the
+// candidates set aside instead of building them changes nothing.
 TEST(DdaContact, CandidatesSetAsideDoNotChangeTheRoll) {
   const double theta = 20.0;
   const terrain::Surface plane = incline(theta, 40.0);
@@ -615,20 +616,44 @@ TEST(DdaContact, CandidatesSetAsideDoNotChangeTheRoll) {
     double distance;
     Counters counters;
   };
-  const auto roll = [&](double scale) {
+  State last;
+  const auto roll = [&](double scale, bool pass_over = true) {
     const double saved = detail::set_aside_scale;
     detail::set_aside_scale = scale;
+    detail::pass_over_set_aside = pass_over;
     Release r;
     r.position = Vec3(-10.0, 5.0, 10.0 * std::tan(theta * M_PI / 180.0)) + (below + 1e-6) * n;
     State s = start(m, r, impacts());
     while (s.time < 1.0 - 1e-9 && s.end == EndReason::running) step(m, g, s);
     detail::set_aside_scale = saved;
+    detail::pass_over_set_aside = true;
     EXPECT_EQ(s.end, EndReason::running) << "scale " << scale;
+    last = s;
     return Outcome{(s.position - r.position).dot(testing::incline_down(theta)), s.counters};
   };
   const Outcome reference = roll(std::numeric_limits<double>::infinity());
   const Outcome usual = roll(2.0);
+  const State passed = last;
   const Outcome widening = roll(1e-9);
+  const State widened = last;
+  // The near search passes over most candidates set aside (PassOver) and solves again
+  // without passing over only where its check of them as a group fails: the roll is the
+  // same to the bit as the one that builds and checks each of them, with either margin.
+  std::printf("solved again without passing over: %llu of %llu (usual), %llu of %llu (widening)\n",
+              static_cast<unsigned long long>(usual.counters.unpassed_steps),
+              static_cast<unsigned long long>(usual.counters.contact_steps),
+              static_cast<unsigned long long>(widening.counters.unpassed_steps),
+              static_cast<unsigned long long>(widening.counters.contact_steps));
+  EXPECT_LT(usual.counters.unpassed_steps, usual.counters.contact_steps / 100 + 1);
+  EXPECT_GT(widening.counters.unpassed_steps, 0u);  // the check's failures are exercised
+  for (const auto& [scale, with] : {std::pair{2.0, &passed}, std::pair{1e-9, &widened}}) {
+    roll(scale, false);
+    EXPECT_EQ(last.counters.unpassed_steps, 0u);
+    EXPECT_EQ(last.counters.contact_steps, with->counters.contact_steps) << scale;
+    EXPECT_EQ(last.position, with->position) << scale;
+    EXPECT_EQ(last.velocity, with->velocity) << scale;
+    EXPECT_EQ(last.orientation.coeffs(), with->orientation.coeffs()) << scale;
+  }
   EXPECT_EQ(reference.counters.set_aside_contacts, 0u);
   EXPECT_EQ(reference.counters.widened_steps, 0u);
   // The usual margin sets most candidates aside and hardly ever widens.

@@ -889,7 +889,7 @@ struct Live {
 // that gathered at this very pose, in its order, so the same contacts in the same order,
 // those of the scan. Terrain vertices are searched afresh (the faces near each).
 void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds, double vertex_ds, double depth,
-                    const TerrainPatch::Candidates& c, const Live& live, std::vector<Contact>& out) {
+                    const TerrainPatch::Candidates& c, const Live& live, std::vector<Contact>& out, PassOver* pass) {
   const Model& model = at.model();
   const Pose& pose = at.pose();
   const BlockIndex* index = at.index();
@@ -944,6 +944,21 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
       const double body_gap = body_gaps[k];
       if (body_gap - slab.tol >= ds || body_gap + slab.tol <= -depth) continue;
       const std::int32_t vi = vertices[k];
+      if (pass != nullptr) {
+        // A candidate the step would set aside (PassOver): its gap's lower bound beyond
+        // what it can move, by more than that figure's round-off.
+        const double low = body_gap - slab.tol;
+        if (low > pass->scale * pass->fall) {
+          const Vec3 r(x[k], x[n + k], x[2 * n + k]);
+          const double speed = (pass->velocity + pass->spin.cross(r)).norm();
+          const double reach = pass->scale * (speed * pass->h + pass->fall) * (1.0 + 1e-9) + pass->allowance;
+          if (low > reach && !std::binary_search(pass->keep->begin(), pass->keep->end(), vi)) {
+            ++pass->passed;
+            pass->least_gap = std::min(pass->least_gap, low);
+            continue;
+          }
+        }
+      }
       const std::size_t i = static_cast<std::size_t>(vi);
       const Vec3& p = world_vertex(vi);
       if (p.z() > ceiling || !contains(tbox, p)) continue;
@@ -1005,6 +1020,22 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
     for (std::size_t k = 0; k < n; ++k) {
       if (body_gaps[k] >= limit) continue;
       const std::int32_t be = edges[k];
+      if (pass != nullptr) {
+        // A crossing the step would set aside (PassOver): the level less its round-off
+        // (that of the limit over ds) bounds the crossing's gap below when positive.
+        const double low = body_gaps[k] - (limit - ds);
+        if (low > pass->scale * pass->fall) {
+          const Vec3 ra(x[k], x[n + k], x[2 * n + k]), rb(x[3 * n + k], x[4 * n + k], x[5 * n + k]);
+          const double speed = std::max((pass->velocity + pass->spin.cross(ra)).norm(),
+                                        (pass->velocity + pass->spin.cross(rb)).norm());
+          const double reach = pass->scale * (speed * pass->h + pass->fall) * (1.0 + 1e-9) + pass->allowance;
+          if (low > reach && !std::binary_search(pass->keep_edges->begin(), pass->keep_edges->end(), be)) {
+            ++pass->passed;
+            pass->least_gap = std::min(pass->least_gap, low);
+            continue;
+          }
+        }
+      }
       const BlockEdge& bedge = model.edges[static_cast<std::size_t>(be)];
       const Vec3& p0 = world_vertex(bedge.a);
       const Vec3& p1 = world_vertex(bedge.b);
@@ -1340,7 +1371,8 @@ inline __attribute__((always_inline)) bool pairs_serve(const TerrainPatch::Candi
 }  // namespace
 
 void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, double search_distance,
-                     double depth_limit, TerrainPatch& patch, std::vector<Contact>& out, double near_distance) {
+                     double depth_limit, TerrainPatch& patch, std::vector<Contact>& out, double near_distance,
+                     PassOver* pass) {
   const geometry::Aabb box = at.box().inflated(std::max(search_distance, depth_limit));
   if (patch.surface != &surface || patch.box.empty() || !patch.box.contains(box.lo) || !patch.box.contains(box.hi)) {
     // Gather with a margin of half the block's radius, so the next steps reuse it.
@@ -1456,7 +1488,8 @@ void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, dou
             [&](const TerrainPatch::Ridge& te, TerrainPatch::Candidates::Pairs& pairs) {
               gather_ridge_pairs(at, te, ds + widening, depth_limit + widening, widening, pairs);
             });
-    detect_indexed(at, patch, ds, search_distance, depth_limit, c, live, out);
+    detect_indexed(at, patch, ds, search_distance, depth_limit, c, live, out,
+                   pass != nullptr && at.pose().rigid && ds < search_distance ? pass : nullptr);
     return;
   }
   const double moved = moved_since(c.gathering, model, pose);

@@ -93,6 +93,9 @@ class PlacedBlock {
 /// candidate in the solve (the reference path), a tiny value sets almost all aside and
 /// makes the step widen again and again.
 inline thread_local double set_aside_scale = 2.0;
+/// Whether a near search passes over the candidates the step would set aside (PassOver);
+/// off only for tests, as the reference the passing over must equal to the bit.
+inline thread_local bool pass_over_set_aside = true;
 
 /// Finds every block–terrain contact candidate within `search_distance` (m) of the block
 /// `at`: block vertex – terrain triangle, terrain vertex – block face, block edge – terrain
@@ -108,8 +111,40 @@ inline thread_local double set_aside_scale = 2.0;
 /// and the patch still within `search_distance`. The contacts are then those of the full
 /// search less its vertex–triangle and edge–ridge contacts with a gap of near_distance
 /// or more, in the same order with the same numbers. A scanned block ignores it.
+///
+/// `pass`, when given, passes over a rigid detailed block's vertex–triangle candidates
+/// that contact_step would set aside (PassOver).
+struct PassOver;
 void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, double search_distance,
-                     double depth_limit, TerrainPatch& patch, std::vector<Contact>& out, double near_distance = 0.0);
+                     double depth_limit, TerrainPatch& patch, std::vector<Contact>& out, double near_distance = 0.0,
+                     PassOver* pass = nullptr);
+
+/// The vertex–triangle and edge–ridge candidates of a near search that a rigid step sets
+/// aside, passed over by the search (detect_contacts) before they are placed, tested and
+/// built: a vertex whose gap is more than `scale` times what it moves at the step-start
+/// motion, point_reach, scale·(|v + ω × r|·h + ½g·h²), and that carries no contact of the
+/// last step (its vertex is none of `keep`'s); an edge whose crossing's gap is so beyond
+/// what either end moves (the speed |v + ω × r| is convex in r, so largest at an end;
+/// the gap is bounded below by the ends' level along the ridge's `out`, detect_indexed),
+/// and none of `keep_edges`. Its gap is bounded below by its body-frame
+/// value less the round-off (BodyPlane) and its speed is computed in the body frame,
+/// with 1e-9 of it and `allowance` on top, so every vertex passed over is one the step
+/// would have set aside. The step checks them as a group after its solve (contact_step): `least_gap`
+/// bounds their gaps below.
+struct PassOver {
+  Vec3 velocity = Vec3::Zero();  ///< Fᵀv, the centre's velocity in the body frame (m/s)
+  Vec3 spin = Vec3::Zero();      ///< Fᵀω, the spin in the body frame (rad/s)
+  double h = 0.0;                ///< the step's length (s)
+  double fall = 0.0;             ///< ½g·h², as point_reach computes it (m)
+  double scale = 2.0;            ///< set_aside_scale
+  /// The round-off of the world lever x − centre that point_reach turns by ω, times
+  /// scale·h (m): 1e-9 of the centre's coordinates and the radius.
+  double allowance = 0.0;
+  const std::vector<std::int32_t>* keep = nullptr;  ///< ascending vertices never passed over
+  const std::vector<std::int32_t>* keep_edges = nullptr;  ///< ascending edges never passed over
+  std::size_t passed = 0;        ///< out: candidates passed over
+  double least_gap = std::numeric_limits<double>::infinity();  ///< out: the least bound of their gaps (m)
+};
 
 /// Brute-force reference of detect_contacts: every triangle of the surface and every
 /// feature of the block, no pruning.

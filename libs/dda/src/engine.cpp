@@ -865,7 +865,32 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   const auto goes_aside = [&](const Contact& c, bool carries) {
     return !carries && c.mode == ContactMode::open && c.gap > point_reach(model, s, c.point, dt, aside_scale);
   };
+  // A near search passes over the vertex–triangle and edge–ridge candidates the step
+  // would set aside (PassOver): most of a fine mesh's candidates near the ground. The
+  // vertices and edges of the last step's contacts are never passed over (they may carry
+  // a state).
+  // Off after a solve whose check of them as a group fails: the step is then solved again
+  // with every candidate, as if they had never been passed over.
+  thread_local std::vector<std::int32_t> keep, keep_edges;
+  bool pass_over = N == 6 && model.index != nullptr && detail::pass_over_set_aside;
+  detail::PassOver pass;
+  if (pass_over) {
+    keep.clear();
+    keep_edges.clear();
+    for (const Contact& c : s.contacts) {
+      if (c.kind == ContactKind::vertex_face) keep.push_back(c.block_feature);
+      if (c.kind == ContactKind::edge_edge) keep_edges.push_back(c.block_feature);
+    }
+    std::sort(keep.begin(), keep.end());
+    std::sort(keep_edges.begin(), keep_edges.end());
+    pass.keep = &keep;
+    pass.keep_edges = &keep_edges;
+    pass.velocity = pose.map.transpose() * s.velocity.template head<3>();
+    pass.spin = pose.map.transpose() * s.velocity.template segment<3>(3);
+  }
   for (;;) {
+    pass.passed = 0;
+    pass.least_gap = std::numeric_limits<double>::infinity();
     {
       PhaseTimer timer(timing, s.times.detect);
       const double reach = search_reach(model, s, dt);
@@ -876,7 +901,15 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
       // The flight test may have searched from this pose at this distance already.
       if (searched != s.scratch_reach) {
         contacts.clear();
-        detail::detect_contacts(at, *ground.surface, reach, depth, s.patch, contacts, near);
+        const bool passing = pass_over && near > 0.0;
+        if (passing) {
+          pass.h = dt;
+          pass.fall = 0.5 * model.settings.gravity * dt * dt;
+          pass.scale = aside_scale;
+          pass.allowance = aside_scale * dt * s.velocity.template segment<3>(3).norm() * 1e-9 *
+                           (pose.centre.cwiseAbs().maxCoeff() + model.radius);
+        }
+        detail::detect_contacts(at, *ground.surface, reach, depth, s.patch, contacts, near, passing ? &pass : nullptr);
       }
       s.scratch_reach = -1.0;
       if (!s.friction_drawn && !contacts.empty())
@@ -885,9 +918,11 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
         // A contact of the last step that the near search did not find may lie beyond
         // it, with a state to carry: search in full.
         near = 0.0;
+        pass.passed = 0;
+        pass.least_gap = std::numeric_limits<double>::infinity();
         search_in_full(contacts, carried);
       }
-      found = contacts.size();
+      found = contacts.size() + pass.passed;
       set_aside.clear();
       if (std::isfinite(aside_scale)) {
         std::size_t kept = 0;
@@ -907,6 +942,22 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
     for (const Contact& c : contacts) start_modes.push_back(c.mode);
     const StepOutcome outcome = solve_step<N>(model, pose, s, dt, friction, contacts, d, s.times, freeze_strain,
                                                   arriving || (s.episode.active && s.episode.impact));
+    if constexpr (N == 6) {
+      if (pass.passed > 0 && outcome.converged && d.allFinite()) {
+        // The candidates passed over, as a group: a point r moves by at most h·|v + ω × r|
+        // + E, E = |d_t − h·v| + |θ − h·ω|·radius, and one passed over had a gap beyond
+        // twice the first term, so it closes only if its gap is below 2E. If the least of
+        // their gaps is not beyond that, the step is solved again without passing over,
+        // and each is checked on its own below, as it would have been.
+        const Vec3 v = s.velocity.template head<3>(), w = s.velocity.template segment<3>(3);
+        const double e = (d.template head<3>() - dt * v).norm() + (d.template segment<3>(3) - dt * w).norm() * model.radius;
+        if (!(2.0 * e * (1.0 + 1e-9) < pass.least_gap)) {
+          pass_over = false;
+          ++s.counters.unpassed_steps;
+          continue;
+        }
+      }
+    }
     s.counters.open_close_iterations += static_cast<std::uint64_t>(outcome.iterations);
     s.counters.held_contacts += static_cast<std::uint64_t>(outcome.held);
     if (!d.allFinite()) {

@@ -984,6 +984,30 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
   for (const TerrainPatch::Vertex& tv : patch.vertices) {
     if (!contains(vertex_reach, tv.p)) continue;
     const Vec3 qb = pose.inverse_map * (tv.p - pose.centre);
+    if (pass != nullptr && pass->spin.norm() * pass->h * pass->scale < 0.5 &&
+        !std::binary_search(pass->keep_terrain->begin(), pass->keep_terrain->end(), tv.id)) {
+      // A terrain vertex whose contact the step would set aside (PassOver). Its contact's
+      // gap is its distance to a face it lies over, at least its distance to the block's
+      // hull, which is at least |d| − S(d/|d|) for d from the centre (S the support, an
+      // upper bound; a few round-offs less). The contact's point, its foot on that face,
+      // moves at most |v + ω × d|·h + |ω|·h·gap + ½g·h²: a gap beyond scale times that
+      // is set aside, as it is when the bound times (1 − scale·|ω|·h) exceeds scale
+      // times the rest.
+      const Vec3 d = tv.p - pose.centre;
+      const double length = d.norm();
+      if (length > 0.0) {
+        const double low = length - at.support(d / length) - 4.0 * at.round_off() - 1e-12 * length;
+        if (low > pass->scale * pass->fall) {
+          const double speed = (pass->velocity + pass->spin.cross(qb)).norm();
+          const double reach = pass->scale * (speed * pass->h + pass->fall) * (1.0 + 1e-9) + pass->allowance;
+          if (low * (1.0 - pass->scale * pass->spin.norm() * pass->h) * (1.0 - 1e-9) > reach) {
+            ++pass->passed;
+            pass->least_gap = std::min(pass->least_gap, low);
+            continue;
+          }
+        }
+      }
+    }
     faces.clear();
     const geometry::Aabb near_qb{qb - Vec3::Constant(vertex_margin + face_tol),
                                  qb + Vec3::Constant(vertex_margin + face_tol)};

@@ -142,6 +142,8 @@ struct PassOver {
   double allowance = 0.0;
   const std::vector<std::int32_t>* keep = nullptr;  ///< ascending vertices never passed over
   const std::vector<std::int32_t>* keep_edges = nullptr;  ///< ascending edges never passed over
+  /// Ascending terrain vertices (ids) never passed over.
+  const std::vector<std::int32_t>* keep_terrain = nullptr;
   std::size_t passed = 0;        ///< out: candidates passed over
   double least_gap = std::numeric_limits<double>::infinity();  ///< out: the least bound of their gaps (m)
 };

@@ -871,20 +871,24 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   // a state).
   // Off after a solve whose check of them as a group fails: the step is then solved again
   // with every candidate, as if they had never been passed over.
-  thread_local std::vector<std::int32_t> keep, keep_edges;
+  thread_local std::vector<std::int32_t> keep, keep_edges, keep_terrain;
   bool pass_over = N == 6 && model.index != nullptr && detail::pass_over_set_aside;
   detail::PassOver pass;
   if (pass_over) {
     keep.clear();
     keep_edges.clear();
+    keep_terrain.clear();
     for (const Contact& c : s.contacts) {
       if (c.kind == ContactKind::vertex_face) keep.push_back(c.block_feature);
       if (c.kind == ContactKind::edge_edge) keep_edges.push_back(c.block_feature);
+      if (c.kind == ContactKind::face_vertex) keep_terrain.push_back(static_cast<std::int32_t>(c.terrain_feature));
     }
     std::sort(keep.begin(), keep.end());
     std::sort(keep_edges.begin(), keep_edges.end());
+    std::sort(keep_terrain.begin(), keep_terrain.end());
     pass.keep = &keep;
     pass.keep_edges = &keep_edges;
+    pass.keep_terrain = &keep_terrain;
     pass.velocity = pose.map.transpose() * s.velocity.template head<3>();
     pass.spin = pose.map.transpose() * s.velocity.template segment<3>(3);
   }

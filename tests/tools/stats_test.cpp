@@ -615,7 +615,7 @@ TEST_F(Stats, ValidatesASeriesAgainstObservedStopPoints) {
   bad[bad.size() - 3] = "observed.file=observed-off.csv";
   expect_one_line_error(run_fast(bad), 3, "observed-off.csv: line 3: observed stop");
   const Outcome off = run_fast(bad);
-  EXPECT_NE(off.err.find("is outside the terrain of run 'whole'"), std::string::npos) << off.err;
+  EXPECT_NE(off.err.find("is outside the terrain (input coordinates: x in ["), std::string::npos) << off.err;
   EXPECT_NE(off.err.find("no simulated block can stop there"), std::string::npos) << off.err;
   EXPECT_FALSE(fs::exists(dir_ / "out-valid-bad" / "validation.csv"));
   std::ofstream(dir_ / "observed-local.csv") << "x,y\n31,10\n";

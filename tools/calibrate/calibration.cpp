@@ -70,16 +70,8 @@ void check_on_terrain(const io::ObservedStops& stops, const Case& c, const terra
   const Eigen::Vector2d left(-c.direction.y(), c.direction.x());
   const std::string cannot = ": no simulated block can stop there";
   auto check_point = [&](std::size_t k, const Eigen::Vector2d& p, const std::string& what) {
-    const Eigen::Vector2d local = p - shift;
-    if (base.height_at(local.x(), local.y())) return;
-    const bool within = local.x() >= b.lo.x() && local.x() <= b.hi.x() && local.y() >= b.lo.y() && local.y() <= b.hi.y();
-    std::string hint;
-    if (shift.squaredNorm() > 0.0 && base.height_at(p.x(), p.y()))
-      hint = mc::local_frame_hint(shift, "inside") + ": give the observed stops in the terrain's input coordinates";
-    throw InputError(file, stops.rows[k] + ": " + what +
-                               (within ? " has no terrain under it (a hole or gap in the terrain's surface; "
-                                       : " is outside the terrain (") +
-                               "input coordinates: " + mc::extent_text(b, shift) + ")" + cannot + hint);
+    const std::string off = mc::observed_stop_off_terrain(base, p, shift);
+    if (!off.empty()) throw InputError(file, stops.rows[k] + ": " + what + off);
   };
   if (stops.has_points()) {
     for (std::size_t k = 0; k < stops.points.size(); ++k) {

@@ -588,21 +588,12 @@ std::optional<Validation> validate_against_observed(const Analysis& a, const Set
   if (run.terrain != nullptr) {
     const terrain::Surface ground = terrain::Surface::realize(*run.terrain, std::nullopt);
     const Eigen::Vector2d shift(run.origin_shift[0], run.origin_shift[1]);
-    const geometry::Aabb& b = ground.bounds();
     for (std::size_t k = 0; k < observed.size(); ++k) {
       const Eigen::Vector2d p(observed[k][0], observed[k][1]);
-      const Eigen::Vector2d local = p - shift;
-      if (ground.height_at(local.x(), local.y())) continue;
-      const bool within = local.x() >= b.lo.x() && local.x() <= b.hi.x() && local.y() >= b.lo.y() && local.y() <= b.hi.y();
-      std::string hint;
-      if (shift.squaredNorm() > 0.0 && ground.height_at(p.x(), p.y()))
-        hint = mc::local_frame_hint(shift, "inside") + ": give the observed stops in the terrain's input coordinates";
-      throw core::InputError(o.file, stops.rows[k] + ": observed stop (" + core::format_number(p.x()) + ", " +
-                                         core::format_number(p.y()) + ")" +
-                                         (within ? " has no terrain under it (a hole or gap in the terrain's surface; "
-                                                 : " is outside the terrain of run '" + series->run + "' (") +
-                                         "input coordinates: " + mc::extent_text(b, shift) +
-                                         "): no simulated block can stop there" + hint);
+      const std::string off = mc::observed_stop_off_terrain(ground, p, shift);
+      if (!off.empty())
+        throw core::InputError(o.file, stops.rows[k] + ": observed stop (" + core::format_number(p.x()) + ", " +
+                                           core::format_number(p.y()) + ")" + off);
     }
   }
 

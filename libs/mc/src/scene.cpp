@@ -141,6 +141,19 @@ std::string local_frame_hint(const Eigen::Vector2d& shift, const std::string& wh
          format_number(shift.x()) + ", " + format_number(shift.y()) + "])";
 }
 
+std::string observed_stop_off_terrain(const terrain::Surface& base, const Eigen::Vector2d& p,
+                                     const Eigen::Vector2d& shift) {
+  const Eigen::Vector2d local = p - shift;
+  if (base.height_at(local.x(), local.y())) return "";
+  const geometry::Aabb& b = base.bounds();
+  const bool within = local.x() >= b.lo.x() && local.x() <= b.hi.x() && local.y() >= b.lo.y() && local.y() <= b.hi.y();
+  std::string hint;
+  if (shift.squaredNorm() > 0.0 && base.height_at(p.x(), p.y()))
+    hint = local_frame_hint(shift, "inside") + ": give the observed stops in the terrain's input coordinates";
+  return (within ? " has no terrain under it (a hole or gap in the terrain's surface; " : " is outside the terrain (") +
+         std::string("input coordinates: ") + extent_text(b, shift) + "): no simulated block can stop there" + hint;
+}
+
 namespace {
 
 bool finite_points(const std::vector<std::array<double, 2>>& points) {

@@ -276,6 +276,14 @@ std::string extent_text(const geometry::Aabb& b, const Eigen::Vector2d& shift);
 /// what to do.
 std::string local_frame_hint(const Eigen::Vector2d& shift, const std::string& where);
 
+/// Why an observed stop at plan point `p` (the terrain's input coordinates) is where no
+/// simulated block can stop, for a message that names it first: "" when it lies on the
+/// terrain `base` (its surface, local frame; `shift` its origin shift), else " is outside
+/// the terrain (…)" or " has no terrain under it (…)" with the terrain's extent, and the
+/// local-frame hint when p lies on the terrain read in that frame.
+std::string observed_stop_off_terrain(const terrain::Surface& base, const Eigen::Vector2d& p,
+                                     const Eigen::Vector2d& shift);
+
 /// Parses "K/N" (0 ≤ K < N) as a shard; throws core::UsageError otherwise.
 struct Shard {
   std::uint32_t index = 0;  ///< K

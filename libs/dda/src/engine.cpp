@@ -865,12 +865,12 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   const auto goes_aside = [&](const Contact& c, bool carries) {
     return !carries && c.mode == ContactMode::open && c.gap > point_reach(model, s, c.point, dt, aside_scale);
   };
-  // A near search passes over the vertex–triangle and edge–ridge candidates the step
-  // would set aside (PassOver): most of a fine mesh's candidates near the ground. The
-  // vertices and edges of the last step's contacts are never passed over (they may carry
-  // a state).
-  // Off after a solve whose check of them as a group fails: the step is then solved again
-  // with every candidate, as if they had never been passed over.
+  // A near search passes over the vertex–triangle, edge–ridge and terrain vertex
+  // candidates the step would set aside (PassOver): most of a fine mesh's candidates near
+  // the ground. The vertices, edges and terrain vertices of the last step's contacts are
+  // never passed over (they may carry a state). Off after a solve whose check of them as a
+  // group fails: the step is then solved again with every candidate, as if they had never
+  // been passed over.
   thread_local std::vector<std::int32_t> keep, keep_edges, keep_terrain;
   bool pass_over = N == 6 && model.index != nullptr && detail::pass_over_set_aside;
   detail::PassOver pass;

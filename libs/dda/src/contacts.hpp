@@ -112,25 +112,27 @@ inline thread_local bool pass_over_set_aside = true;
 /// search less its vertex–triangle and edge–ridge contacts with a gap of near_distance
 /// or more, in the same order with the same numbers. A scanned block ignores it.
 ///
-/// `pass`, when given, passes over a rigid detailed block's vertex–triangle candidates
+/// `pass`, when given, passes over the candidates of a rigid detailed block's near search
 /// that contact_step would set aside (PassOver).
 struct PassOver;
 void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, double search_distance,
                      double depth_limit, TerrainPatch& patch, std::vector<Contact>& out, double near_distance = 0.0,
                      PassOver* pass = nullptr);
 
-/// The vertex–triangle and edge–ridge candidates of a near search that a rigid step sets
-/// aside, passed over by the search (detect_contacts) before they are placed, tested and
-/// built: a vertex whose gap is more than `scale` times what it moves at the step-start
-/// motion, point_reach, scale·(|v + ω × r|·h + ½g·h²), and that carries no contact of the
-/// last step (its vertex is none of `keep`'s); an edge whose crossing's gap is so beyond
-/// what either end moves (the speed |v + ω × r| is convex in r, so largest at an end;
-/// the gap is bounded below by the ends' level along the ridge's `out`, detect_indexed),
-/// and none of `keep_edges`. Its gap is bounded below by its body-frame
-/// value less the round-off (BodyPlane) and its speed is computed in the body frame,
-/// with 1e-9 of it and `allowance` on top, so every vertex passed over is one the step
-/// would have set aside. The step checks them as a group after its solve (contact_step): `least_gap`
-/// bounds their gaps below.
+/// The candidates of a near search that a rigid step sets aside, passed over by the
+/// search (detect_contacts) before they are placed, tested and built. Each is one the step
+/// would have set aside: its gap, bounded below (less the round-off of the bound), is
+/// more than `scale` times what its point moves at the step-start motion, point_reach,
+/// scale·(|v + ω × r|·h + ½g·h²), with the speed computed in the body frame and 1e-9 of
+/// it and `allowance` on top; and it carries no contact of the last step.
+/// - A vertex–triangle pair: its body-frame gap (BodyPlane); its vertex none of `keep`.
+/// - An edge–ridge pair: the ends' level along the ridge's `out` bounds the crossing's
+///   gap; the speed |v + ω × r| is convex in r, so largest at an end; none of `keep_edges`.
+/// - A terrain vertex, before its face query: its distance to the block's hull, at least
+///   |d| − S(d/|d|), bounds its contact's gap; the contact's point, on a face that gap
+///   away, moves up to |ω|·h·gap more than the vertex's own point; none of `keep_terrain`.
+/// The step checks them as a group after its solve (contact_step): `least_gap` bounds
+/// their gaps below.
 struct PassOver {
   Vec3 velocity = Vec3::Zero();  ///< Fᵀv, the centre's velocity in the body frame (m/s)
   Vec3 spin = Vec3::Zero();      ///< Fᵀω, the spin in the body frame (rad/s)

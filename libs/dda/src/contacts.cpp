@@ -950,11 +950,9 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
         const double low = body_gap - slab.tol;
         if (low > pass->scale * pass->fall) {
           const Vec3 r(x[k], x[n + k], x[2 * n + k]);
-          const double speed = (pass->velocity + pass->spin.cross(r)).norm();
-          const double reach = pass->scale * (speed * pass->h + pass->fall) * (1.0 + 1e-9) + pass->allowance;
-          if (low > reach && !std::binary_search(pass->keep->begin(), pass->keep->end(), vi)) {
-            ++pass->passed;
-            pass->least_gap = std::min(pass->least_gap, low);
+          if (low > pass->reach((pass->velocity + pass->spin.cross(r)).norm()) &&
+              !std::binary_search(pass->keep->begin(), pass->keep->end(), vi)) {
+            pass->take(low);
             continue;
           }
         }
@@ -981,10 +979,13 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
   const geometry::Aabb vertex_reach = at.box().inflated(vertex_margin);
   const double face_tol = kSlack * vertex_margin + 1e-6 * model.radius;
   thread_local std::vector<std::int32_t> faces;
+  // How much more than a terrain vertex's own point its contact's point may move, per
+  // metre of gap, times the set-aside scale (PassOver): scale·|ω|·h.
+  const double turn = pass != nullptr ? pass->scale * pass->spin.norm() * pass->h : 0.0;
   for (const TerrainPatch::Vertex& tv : patch.vertices) {
     if (!contains(vertex_reach, tv.p)) continue;
     const Vec3 qb = pose.inverse_map * (tv.p - pose.centre);
-    if (pass != nullptr && pass->spin.norm() * pass->h * pass->scale < 0.5 &&
+    if (pass != nullptr && turn < 0.5 &&
         !std::binary_search(pass->keep_terrain->begin(), pass->keep_terrain->end(), tv.id)) {
       // A terrain vertex whose contact the step would set aside (PassOver). Its contact's
       // gap is its distance to a face it lies over, at least its distance to the block's
@@ -998,11 +999,8 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
       if (length > 0.0) {
         const double low = length - at.support(d / length) - 4.0 * at.round_off() - 1e-12 * length;
         if (low > pass->scale * pass->fall) {
-          const double speed = (pass->velocity + pass->spin.cross(qb)).norm();
-          const double reach = pass->scale * (speed * pass->h + pass->fall) * (1.0 + 1e-9) + pass->allowance;
-          if (low * (1.0 - pass->scale * pass->spin.norm() * pass->h) * (1.0 - 1e-9) > reach) {
-            ++pass->passed;
-            pass->least_gap = std::min(pass->least_gap, low);
+          if (low * (1.0 - turn) * (1.0 - 1e-9) > pass->reach((pass->velocity + pass->spin.cross(qb)).norm())) {
+            pass->take(low);
             continue;
           }
         }
@@ -1052,10 +1050,8 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
           const Vec3 ra(x[k], x[n + k], x[2 * n + k]), rb(x[3 * n + k], x[4 * n + k], x[5 * n + k]);
           const double speed = std::max((pass->velocity + pass->spin.cross(ra)).norm(),
                                         (pass->velocity + pass->spin.cross(rb)).norm());
-          const double reach = pass->scale * (speed * pass->h + pass->fall) * (1.0 + 1e-9) + pass->allowance;
-          if (low > reach && !std::binary_search(pass->keep_edges->begin(), pass->keep_edges->end(), be)) {
-            ++pass->passed;
-            pass->least_gap = std::min(pass->least_gap, low);
+          if (low > pass->reach(speed) && !std::binary_search(pass->keep_edges->begin(), pass->keep_edges->end(), be)) {
+            pass->take(low);
             continue;
           }
         }

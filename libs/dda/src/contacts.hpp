@@ -148,6 +148,20 @@ struct PassOver {
   const std::vector<std::int32_t>* keep_terrain = nullptr;
   std::size_t passed = 0;        ///< out: candidates passed over
   double least_gap = std::numeric_limits<double>::infinity();  ///< out: the least bound of their gaps (m)
+
+  /// The gap (m) beyond which a candidate whose point moves at `speed` (m/s) is set aside:
+  /// scale·(speed·h + ½g·h²), with 1e-9 of it and `allowance` on top.
+  double reach(double speed) const { return scale * (speed * h + fall) * (1.0 + 1e-9) + allowance; }
+  /// Counts a candidate passed over, its gap bounded below by `low` (m).
+  void take(double low) {
+    ++passed;
+    least_gap = std::min(least_gap, low);
+  }
+  /// None passed over yet (a search afresh).
+  void restart() {
+    passed = 0;
+    least_gap = std::numeric_limits<double>::infinity();
+  }
 };
 
 /// Brute-force reference of detect_contacts: every triangle of the surface and every

@@ -893,8 +893,7 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
     pass.spin = pose.map.transpose() * s.velocity.template segment<3>(3);
   }
   for (;;) {
-    pass.passed = 0;
-    pass.least_gap = std::numeric_limits<double>::infinity();
+    pass.restart();
     {
       PhaseTimer timer(timing, s.times.detect);
       const double reach = search_reach(model, s, dt);
@@ -922,8 +921,7 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
         // A contact of the last step that the near search did not find may lie beyond
         // it, with a state to carry: search in full.
         near = 0.0;
-        pass.passed = 0;
-        pass.least_gap = std::numeric_limits<double>::infinity();
+        pass.restart();
         search_in_full(contacts, carried);
       }
       found = contacts.size() + pass.passed;

@@ -224,6 +224,7 @@ double clearance_lower_bound(const dda::Model& model, const Vec3& position, cons
   thread_local std::vector<std::int32_t> triangles;
   triangles.clear();
   ground.triangles_in_box(query, triangles);
+  if (triangles.empty()) return std::numeric_limits<double>::infinity();
   double top = -std::numeric_limits<double>::infinity();
   double magnitude = std::abs(position.z()) + r;
   for (const std::int32_t t : triangles)
@@ -231,7 +232,6 @@ double clearance_lower_bound(const dda::Model& model, const Vec3& position, cons
       top = std::max(top, p.z());
       magnitude = std::max(magnitude, std::abs(p.z()));
     }
-  if (triangles.empty()) return std::numeric_limits<double>::infinity();
   // A rotated vertex keeps its distance from the centroid to a few ulps of the radius,
   // and the exact clearance's differences are within a few ulps of the values.
   return position.z() - r - top - 1e-9 * magnitude;

@@ -613,8 +613,8 @@ TEST_F(Stats, ValidatesASeriesAgainstObservedStopPoints) {
                                            << ox + 30.0 << "," << oy << "\n"
                                            << ox + 5000.0 << "," << oy << "\n";
   bad[bad.size() - 3] = "observed.file=observed-off.csv";
-  expect_one_line_error(run_fast(bad), 3, "observed-off.csv: line 3: observed stop");
   const Outcome off = run_fast(bad);
+  expect_one_line_error(off, 3, "observed-off.csv: line 3: observed stop");
   EXPECT_NE(off.err.find("is outside the terrain (input coordinates: x in ["), std::string::npos) << off.err;
   EXPECT_NE(off.err.find("no simulated block can stop there"), std::string::npos) << off.err;
   EXPECT_FALSE(fs::exists(dir_ / "out-valid-bad" / "validation.csv"));

@@ -1618,6 +1618,7 @@ void FlightBound::reset(const std::vector<Vec3>& vertices, const Vec3& centre, c
   gravity_ = gravity;
   damped_ = damped;
   round_off_ = round_off;
+  enough_ = 0.0;
   rates_.resize(vertices.size());
   curvature_.resize(vertices.size());
   const double spin2 = spin.squaredNorm();
@@ -1638,6 +1639,7 @@ void FlightBound::reset(const PlacedBlock& at, const Vec3& velocity, const Vec3&
   damped_ = damped;
   // The support's own round-off comes on top of the caller's.
   round_off_ = round_off + 4.0 * at.round_off();
+  enough_ = 0.0;
   spin_ = spin.norm();
   spin_vector_ = spin;
   radius_ = at.model().radius * (1.0 + 1e-12);
@@ -1780,11 +1782,13 @@ double FlightBound::climb_plane_time(const Vec3& n, double offset, double limit)
       slope_hi = slope;
     }
   };
-  for (int iteration = 0; iteration < 16 && t_hi - t_lo > tolerance; ++iteration) {
+  // Below `enough_` the time need not be exact (settle_below): once a time there is shown
+  // not to be clear, so is the answer.
+  for (int iteration = 0; iteration < 16 && t_hi - t_lo > tolerance && t_hi > enough_; ++iteration) {
     if (slope_hi < 0.0) {
       const double t = t_hi - g_hi / slope_hi;
       if (t > t_lo && t < t_hi) take(t);
-      if (t_hi - t_lo <= tolerance) break;
+      if (t_hi - t_lo <= tolerance || t_hi <= enough_) break;
     }
     if (!(g_lo > 0.0)) break;
     const double chord = t_lo + g_lo * (t_hi - t_lo) / (g_lo - g_hi);

@@ -209,6 +209,11 @@ class FlightBound {
   /// PlacedBlock::support. Its round-off allowance is a little wider than the scan's.
   void reset(const PlacedBlock& at, const Vec3& velocity, const Vec3& spin, double gravity, bool damped,
              double round_off);
+  /// Times below `enough` (s) need not be exact: a time the bound would give below it may
+  /// come out as any time below it that is still proven clear (a detailed convex block's
+  /// search then stops once it knows the time is below); one at or above it is the same
+  /// number. 0 (every time exact) after each reset.
+  void settle_below(double enough) { enough_ = enough; }
   /// The earliest time (s) at which a vertex may reach the plane {x : n·x = offset}
   /// from the side n points to, or `limit` if none can before it; 0 when a vertex is not
   /// on that side.
@@ -236,6 +241,7 @@ class FlightBound {
   Vec3 spin_vector_ = Vec3::Zero();      // ω (rad/s) of a detailed block
   Vec3 centre_ = Vec3::Zero(), velocity_ = Vec3::Zero();
   double gravity_ = 0.0, round_off_ = 0.0;
+  double enough_ = 0.0;  // settle_below (s)
   bool damped_ = false;
   std::vector<Vec3> rates_;        // per vertex: wᵢ, or ω × r when damped (m/s)
   std::vector<double> curvature_;  // per vertex: |ω|²·|r| (m/s²)

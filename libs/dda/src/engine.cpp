@@ -507,8 +507,9 @@ double clear_time(const Model& model, const Ground& ground, State& s, double h, 
     bound.reset(at, s.velocity.head<3>(), s.velocity.segment<3>(3), model.settings.gravity, damped, round_off);
   double clear = h;
   // Less than one step is no flight: the search decides (flight_step), so the triangles
-  // left need no bound.
+  // left need no bound, and a time below it need not be exact.
   const double enough = s.dt;
+  bound.settle_below(enough);
   if (at.index() == nullptr) {
     for_each_triangle_near(model, ground, s, box, [&](const Vec3& normal, const std::array<Vec3, 3>& corners,
                                                       const geometry::Aabb&) {
@@ -599,6 +600,19 @@ bool stays_open(const Model& model, const State& s, const std::vector<Contact>& 
   return true;
 }
 
+// Aims `pass` at a rigid detailed block's near search from `pose` for a step of length h
+// with the set-aside scale `scale` (PassOver): the step-start motion in the body frame,
+// the fall and the round-off allowance. The keep lists are left as they are.
+void aim_pass_over(const Model& model, const State& s, const Pose& pose, double h, double scale,
+                   detail::PassOver& pass) {
+  pass.velocity = pose.map.transpose() * s.velocity.head<3>();
+  pass.spin = pose.map.transpose() * s.velocity.segment<3>(3);
+  pass.h = h;
+  pass.fall = 0.5 * model.settings.gravity * h * h;
+  pass.scale = scale;
+  pass.allowance = scale * h * s.velocity.segment<3>(3).norm() * 1e-9 * (pose.centre.cwiseAbs().maxCoeff() + model.radius);
+}
+
 // Whether no contact can close in the next step of length dt, by the contact search a
 // contact step would make from the block placed at its pose (`at`): it finds no
 // candidate, or (rigid path, no contact carried from the last step) the free motion
@@ -608,12 +622,29 @@ bool stays_open(const Model& model, const State& s, const std::vector<Contact>& 
 // A detailed rigid block with no contact carried searches only within the near distance
 // (near_reach): a candidate beyond it stays open through the step on the free motion,
 // which moves no point by more than half of it, so the answer is the same.
+//
+// That near search passes over the candidates a contact step from this pose would set
+// aside (PassOver; none is kept, as no contact is carried). The answer is the same: the
+// gap of each is more than twice its point's motion at the step-start motion, which the
+// free motion's gap (stays_open) takes off at most once. A contact step from this pose
+// takes what was passed over (scratch_passed) for its check of them, as if its own search
+// had passed over them.
 bool beyond_contact_reach(const Model& model, const Ground& ground, State& s, const PlacedBlock& at, double dt) {
   s.scratch_contacts.clear();
   const double reach = search_reach(model, s, dt);
   const double near = s.contacts.empty() ? near_reach(model, s, dt, set_aside_scale) : 0.0;
-  detect_contacts(at, *ground.surface, reach, model.penetration_limit(), s.patch, s.scratch_contacts, near);
+  detail::PassOver pass;
+  const bool passing = near > 0.0 && detail::pass_over_set_aside;
+  if (passing) {
+    static const std::vector<std::int32_t> none;
+    pass.keep = pass.keep_edges = pass.keep_terrain = &none;
+    aim_pass_over(model, s, at.pose(), dt, set_aside_scale, pass);
+  }
+  detect_contacts(at, *ground.surface, reach, model.penetration_limit(), s.patch, s.scratch_contacts, near,
+                  passing ? &pass : nullptr);
   s.scratch_reach = near > 0.0 ? near : reach;
+  s.scratch_passed = pass.passed;
+  s.scratch_least_gap = pass.least_gap;
   if (s.scratch_contacts.empty()) return true;
   // A contact carried from the last step (anchored, a micro-gap open) keeps its shear
   // spring's memory only through a contact step.
@@ -889,8 +920,6 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
     pass.keep = &keep;
     pass.keep_edges = &keep_edges;
     pass.keep_terrain = &keep_terrain;
-    pass.velocity = pose.map.transpose() * s.velocity.template head<3>();
-    pass.spin = pose.map.transpose() * s.velocity.template segment<3>(3);
   }
   for (;;) {
     pass.restart();
@@ -905,14 +934,12 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
       if (searched != s.scratch_reach) {
         contacts.clear();
         const bool passing = pass_over && near > 0.0;
-        if (passing) {
-          pass.h = dt;
-          pass.fall = 0.5 * model.settings.gravity * dt * dt;
-          pass.scale = aside_scale;
-          pass.allowance = aside_scale * dt * s.velocity.template segment<3>(3).norm() * 1e-9 *
-                           (pose.centre.cwiseAbs().maxCoeff() + model.radius);
-        }
+        if (passing) aim_pass_over(model, s, pose, dt, aside_scale, pass);
         detail::detect_contacts(at, *ground.surface, reach, depth, s.patch, contacts, near, passing ? &pass : nullptr);
+      } else if (pass_over && near > 0.0) {
+        // The flight test's search, which passed over the same candidates.
+        pass.passed = s.scratch_passed;
+        pass.least_gap = s.scratch_least_gap;
       }
       s.scratch_reach = -1.0;
       if (!s.friction_drawn && !contacts.empty())

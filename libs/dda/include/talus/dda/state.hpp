@@ -355,6 +355,10 @@ struct State {
   /// holds for the current pose (the flight test's, which a contact step from the same
   /// pose with the same distance reuses), or a negative value when it holds none.
   double scratch_reach = -1.0;
+  /// What that search passed over (detail::PassOver, a rigid detailed block's near search
+  /// with no contact carried): how many candidates, and the least bound of their gaps (m).
+  std::size_t scratch_passed = 0;
+  double scratch_least_gap = std::numeric_limits<double>::infinity();
   std::vector<Vec3> scratch_vertices;  ///< world vertices of a scanned block (m)
   BlockBox scratch_box;                ///< a detailed block's box at an earlier pose
 };

@@ -674,5 +674,59 @@ TEST(DdaContact, CandidatesSetAsideDoNotChangeTheRoll) {
   EXPECT_NEAR(widening.distance, reference.distance, 1e-6 * reference.distance);
 }
 
+// The flight test's near search passes over what a contact step from its pose would set
+// aside, and that step takes what was passed over from it: a faceted sphere thrown onto
+// the incline, bouncing and rolling, is the same to the bit with and without passing over.
+TEST(DdaContact, FlightSearchPassesOverAsTheStepWould) {
+  const double theta = 20.0;
+  const terrain::Surface plane = incline(theta, 40.0);
+  const std::vector<terrain::Material> mats{material(0.4)};
+  const Ground g{&plane, mats};
+  block::SolidSpec spec;
+  spec.kind = block::SolidKind::ellipsoid;
+  spec.volume = 1.0;
+  spec.dimensions = Vec3(1.4, 1.2, 1.1);
+  spec.resolution = 8;
+  Settings set;
+  set.check_invariants = true;
+  const Model m = Model::build(set, block::make_solid(spec, "ellipsoid"));
+  ASSERT_NE(m.index, nullptr);
+  const Vec3 n = testing::incline_normal(theta);
+  const auto fall = [&](bool pass_over) {
+    detail::pass_over_set_aside = pass_over;
+    Release r;
+    r.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(0.7, Vec3(1.0, 2.0, 3.0).normalized()));
+    double below = 0.0;  // the block's extent along −n
+    for (const Vec3& v : m.vertices) below = std::max(below, -n.dot(r.orientation * v));
+    // 1 cm clear of the plane, thrown at it and down the slope, spinning.
+    r.position = Vec3(-10.0, 5.0, 10.0 * std::tan(theta * M_PI / 180.0)) + (below + 0.01) * n;
+    r.velocity = -0.3 * n + 1.0 * testing::incline_down(theta);
+    r.angular_velocity = Vec3(0.3, -1.0, 0.2);
+    State s = start(m, r, impacts());
+    while (s.time < 1.5 - 1e-9 && s.end == EndReason::running) step(m, g, s);
+    detail::pass_over_set_aside = true;
+    EXPECT_EQ(s.end, EndReason::running) << s.time;
+    EXPECT_EQ(s.counters.energy_violations, 0u);
+    EXPECT_EQ(s.counters.depth_violations, 0u);
+    return s;
+  };
+  const State passed = fall(true);
+  const State built = fall(false);
+  std::printf("flight searches passed over %llu candidates; %llu flight and %llu contact steps\n",
+              static_cast<unsigned long long>(passed.counters.flight_passed),
+              static_cast<unsigned long long>(passed.counters.flight_steps),
+              static_cast<unsigned long long>(passed.counters.contact_steps));
+  EXPECT_GT(passed.counters.flight_passed, 0u);
+  EXPECT_EQ(built.counters.flight_passed, 0u);
+  EXPECT_GT(passed.counters.contact_steps, 100u);
+  EXPECT_EQ(passed.counters.steps, built.counters.steps);
+  EXPECT_EQ(passed.counters.contact_steps, built.counters.contact_steps);
+  EXPECT_EQ(passed.counters.contacts, built.counters.contacts);
+  EXPECT_EQ(passed.counters.set_aside_contacts, built.counters.set_aside_contacts);
+  EXPECT_EQ(passed.position, built.position);
+  EXPECT_EQ(passed.velocity, built.velocity);
+  EXPECT_EQ(passed.orientation.coeffs(), built.orientation.coeffs());
+}
+
 }  // namespace
 }  // namespace talus::dda

@@ -625,16 +625,16 @@ void aim_pass_over(const Model& model, const State& s, const Pose& pose, double 
 //
 // That near search passes over the candidates a contact step from this pose would set
 // aside (PassOver; none is kept, as no contact is carried). The answer is the same: the
-// gap of each is more than twice its point's motion at the step-start motion, which the
-// free motion's gap (stays_open) takes off at most once. A contact step from this pose
-// takes what was passed over (scratch_passed) for its check of them, as if its own search
-// had passed over them.
+// gap of each is more than set_aside_scale (at least 1) times its point's motion at the
+// step-start motion, which the free motion's gap (stays_open) takes off at most once. A
+// contact step from this pose takes what was passed over (scratch_passed) for its check
+// of them, as if its own search had passed over them.
 bool beyond_contact_reach(const Model& model, const Ground& ground, State& s, const PlacedBlock& at, double dt) {
   s.scratch_contacts.clear();
   const double reach = search_reach(model, s, dt);
   const double near = s.contacts.empty() ? near_reach(model, s, dt, set_aside_scale) : 0.0;
   detail::PassOver pass;
-  const bool passing = near > 0.0 && detail::pass_over_set_aside;
+  const bool passing = near > 0.0 && detail::pass_over_set_aside && set_aside_scale >= 1.0;
   if (passing) {
     static const std::vector<std::int32_t> none;
     pass.keep = pass.keep_edges = pass.keep_terrain = &none;
@@ -645,6 +645,7 @@ bool beyond_contact_reach(const Model& model, const Ground& ground, State& s, co
   s.scratch_reach = near > 0.0 ? near : reach;
   s.scratch_passed = pass.passed;
   s.scratch_least_gap = pass.least_gap;
+  s.counters.flight_passed += pass.passed;
   if (s.scratch_contacts.empty()) return true;
   // A contact carried from the last step (anchored, a micro-gap open) keeps its shear
   // spring's memory only through a contact step.

@@ -97,6 +97,9 @@ struct Counters {
   std::uint64_t far_searches = 0;
   /// Contact steps solved again without passing over candidates (contact_step, PassOver).
   std::uint64_t unpassed_steps = 0;
+  /// Candidates the flight test's near search passed over (PassOver), summed over its
+  /// searches.
+  std::uint64_t flight_passed = 0;
   std::uint64_t offset_contacts = 0;  ///< contacts first found already penetrated
   std::uint64_t impacts_rescaled = 0; ///< rebounds the restitution law reduced
   std::uint64_t held_contacts = 0;    ///< contacts held in a state to end an open–close cycle

@@ -68,7 +68,6 @@ void check_on_terrain(const io::ObservedStops& stops, const Case& c, const terra
                       const Eigen::Vector2d& shift, const std::string& file) {
   const geometry::Aabb& b = base.bounds();
   const Eigen::Vector2d left(-c.direction.y(), c.direction.x());
-  const std::string cannot = ": no simulated block can stop there";
   auto check_point = [&](std::size_t k, const Eigen::Vector2d& p, const std::string& what) {
     const std::string off = mc::observed_stop_off_terrain(base, p, shift);
     if (!off.empty()) throw InputError(file, stops.rows[k] + ": " + what + off);
@@ -100,7 +99,8 @@ void check_on_terrain(const io::ObservedStops& stops, const Case& c, const terra
     if (!(stops.runout[k] >= lo && stops.runout[k] <= hi))
       throw InputError(file, stops.rows[k] + ": observed runout " + core::format_number(stops.runout[k]) +
                                  " m lies beyond the terrain, which spans runouts [" + core::format_number(lo) + ", " +
-                                 core::format_number(hi) + "] m from the origin along the runout direction" + cannot);
+                                 core::format_number(hi) +
+                                 "] m from the origin along the runout direction: no simulated block can stop there");
 }
 
 }  // namespace

@@ -213,6 +213,103 @@ TEST(DdaBlockIndex, SearchesAsTheScanOnAGrid) {
   EXPECT_GT(all.deep, 20u);
 }
 
+// A block whose edges are all shorter than its penetration limit does not cross its edges
+// with the terrain's valleys (Model::crosses_valleys): over a valley the air is the
+// intersection of the two triangles' upper half-spaces, so along a block edge the least of
+// the two planes' distances is least at an end of the edge, or where the edge leaves the
+// two triangles (over a crest, the patch's border or a third triangle). At random poses
+// of the smooth 5 120-triangle ellipsoid and of a finer one (20 480) near the rough grid
+// and the bumpy TIN, the search without valley crossings finds every other contact of the
+// search with them, the same in the same order; and for a valley crossing (gap g at the
+// point p on block edge e) a contact at least as near within twice e's length of p, with
+// a gap no larger than the least of the two planes' distances at p (which is at most g when
+// g ≥ 0), to a round-off, for all but one in a thousand, and those within 5 % of the depth
+// limit. (Within e's length alone, its end vertices, the contact is often missed: it lies
+// at a neighbour of an end that lies outside the two triangles' prisms.) A crossing deeper
+// than the depth limit less e's length is not judged: an end may lie beyond that limit.
+TEST(DdaBlockIndex, ValleyCrossingsAreCarriedByNearerContacts) {
+  const terrain::Terrain grid = rough_grid();
+  const terrain::Surface on_grid = terrain::Surface::realize(grid, 2);
+  const terrain::Terrain tin = bumpy_tin();
+  const terrain::Surface on_tin = terrain::Surface::realize(tin, std::nullopt);
+  std::size_t crossings = 0, deep = 0, poses_with = 0, short_of = 0;
+  double shortfall = 0.0, depth_limit = std::numeric_limits<double>::infinity();
+  std::uint64_t seed = 90;
+  for (const int resolution : {16, 32}) {
+    const Model m = Model::build(Settings{}, solid(block::SolidKind::ellipsoid, resolution, 0.0));
+    ASSERT_FALSE(m.crosses_valleys()) << resolution;
+    ASSERT_LT(m.longest_edge, m.penetration_limit());
+    for (const terrain::Surface* surface : {&on_grid, &on_tin}) {
+      const core::RandomStream rng(seed++, core::Stream::release, 0);
+      TerrainPatch with_patch, without_patch;
+      std::vector<Vec3> storage_with, storage_without;
+      const std::uint64_t count = resolution == 16 ? 300 : 100;
+      for (std::uint64_t k = 0; k < count; ++k) {
+        const double x = surface == &on_grid ? 5.0 + 50.0 * static_cast<double>(k) / static_cast<double>(count)
+                                             : 2.0 + 16.0 * static_cast<double>(k) / static_cast<double>(count);
+        const double y = (surface == &on_grid ? 8.0 : 4.0) + 10.0 * rng.uniform(16 * k + 14);
+        const detail::Pose pose = random_pose(*surface, m.radius, false, rng, k, x, y);
+        const detail::PlacedBlock with_at(m, pose, storage_with), without_at(m, pose, storage_without);
+        const double ds = 0.01 + 0.05 * rng.uniform(16 * k + 15);
+        const double depth = m.penetration_limit();
+        depth_limit = std::min(depth_limit, depth);
+        std::vector<Contact> with, without;
+        detail::cross_every_valley = true;
+        detail::detect_contacts(with_at, *surface, ds, depth, with_patch, with);
+        detail::cross_every_valley = false;
+        detail::detect_contacts(without_at, *surface, ds, depth, without_patch, without);
+        // The valley crossings among `with`, and the rest equal to `without`.
+        const auto valley_of = [&](const Contact& c) -> const TerrainPatch::Ridge* {
+          if (c.kind != ContactKind::edge_edge) return nullptr;
+          for (const TerrainPatch::Ridge& r : with_patch.ridges)
+            if (((static_cast<std::int64_t>(r.a) << 32) | static_cast<std::int64_t>(r.b)) == c.terrain_feature)
+              return r.valley ? &r : nullptr;
+          return nullptr;
+        };
+        std::vector<Contact> rest;
+        std::vector<std::pair<Contact, const TerrainPatch::Ridge*>> valleys;
+        for (const Contact& c : with) {
+          const TerrainPatch::Ridge* r = valley_of(c);
+          if (r != nullptr)
+            valleys.emplace_back(c, r);
+          else
+            rest.push_back(c);
+        }
+        expect_same(without, rest, k);
+        poses_with += !valleys.empty();
+        for (const auto& [c, r] : valleys) {
+          const BlockEdge& e = m.edges[static_cast<std::size_t>(c.block_feature)];
+          const double length = (m.vertices[static_cast<std::size_t>(e.b)] - m.vertices[static_cast<std::size_t>(e.a)]).norm();
+          const double planes = std::min(r->normals[0].dot(c.point - r->pa), r->normals[1].dot(c.point - r->pa));
+          const double tol = 1e-9 * (c.point.cwiseAbs().maxCoeff() + m.radius);
+          // An end may lie deeper than the crossing by up to the edge's length, beyond the
+          // depth limit when the crossing is that deep.
+          if (planes <= length - depth) {
+            ++deep;
+            continue;
+          }
+          ++crossings;
+          double best = std::numeric_limits<double>::infinity();
+          for (const Contact& n : without)
+            if ((n.point - c.point).norm() <= 2.0 * length + tol) best = std::min(best, n.gap);
+          if (best <= planes + tol) continue;
+          ++short_of;
+          shortfall = std::max(shortfall, best - planes);
+        }
+      }
+    }
+  }
+  // Measured: 22 150 crossings in 594 poses (and 6 788 deeper than the depth limit less
+  // the edge's length, not judged); all but 2 carried, those two by contacts 1.6 and
+  // 1.9 mm less near (the depth limit is 63 mm, 0.05 of it 3.2 mm).
+  std::printf("%zu valley crossings in %zu poses (and %zu deeper than the depth limit less the edge): %zu not "
+              "carried, by up to %g m\n",
+              crossings, poses_with, deep, short_of, shortfall);
+  EXPECT_GT(crossings, 10000u);
+  EXPECT_LE(1000 * short_of, crossings);
+  EXPECT_LE(shortfall, 0.05 * depth_limit);
+}
+
 // A detailed block's pairs with each triangle and ridge after searches, by their basis
 // (TerrainPatch::Candidates::Pairs::Basis): those gathered at the search's very pose and
 // those kept from an earlier one.

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <limits>
 #include <numeric>
+#include <type_traits>
 
 #include <Eigen/Eigenvalues>
 
@@ -173,6 +174,7 @@ void fill_patch(const terrain::Surface& surface, const std::vector<std::int32_t>
     }
     // A crest: the second triangle's third corner lies under the first one's plane.
     e.convex = e.normal_count == 2 && e.normals[0].dot(sides[k + 1].second - e.pa) < 0.0;
+    e.valley = e.normal_count == 2 && !e.convex;
     if (!flat) {
       e.box = geometry::Aabb{};
       e.box.add(e.pa);
@@ -1105,8 +1107,10 @@ void gather_candidates(const PlacedBlock& at, const TerrainPatch& patch, double 
   }
   for (std::size_t k = 0; k < patch.vertices.size(); ++k)
     if (!prune || contains(reach, patch.vertices[k].p)) c.vertices.push_back(static_cast<std::int32_t>(k));
+  const bool valleys = model.crosses_valleys() || cross_every_valley;
   for (std::size_t k = 0; k < patch.ridges.size(); ++k)
-    if (!prune || overlaps(patch.ridges[k].box, reach)) c.ridges.push_back(static_cast<std::int32_t>(k));
+    if ((valleys || !patch.ridges[k].valley) && (!prune || overlaps(patch.ridges[k].box, reach)))
+      c.ridges.push_back(static_cast<std::int32_t>(k));
   for (std::size_t be = 0; be < model.edges.size(); ++be) {
     const BlockEdge& bedge = model.edges[be];
     if (!bedge.convex) continue;
@@ -1485,12 +1489,15 @@ void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, dou
     // The pairs of the features (`ids`, of `features`) whose boxes meet the reach, gathered
     // again by `gather(feature, pairs)` where they no longer serve.
     thread_local Live live;
+    const bool valleys = model.crosses_valleys() || cross_every_valley;
     const auto refresh = [&](const std::vector<std::int32_t>& ids, const auto& features,
                              std::vector<TerrainPatch::Candidates::Pairs>& pairs, std::vector<std::size_t>& met,
                              const auto& gather) {
       met.clear();
       for (std::size_t j = 0; j < ids.size(); ++j) {
         const auto& feature = features[static_cast<std::size_t>(ids[j])];
+        if constexpr (std::is_same_v<std::decay_t<decltype(feature)>, TerrainPatch::Ridge>)
+          if (!valleys && feature.valley) continue;
         if (!overlaps(feature.box, reach)) continue;
         met.push_back(j);
         if (serves(pairs[j])) continue;

@@ -96,6 +96,10 @@ inline thread_local double set_aside_scale = 2.0;
 /// Whether a near search passes over the candidates the step would set aside (PassOver);
 /// off only for tests, as the reference the passing over must equal to the bit.
 inline thread_local bool pass_over_set_aside = true;
+/// Whether every block's edges are crossed with the terrain's valleys, whatever its edges'
+/// length (Model::crosses_valleys); on only for tests, as the reference a search without
+/// them is compared with.
+inline thread_local bool cross_every_valley = false;
 
 /// Finds every block–terrain contact candidate within `search_distance` (m) of the block
 /// `at`: block vertex – terrain triangle, terrain vertex – block face, block edge – terrain

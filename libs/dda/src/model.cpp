@@ -291,6 +291,9 @@ Model Model::build(const Settings& settings, const geometry::Polyhedron& block) 
   }
   bool reflex = false;
   m.edges = build_edges(block, m.faces, m.vertices, tol, reflex);
+  for (const BlockEdge& e : m.edges)
+    m.longest_edge = std::max(m.longest_edge, (m.vertices[static_cast<std::size_t>(e.b)] -
+                                               m.vertices[static_cast<std::size_t>(e.a)]).norm());
   m.convex = !reflex;
   if (m.vertices.size() > detail::kScannedVertices)
     m.index = std::make_shared<const detail::BlockIndex>(detail::make_block_index(m, 1e-6 * m.radius));

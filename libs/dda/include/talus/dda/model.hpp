@@ -52,6 +52,7 @@ struct Model {
   std::vector<Vec3> vertices;   ///< body frame: polyhedron vertices minus the centroid (m)
   std::vector<BlockFace> faces;
   std::vector<BlockEdge> edges;
+  double longest_edge = 0.0;    ///< length of the longest edge, body frame (m)
   double volume = 0.0;          ///< m³
   double mass = 0.0;            ///< kg
   Mat3 second_moments = Mat3::Zero();  ///< ρ-free ∫ r rᵀ dV about the centroid, body frame (m⁵)
@@ -84,6 +85,11 @@ struct Model {
   double max_step_displacement() const { return settings.max_displacement_ratio * size; }
   /// Deepest closed-contact penetration before the run fails (m).
   double penetration_limit() const { return settings.penetration_limit_ratio * 2.0 * radius; }
+  /// Whether the contact search crosses the block's edges with the terrain's valleys
+  /// (docs/dda.md, Detection): only for a block with an edge as long as the penetration
+  /// limit. A shorter edge's ends, whose vertex contacts are as near as any crossing of a
+  /// valley line, are never deeper than the crossing by that much.
+  bool crosses_valleys() const { return !(longest_edge < penetration_limit()); }
 };
 
 /// The 3×12 displacement matrix T(r) of SPEC §4 at the point r = x − x₀ (world frame,

@@ -164,7 +164,8 @@ struct TerrainPatch {
     /// `neighbours` from `first` (count `count`).
     std::int32_t first = 0, count = 0;
   };
-  /// An edge between two non-coplanar triangles, or on the patch border.
+  /// An edge between two non-coplanar triangles (a crest or a valley), or on the patch
+  /// border.
   struct Ridge {
     std::int32_t a = -1, b = -1;     ///< vertex ids, a < b
     Vec3 pa = Vec3::Zero(), pb = Vec3::Zero();
@@ -174,6 +175,9 @@ struct TerrainPatch {
     /// Two triangles that bend down from each other across the edge (a crest): the ground
     /// there is under both planes, not under either as in a valley.
     bool convex = false;
+    /// Two triangles that bend up from each other across the edge (a valley): only a
+    /// block that crosses valleys (Model::crosses_valleys) searches it.
+    bool valley = false;
     std::int32_t triangle = -1;
     geometry::Aabb box;
     /// The unit direction of normal_sum across the edge (its part along the edge taken

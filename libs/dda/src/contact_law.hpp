@@ -989,7 +989,7 @@ void settle_contacts(const Model& model, State& s, const std::vector<Persistent>
   const MatN<N> m = current_mass<N>(model, pose_of(model, s));
   const SymmetricSolver<N> llt(m);
   thread_local std::vector<VecN<N>> g, minv_g;
-  thread_local std::vector<double> weight, impulse, lower, upper;
+  thread_local std::vector<double> weight, root_weight, impulse, lower, upper;
   g.clear();
   lower.clear();
   upper.clear();
@@ -1010,10 +1010,12 @@ void settle_contacts(const Model& model, State& s, const std::vector<Persistent>
   const std::size_t n = g.size();
   minv_g.resize(n);
   weight.assign(n, 0.0);
+  root_weight.assign(n, 0.0);
   impulse.assign(n, 0.0);
   for (std::size_t i = 0; i < n; ++i) {
     minv_g[i] = llt.solve(g[i]);
     weight[i] = g[i].dot(minv_g[i]);
+    if (weight[i] > 0.0) root_weight[i] = std::sqrt(weight[i]);
   }
   VecN<N> v = s.velocity.template head<N>();
   // A sweep that leaves the velocity as it found it (to 1e-9 of it in the mass metric,
@@ -1030,7 +1032,7 @@ void settle_contacts(const Model& model, State& s, const std::vector<Persistent>
       const double change = next - impulse[i];
       v += change * minv_g[i];
       impulse[i] = next;
-      largest = std::max(largest, std::abs(change) * std::sqrt(weight[i]));
+      largest = std::max(largest, std::abs(change) * root_weight[i]);
     }
     if (largest <= 1e-12 * (1.0 + v.norm())) break;
     const VecN<N> change = v - v_start;

@@ -8,6 +8,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <numeric>
 #include <vector>
 
@@ -279,7 +280,8 @@ TEST(DdaBlockIndex, ValleyCrossingsAreCarriedByNearerContacts) {
         poses_with += !valleys.empty();
         for (const auto& [c, r] : valleys) {
           const BlockEdge& e = m.edges[static_cast<std::size_t>(c.block_feature)];
-          const double length = (m.vertices[static_cast<std::size_t>(e.b)] - m.vertices[static_cast<std::size_t>(e.a)]).norm();
+          const double length =
+              (m.vertices[static_cast<std::size_t>(e.b)] - m.vertices[static_cast<std::size_t>(e.a)]).norm();
           const double planes = std::min(r->normals[0].dot(c.point - r->pa), r->normals[1].dot(c.point - r->pa));
           const double tol = 1e-9 * (c.point.cwiseAbs().maxCoeff() + m.radius);
           // An end may lie deeper than the crossing by up to the edge's length, beyond the

@@ -225,8 +225,7 @@ TEST(DdaBlockIndex, SearchesAsTheScanOnAGrid) {
 // point p on block edge e) a contact at least as near within twice e's length of p, with
 // a gap no larger than the least of the two planes' distances at p (which is at most g when
 // g ≥ 0), to a round-off, for all but one in a thousand, and those within 5 % of the depth
-// limit. (Within e's length alone, its end vertices, the contact is often missed: it lies
-// at a neighbour of an end that lies outside the two triangles' prisms.) A crossing deeper
+// limit. (Within e's length alone 69 crossings had no such contact.) A crossing deeper
 // than the depth limit less e's length is not judged: an end may lie beyond that limit.
 TEST(DdaBlockIndex, ValleyCrossingsAreCarriedByNearerContacts) {
   const terrain::Terrain grid = rough_grid();

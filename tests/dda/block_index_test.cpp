@@ -300,9 +300,9 @@ TEST(DdaBlockIndex, ValleyCrossingsAreCarriedByNearerContacts) {
       }
     }
   }
-  // Measured: 22 150 crossings in 594 of the 800 poses (and 6 788 deeper than the depth limit less
-  // the edge's length, not judged); all but 2 carried, those two by contacts 1.6 and
-  // 1.9 mm less near (the depth limit is 63 mm, 0.05 of it 3.2 mm).
+  // Measured: 22 150 crossings in 594 of the 800 poses (and 6 788 deeper than the depth
+  // limit less the edge's length, not judged); all but 2 carried, those two by contacts
+  // 1.6 and 1.9 mm less near (the depth limit is 63 mm, 0.05 of it 3.2 mm).
   std::printf("%zu valley crossings in %zu poses (and %zu deeper than the depth limit less the edge): %zu not "
               "carried, by up to %g m\n",
               crossings, poses_with, deep, short_of, shortfall);

@@ -262,8 +262,7 @@ TEST(DdaBlockIndex, ValleyCrossingsAreCarriedByNearerContacts) {
         const auto valley_of = [&](const Contact& c) -> const TerrainPatch::Ridge* {
           if (c.kind != ContactKind::edge_edge) return nullptr;
           for (const TerrainPatch::Ridge& r : with_patch.ridges)
-            if (((static_cast<std::int64_t>(r.a) << 32) | static_cast<std::int64_t>(r.b)) == c.terrain_feature)
-              return r.valley ? &r : nullptr;
+            if (r.key() == c.terrain_feature) return r.valley() ? &r : nullptr;
           return nullptr;
         };
         std::vector<Contact> rest;

@@ -7,7 +7,6 @@
 #include <cstdint>
 #include <limits>
 #include <numeric>
-#include <type_traits>
 
 #include <Eigen/Eigenvalues>
 
@@ -174,7 +173,6 @@ void fill_patch(const terrain::Surface& surface, const std::vector<std::int32_t>
     }
     // A crest: the second triangle's third corner lies under the first one's plane.
     e.convex = e.normal_count == 2 && e.normals[0].dot(sides[k + 1].second - e.pa) < 0.0;
-    e.valley = e.normal_count == 2 && !e.convex;
     if (!flat) {
       e.box = geometry::Aabb{};
       e.box.add(e.pa);
@@ -390,6 +388,13 @@ double ridge_level_limit(const TerrainPatch::Ridge& te, const PlacedBlock& at, d
   }
   at.index()->vertices.query(passes, out);
   return false;
+}
+
+// Whether the search of `model` crosses its edges with ridge te: every ridge but a valley,
+// whose crossings a block of short edges leaves to its vertex contacts
+// (Model::crosses_valleys; cross_every_valley, the tests' reference, crosses them all).
+bool crosses(const Model& model, const TerrainPatch::Ridge& te) {
+  return !te.valley() || model.crosses_valleys() || cross_every_valley;
 }
 
 // The convex edges of a convex block (VertexClimb::fills) that `keeps` (gather_ridge_pairs's
@@ -766,7 +771,7 @@ inline __attribute__((always_inline)) void edge_meets_ridge(const Pose& pose, st
   Contact c;
   c.kind = ContactKind::edge_edge;
   c.block_feature = be;
-  c.terrain_feature = (static_cast<std::int64_t>(te.a) << 32) | static_cast<std::int64_t>(te.b);
+  c.terrain_feature = te.key();
   c.triangle = te.triangle;
   c.point = pc;
   c.normal = n;
@@ -1107,9 +1112,8 @@ void gather_candidates(const PlacedBlock& at, const TerrainPatch& patch, double 
   }
   for (std::size_t k = 0; k < patch.vertices.size(); ++k)
     if (!prune || contains(reach, patch.vertices[k].p)) c.vertices.push_back(static_cast<std::int32_t>(k));
-  const bool valleys = model.crosses_valleys() || cross_every_valley;
   for (std::size_t k = 0; k < patch.ridges.size(); ++k)
-    if ((valleys || !patch.ridges[k].valley) && (!prune || overlaps(patch.ridges[k].box, reach)))
+    if (crosses(model, patch.ridges[k]) && (!prune || overlaps(patch.ridges[k].box, reach)))
       c.ridges.push_back(static_cast<std::int32_t>(k));
   for (std::size_t be = 0; be < model.edges.size(); ++be) {
     const BlockEdge& bedge = model.edges[be];
@@ -1486,19 +1490,16 @@ void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, dou
       p.checked.turned = c.turned;
       return pairs_serve(p, *known, ds, depth_limit);
     };
-    // The pairs of the features (`ids`, of `features`) whose boxes meet the reach, gathered
-    // again by `gather(feature, pairs)` where they no longer serve.
+    // The pairs of the features (`ids`, of `features`) that are searched and whose boxes
+    // meet the reach, gathered again by `gather(feature, pairs)` where they no longer serve.
     thread_local Live live;
-    const bool valleys = model.crosses_valleys() || cross_every_valley;
     const auto refresh = [&](const std::vector<std::int32_t>& ids, const auto& features,
                              std::vector<TerrainPatch::Candidates::Pairs>& pairs, std::vector<std::size_t>& met,
-                             const auto& gather) {
+                             const auto& searched, const auto& gather) {
       met.clear();
       for (std::size_t j = 0; j < ids.size(); ++j) {
         const auto& feature = features[static_cast<std::size_t>(ids[j])];
-        if constexpr (std::is_same_v<std::decay_t<decltype(feature)>, TerrainPatch::Ridge>)
-          if (!valleys && feature.valley) continue;
-        if (!overlaps(feature.box, reach)) continue;
+        if (!searched(feature) || !overlaps(feature.box, reach)) continue;
         met.push_back(j);
         if (serves(pairs[j])) continue;
         gather(feature, pairs[j]);
@@ -1508,10 +1509,12 @@ void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, dou
       }
     };
     refresh(c.triangles, patch.triangles, c.triangle_pairs, live.triangles,
+            [](const TerrainPatch::Triangle&) { return true; },
             [&](const TerrainPatch::Triangle& tri, TerrainPatch::Candidates::Pairs& pairs) {
               gather_triangle_pairs(at, tri, ds + widening, depth_limit + widening, widening, pairs);
             });
     refresh(c.ridges, patch.ridges, c.ridge_pairs, live.ridges,
+            [&](const TerrainPatch::Ridge& te) { return crosses(model, te); },
             [&](const TerrainPatch::Ridge& te, TerrainPatch::Candidates::Pairs& pairs) {
               gather_ridge_pairs(at, te, ds + widening, depth_limit + widening, widening, pairs);
             });

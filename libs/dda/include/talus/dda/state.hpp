@@ -175,9 +175,6 @@ struct TerrainPatch {
     /// Two triangles that bend down from each other across the edge (a crest): the ground
     /// there is under both planes, not under either as in a valley.
     bool convex = false;
-    /// Two triangles that bend up from each other across the edge (a valley): only a
-    /// block that crosses valleys (Model::crosses_valleys) searches it.
-    bool valley = false;
     std::int32_t triangle = -1;
     geometry::Aabb box;
     /// The unit direction of normal_sum across the edge (its part along the edge taken
@@ -186,6 +183,11 @@ struct TerrainPatch {
     /// detect_indexed).
     Vec3 out = Vec3::Zero();
     double out_allowance = 0.0;  ///< round-off of values along `out` (m): 1e-9 of the coordinates
+    /// Two triangles that bend up from each other across the edge (a valley): only a
+    /// block that crosses valleys (Model::crosses_valleys) searches it.
+    bool valley() const { return normal_count == 2 && !convex; }
+    /// The edge as an edge–edge contact's terrain feature: its vertex ids a and b.
+    std::int64_t key() const { return (static_cast<std::int64_t>(a) << 32) | static_cast<std::int64_t>(b); }
   };
   std::vector<Triangle> triangles;
   std::vector<Vertex> vertices;

@@ -1,0 +1,996 @@
+// SPDX-License-Identifier: MIT
+#include "contact_law.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <utility>
+
+namespace talus::dda::detail {
+
+namespace {
+
+// Per-contact terms of one step, computed once and reused by the open–close iterations.
+template <int N>
+struct Work {
+  Eigen::Matrix<double, 3, N> t;        // T(r) at the contact point
+  VecN<N> gn;                           // Tᵀn: the gap's gradient
+  Eigen::Matrix<double, 3, N> ta;       // T(r) at the shear anchor
+  Vec3 s0;                              // shear spring stretch at the step start
+  double g0 = 0.0;                      // gap − offset at the step start
+  double mu = 1.0;                      // share of the friction coefficient a sliding contact gets
+  // A locked contact at its friction limit in this step: its shear spring is replaced in
+  // the solve by the Coulomb force μ·F_n against `limit_direction` (F_n implicit, as for a
+  // sliding contact), the exact return mapping of the spring; its anchor is moved to the
+  // limit once the step is accepted. `unloaded`: it was at the limit and its point moved
+  // back, so it is an elastic spring again for the rest of the step.
+  bool at_limit = false;
+  bool unloaded = false;
+  Vec3 limit_direction = Vec3::Zero();
+  // The direction follows the stretch (a radial return): linearised about the solution
+  // `limit_at` it was taken from, the force turns with the stretch at a stiffness
+  // `limit_turn` = μ·F_n/|stretch| (N/m) across it.
+  double limit_turn = 0.0;
+  VecN<N> limit_at = VecN<N>::Zero();
+};
+
+// A member's held state in the complementarity pass: its mode and what goes with it.
+struct HeldState {
+  ContactMode mode;
+  ContactMode resume;
+  Vec3 slip_direction;
+};
+
+// The buffers of one solve, kept from step to step to avoid allocations (their contents
+// never outlive a call).
+template <int N>
+struct Buffers {
+  std::vector<Work<N>> work;
+  std::vector<std::uint8_t> visited, held, first_open;
+  std::vector<double> open_depth, closed_tension, last_shift;
+  std::vector<std::size_t> members;
+  std::vector<HeldState> member_start;
+  std::vector<Vec3> member_slip;
+};
+
+std::uint8_t bit(ContactMode m) { return static_cast<std::uint8_t>(1u << static_cast<unsigned>(m)); }
+
+// The mode a contact's re-judgement asks for, with the slip direction or re-stick it implies.
+struct Transition {
+  ContactMode next;
+  Vec3 slip;
+  bool restick = false;
+};
+
+// Whether judging the contacts changed a mode, or moved an anchor or a spring zero (the
+// solution must then be redone).
+struct Judged {
+  bool changed = false;
+  bool shifted = false;
+};
+
+// One step's contact law over its contacts. Each contact may visit each of its three modes
+// once per step; a contact whose re-judgement would take it back to a mode it already had
+// in this step (open -> locked -> open, locked -> sliding -> locked, ...) is held closed --
+// sliding if it slid -- for the rest of the step, and so is every contact that changes
+// state after `max_open_close_iterations`. The iteration therefore always ends, after at
+// most max_open_close_iterations + 5·(contacts) + 1 solves (the last ones dropping friction
+// that would push); a held contact carries at most the small tension or slip error of one
+// state flip (counted in Counters::held_contacts).
+template <int N>
+class ContactLaw {
+ public:
+  ContactLaw(const Model& model, const Pose& pose, const State& s, double dt, double friction,
+             std::vector<Contact>& contacts, VecN<N>& d, PhaseTimes& times, bool freeze_strain, bool impact_phase)
+      : model_(model), set_(model.settings), pose_(pose), s_(s), dt_(dt), friction_(friction), contacts_(contacts),
+        d_(d), times_(times), timing_(model.settings.time_phases), freeze_strain_(freeze_strain),
+        impact_phase_(impact_phase), p_(model.stiffness), ps_(p_ / model.settings.shear_stiffness_ratio),
+        b_(buffers()), work_(b_.work) {}
+
+  StepOutcome solve();
+
+ private:
+  static Buffers<N>& buffers() {
+    thread_local Buffers<N> b;
+    return b;
+  }
+  void assemble();
+  void trial_slip();
+  void start_iteration();
+  void solve_modes(VecN<N>& x);
+  void judge(std::size_t i, int iter, Judged& j);
+  void judge_held(Contact& c, Work<N>& w, std::size_t i, double g, Judged& j);
+  bool propose(Contact& c, Work<N>& w, double g, Transition& t, Judged& j);
+  bool resolve_cycle(Contact& c, Work<N>& w, std::size_t i, double g, Transition& t, Judged& j);
+  void change_mode(Contact& c, Work<N>& w, std::size_t i, double g, const Transition& t, Judged& j);
+  void restick(Contact& c, Work<N>& w, double g);
+  bool cap_at_friction(Contact& c, Work<N>& w, double g, double slack);
+  void set_limit(Work<N>& w, const Vec3& st, double g);
+  bool drop_pushing_friction();
+  double violation(const VecN<N>& x) const;
+  bool complement();
+  void set_member_modes(unsigned code);
+  void restore_member(std::size_t k);
+  StepOutcome accept();
+
+  const Model& model_;
+  const Settings& set_;
+  const Pose& pose_;
+  const State& s_;
+  const double dt_;
+  const double friction_;
+  std::vector<Contact>& contacts_;
+  VecN<N>& d_;
+  PhaseTimes& times_;
+  const bool timing_;
+  const bool freeze_strain_;
+  const bool impact_phase_;
+  const double p_;   // normal spring (N/m)
+  const double ps_;  // shear spring (N/m)
+  Buffers<N>& b_;
+  std::vector<Work<N>>& work_;
+  MatN<N> k0_;  // the step's matrix without contacts
+  VecN<N> f0_;  // and its right-hand side
+  int free_iterations_ = 0;
+  StepOutcome out_;
+};
+
+// Inertia (2M/Δt²), the velocity and gravity terms, the 12-DOF elasticity, and each
+// contact's terms at the step start.
+template <int N>
+void ContactLaw<N>::assemble() {
+  PhaseTimer timer(timing_, times_.assemble);
+  const MatN<N> m = current_mass<N>(model_, pose_);
+  const VecN<N> v0 = s_.velocity.template head<N>();
+  k0_ = (2.0 / (dt_ * dt_)) * m;
+  f0_ = (2.0 / dt_) * (m * v0);
+  f0_.template head<3>() += model_.mass * gravity_vector(model_);
+  if constexpr (N == 12) {
+    // Accumulated strain (body frame, from the stretch U) acts as an initial stress.
+    const Mat3 e_body = 0.5 * (s_.stretch + s_.stretch.transpose()) - Mat3::Identity();
+    const Mat3 e_world = pose_.rotation * e_body * pose_.rotation.transpose();
+    const Eigen::Matrix<double, 6, 1> sigma = model_.elasticity * voigt(e_world);
+    k0_.template bottomRightCorner<6, 6>() += model_.volume * model_.elasticity;
+    f0_.template tail<6>() -= model_.volume * sigma;
+  }
+  work_.resize(contacts_.size());
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    Contact& c = contacts_[i];
+    Work<N>& w = work_[i];
+    w.t = dof_matrix<N>(c.point - pose_.centre);
+    w.gn = w.t.transpose() * c.normal;
+    // A slip direction carried from an earlier step (an edge–edge normal turns with
+    // the block) is made tangent again: friction must have no normal part.
+    const Vec3 slip = c.slip_direction - c.normal * c.normal.dot(c.slip_direction);
+    c.slip_direction = slip.norm() > 1e-9 ? Vec3(slip.normalized()) : Vec3::Zero();
+    w.g0 = c.gap - c.gap_offset;
+    w.mu = 1.0;
+    w.at_limit = false;
+    w.unloaded = false;
+    if (c.anchored) {
+      const Vec3 xa = pose_.centre + pose_.map * c.body_anchor;
+      w.ta = dof_matrix<N>(xa - pose_.centre);
+      const Vec3 s_raw = xa - c.ground_anchor;
+      w.s0 = s_raw - c.normal * c.normal.dot(s_raw);
+    }
+  }
+}
+
+// The Coulomb force of a contact that slides into this step opposes its trial slip: the
+// slip of this step's solution with no friction at all (open contacts out, closed ones
+// with their normal springs, locked ones with their shear springs). For a translating
+// block that is the implicit (radial-return) direction, the one the converged slip
+// takes; the previous step's slip lags behind it, and on a block sliding slowly with a
+// small sideways velocity the lagging force overshot sideways each step: a sway of
+// ±1.4 mm/s that kept a cube sliding at 2.4 mm/s down a slope it should stick to.
+// The rigid path only: on the 12-DOF path a friction set against the trial slip kept 3 of
+// 8 cubes of the landing case sliding at 2.7 mm/s, with a rocking velocity that flipped
+// sign every step; set against the previous step's slip, all 8 stick (cause not traced).
+template <int N>
+void ContactLaw<N>::trial_slip() {
+  if (!(N == 6 && friction_ > 0.0 && std::any_of(contacts_.begin(), contacts_.end(), [](const Contact& c) {
+          return c.mode == ContactMode::sliding;
+        })))
+    return;
+  PhaseTimer timer(timing_, times_.open_close);
+  MatN<N> k = k0_;
+  VecN<N> f = f0_;
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    const Contact& c = contacts_[i];
+    const Work<N>& w = work_[i];
+    if (c.mode == ContactMode::open) continue;
+    k.noalias() += p_ * w.gn * w.gn.transpose();
+    f -= p_ * w.g0 * w.gn;
+    if (c.mode != ContactMode::locked) continue;
+    const Eigen::Matrix<double, 3, N>& ta = c.anchored ? w.ta : w.t;
+    const VecN<N> gt = ta.transpose() * c.normal;
+    k.noalias() += ps_ * (gram<N>(ta) - gt * gt.transpose());
+    if (c.anchored) f -= ps_ * (ta.transpose() * w.s0);
+  }
+  const VecN<N> trial = SymmetricSolver<N>(k).solve(f);
+  if (!trial.allFinite()) return;
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    Contact& c = contacts_[i];
+    if (c.mode != ContactMode::sliding) continue;
+    const Vec3 du = work_[i].t * trial;
+    const Vec3 ut = du - c.normal * c.normal.dot(du);
+    if (ut.norm() > 0.0) c.slip_direction = ut.normalized();
+  }
+}
+
+// The per-contact records of the iteration: the modes each contact has visited, whether
+// it is held, the last penetration of its open state and tension of its closed state (m,
+// which of the two violates less decides how a contact cycling between them is held),
+// whether it opened the step open, and the last move of its spring zero (unbounded for a
+// contact that starts the step with its spring unloaded at its accepted offset, zero --
+// no move allowed -- for any other).
+template <int N>
+void ContactLaw<N>::start_iteration() {
+  const std::size_t n = contacts_.size();
+  b_.visited.assign(n, 0);
+  b_.held.assign(n, 0);
+  for (std::size_t i = 0; i < n; ++i) b_.visited[i] = bit(contacts_[i].mode);
+  b_.open_depth.assign(n, std::numeric_limits<double>::infinity());
+  b_.closed_tension.assign(n, 0.0);
+  b_.first_open.clear();
+  for (const Contact& c : contacts_) b_.first_open.push_back(c.mode == ContactMode::open ? 1 : 0);
+  b_.last_shift.clear();
+  for (const Contact& c : contacts_)
+    b_.last_shift.push_back(c.gap - c.gap_offset == 0.0 ? std::numeric_limits<double>::infinity() : 0.0);
+  free_iterations_ = static_cast<int>(set_.max_open_close_iterations);
+}
+
+// Assembles the step's system for the contacts' current modes and solves it into x.
+template <int N>
+void ContactLaw<N>::solve_modes(VecN<N>& x) {
+  MatN<N> k = k0_;
+  VecN<N> f = f0_;
+  bool unsymmetric = false;  // a contact slides or is at its friction limit
+  {
+    PhaseTimer timer(timing_, times_.open_close);
+    for (std::size_t i = 0; i < contacts_.size(); ++i) {
+      Contact& c = contacts_[i];
+      Work<N>& w = work_[i];
+      if (c.mode == ContactMode::open) continue;
+      k.noalias() += p_ * w.gn * w.gn.transpose();
+      f -= p_ * w.g0 * w.gn;
+      if (c.mode == ContactMode::locked) {
+        if (!c.anchored) {
+          // A contact closing now is anchored where it touches at the step start.
+          c.anchored = true;
+          c.body_anchor = pose_.inverse_map * (c.point - pose_.centre);
+          c.ground_anchor = c.point - c.gap * c.normal;
+          w.ta = w.t;
+          w.s0.setZero();
+        }
+        if (w.at_limit) {
+          // At the friction limit: the Coulomb force μ·F_n against the stretch, at the
+          // anchored point, with F_n implicit in d, and its turn with the stretch.
+          const VecN<N> ts = w.ta.transpose() * w.limit_direction;
+          k.noalias() -= friction_ * p_ * ts * w.gn.transpose();
+          f += friction_ * p_ * w.g0 * ts;
+          const Mat3 across =
+              Mat3::Identity() - c.normal * c.normal.transpose() - w.limit_direction * w.limit_direction.transpose();
+          const Eigen::Matrix<double, 3, N> turn = across * w.ta;
+          const MatN<N> kt = w.limit_turn * (turn.transpose() * turn);
+          k.noalias() += kt;
+          f.noalias() += kt * w.limit_at;
+          unsymmetric = true;
+          continue;
+        }
+        // ps·(P T)ᵀ(P T) with P = I − nnᵀ equals ps·(TᵀT − (Tᵀn)(Tᵀn)ᵀ).
+        const VecN<N> gt = w.ta.transpose() * c.normal;
+        k.noalias() += ps_ * (gram<N>(w.ta) - gt * gt.transpose());
+        f -= ps_ * (w.ta.transpose() * w.s0);
+      } else {
+        // Sliding: Coulomb force μ·F_n against the slip, with F_n implicit in d so the
+        // friction matches the normal force of this very step.
+        const VecN<N> ts = w.t.transpose() * c.slip_direction;
+        k.noalias() -= w.mu * friction_ * p_ * ts * w.gn.transpose();
+        f += w.mu * friction_ * p_ * w.g0 * ts;
+        unsymmetric = true;
+      }
+    }
+  }
+  PhaseTimer timer(timing_, times_.solve);
+  // Symmetric positive definite unless a contact slides or is at its friction limit
+  // (implicit friction).
+  if constexpr (N == 12) {
+    if (freeze_strain_) {
+      // Strain increments held at zero: the rigid block of the system.
+      const Mat6 k6 = k.template topLeftCorner<6, 6>();
+      const Eigen::Matrix<double, 6, 1> f6 = f.template head<6>();
+      x.setZero();
+      if (unsymmetric) x.template head<6>() = PivotedLu6(k6).solve(f6);
+      else x.template head<6>() = Cholesky6(k6).solve(f6);
+      return;
+    }
+  }
+  if (unsymmetric) x = GeneralSolver<N>(k).solve(f);
+  else x = SymmetricSolver<N>(k).solve(f);
+}
+
+// Return mapping: moves a locked contact's anchor so that its shear spring carries at
+// most μ·F_n of this solution (F_n = −p·g, nothing in tension) once it carries more
+// than `slack` times that. True if it moved.
+template <int N>
+bool ContactLaw<N>::cap_at_friction(Contact& c, Work<N>& w, double g, double slack) {
+  const Vec3 sv = w.s0 + w.ta * d_;
+  const Vec3 st = sv - c.normal * c.normal.dot(sv);
+  const double limit = friction_ * std::max(0.0, -p_ * g) / ps_;
+  const double stretch = st.norm();
+  if (stretch <= slack * limit * (1.0 + 1e-9) + 1e-15 * model_.radius) return false;
+  const Vec3 shift = st * (limit / stretch - 1.0);
+  w.s0 += shift;
+  c.ground_anchor -= shift;
+  return true;
+}
+
+// A contact at its friction limit takes the direction of its stretch `st` in this
+// solution, and is linearised about it.
+template <int N>
+void ContactLaw<N>::set_limit(Work<N>& w, const Vec3& st, double g) {
+  w.limit_direction = st.normalized();
+  w.limit_turn = friction_ * std::max(0.0, -p_ * g) / st.norm();
+  w.limit_at = d_;
+}
+
+// A contact that re-sticks after slipping gets its shear spring stretched to the friction
+// force it carried, so the force is continuous and the load does not jump to the other
+// contacts (which would make a block ratchet down a slope it should stick to). That
+// stretch stores ½(μF_n)²/k_s that no force stored, negligible at rest but not under an
+// impact's forces: there the anchor starts unstretched. Nor does it exceed the friction
+// force the contact carried into the step (its normal force at the end of the last step):
+// a force it never carried is not continued, and a transient iterate pressing a contact
+// that opened the step with a gap 1e-3 m deep pre-stretched its anchor with 847 J that
+// turned into motion of a block at rest.
+template <int N>
+void ContactLaw<N>::restick(Contact& c, Work<N>& w, double g) {
+  const double stretch = impact_phase_ ? 0.0 : friction_ * std::min(-p_ * g, c.normal_force) / ps_;
+  c.anchored = true;
+  w.s0 = stretch * c.slip_direction;
+  c.body_anchor = pose_.inverse_map * (c.point - pose_.centre);
+  c.ground_anchor = c.point - c.gap * c.normal - w.s0;
+  w.ta = w.t;
+}
+
+// A held contact keeps its mode but not a force friction cannot carry: a locked one has
+// its anchor moved to the friction limit of this solution (none in tension), and a
+// sliding one may still stick once, since Coulomb friction must never push along the
+// slip. Nor a pull that does work: a closed contact that started the step with a gap and
+// ends it in tension (0 < g < g₀) pulls the block towards the ground along its whole
+// approach. It opens, and stays open (held): a contact held locked after the free
+// iterations, 9 mm off at the step start and 0.17 mm in tension at its end, did 1.7 MJ of
+// work on a block at rest.
+template <int N>
+void ContactLaw<N>::judge_held(Contact& c, Work<N>& w, std::size_t i, double g, Judged& j) {
+  if (c.mode != ContactMode::open && w.g0 > 0.0 && g > 0.0) {
+    c.resume = c.mode;
+    c.mode = ContactMode::open;
+    j.changed = true;
+    return;
+  }
+  // A held contact that started the step unloaded (at its accepted offset, as a landing
+  // vertex found already below the surface does) and ends it in tension has its spring's
+  // zero moved to where its point ends, never above the surface (a return mapping of the
+  // normal spring, as the anchor's for friction), and the solution is redone; again only
+  // while the tension it is left with shrinks. (Moved whatever the tension, the shifts of
+  // two sliding contacts of a 1000 m³ cube fed on each other, a zero went 2.4 cm up in
+  // eight iterations and the step gained 2.2e10 J.) Opened instead, it could sink with
+  // nothing to stop it; held with its pull, a rolling sphere's landing vertex held 4e-5 m
+  // in tension (4.5e7 N) beside a compressed one 4 cm away, and the couple turned 5 rad/s
+  // of rolling spin into 3 rad/s about the slope line: 17 % of the block's kinetic energy
+  // in one step.
+  if (c.mode != ContactMode::open && g > 1e-12 * model_.radius && c.gap_offset < 0.0 && g < b_.last_shift[i]) {
+    const double shift = std::min(g, -c.gap_offset);
+    c.gap_offset += shift;
+    w.g0 -= shift;
+    b_.last_shift[i] = shift;
+    j.shifted = true;
+  }
+  if (c.mode == ContactMode::locked) {
+    j.shifted = cap_at_friction(c, w, g, 2.0) || j.shifted;
+  } else if (b_.held[i] == 1 && c.mode == ContactMode::sliding && g < 0.0) {
+    const Vec3 du = w.t * d_;
+    if ((du - c.normal * c.normal.dot(du)).dot(c.slip_direction) < 0.0) {
+      c.mode = ContactMode::locked;
+      restick(c, w, g);
+      b_.held[i] = 2;
+      j.changed = true;
+    }
+  }
+}
+
+// The state the solution asks for (into t), and the slip direction or re-stick it
+// implies. False when the contact is settled for this iteration without a mode change
+// (an anchor moved or a limit set instead, recorded in j).
+template <int N>
+bool ContactLaw<N>::propose(Contact& c, Work<N>& w, double g, Transition& t, Judged& j) {
+  if (c.mode == ContactMode::open) {
+    // Without friction a closed contact only slides: no shear spring at all.
+    if (g < 0.0 && !(friction_ > 0.0)) {
+      t.next = ContactMode::sliding;
+      const Vec3 du = w.t * d_;
+      const Vec3 ut = du - c.normal * c.normal.dot(du);
+      if (c.slip_direction.squaredNorm() == 0.0 && ut.norm() > 0.0) t.slip = ut.normalized();
+    } else if (g < 0.0) {
+      // A contact that slid before it opened resumes sliding only while its point still
+      // moves along the remembered slip: a stale direction (a rolling block's vertex
+      // landing again) would turn the Coulomb force against the motion.
+      const Vec3 du = w.t * d_;
+      const Vec3 ut = du - c.normal * c.normal.dot(du);
+      t.next = c.resume == ContactMode::sliding && ut.dot(c.slip_direction) > 0.0 ? ContactMode::sliding
+                                                                                  : ContactMode::locked;
+    }
+    return true;
+  }
+  if (g >= 0.0) {
+    t.next = ContactMode::open;
+    return true;
+  }
+  if (c.mode == ContactMode::sliding) {
+    const Vec3 du = w.t * d_;
+    const Vec3 dt_slip = du - c.normal * c.normal.dot(du);
+    if (dt_slip.dot(c.slip_direction) < 0.0) {
+      t.next = ContactMode::locked;
+      t.restick = true;
+    }
+    return true;
+  }
+  // Locked.
+  const Vec3 sv = w.s0 + w.ta * d_;
+  const Vec3 st = sv - c.normal * c.normal.dot(sv);
+  const double fs = ps_ * st.norm();
+  if (w.at_limit) {
+    // At the limit while its anchored point moves on along the stretch; moved back (or no
+    // longer stretched past the limit), it unloads: an elastic spring again. Its force
+    // follows the stretch's direction (a radial return): the solution is redone until the
+    // direction holds, and only then may a larger slip slide.
+    const Vec3 da = w.ta * d_;
+    if ((da - c.normal * c.normal.dot(da)).dot(w.limit_direction) < 0.0 || !(fs > friction_ * (-p_ * g))) {
+      w.at_limit = false;
+      w.unloaded = true;
+      j.shifted = true;
+      return false;
+    }
+    const Vec3 direction = st.normalized();
+    if (direction.dot(w.limit_direction) < 1.0 - 1e-9) {
+      set_limit(w, st, g);
+      j.shifted = true;
+      return false;
+    }
+  }
+  if (fs > friction_ * (-p_ * g) * (1.0 + 1e-12) && st.norm() > 0.0) {
+    // A slip within the shear spring's elastic range (μ·F_n/k_s) leaves the contact
+    // locked at its friction limit (a return mapping, as in elastoplastic friction): a
+    // sticking contact at its limit -- the uphill edge of a block resting on a slope --
+    // stays locked instead of alternating between sliding and re-sticking each step,
+    // which made a resting block creep. A larger slip slides, with the Coulomb force
+    // implicit and opposite the motion.
+    const Vec3 du = w.t * d_;
+    const double slipped = (du - c.normal * c.normal.dot(du)).norm();
+    if (slipped <= friction_ * (-p_ * g) / ps_) {
+      // The spring is replaced by the Coulomb force along the stretch and the step solved
+      // again: the exact return mapping. Moving the anchor to the limit of each solution
+      // instead converged by a factor Σk_s / (2m/Δt² + Σk_s), 0.997 for four springs of a
+      // 1 m³ cube at 1 ms, and the iteration's bound stopped it at a few percent of the
+      // displacement: a cube whose contacts were all at their limit on a plane 0.5 %
+      // steeper than its friction angle did not slide. A contact that unloaded in this
+      // step has its anchor moved instead (bounded: it cannot cycle between the two). So
+      // has every contact on the 12-DOF path: there the Coulomb force let a cube whose
+      // friction angle exceeds the slope by 0.05° slide off at 2.5 mm/s (its strain mode
+      // keeps vibrating), while with anchors moved it stays.
+      if (N == 12 || w.unloaded) {
+        j.shifted = cap_at_friction(c, w, g, 1.0) || j.shifted;
+      } else if (!w.at_limit) {
+        w.at_limit = true;
+        set_limit(w, st, g);
+        j.shifted = true;
+      }
+      return false;
+    }
+    t.next = ContactMode::sliding;
+    t.slip = st.normalized();
+  }
+  return true;
+}
+
+// A contact whose proposed mode is one it already had in this step. False when it is
+// settled for this iteration (held, or its anchor moved) without the change of t.
+template <int N>
+bool ContactLaw<N>::resolve_cycle(Contact& c, Work<N>& w, std::size_t i, double g, Transition& t, Judged& j) {
+  const bool touched_open = ((b_.visited[i] | bit(t.next)) & bit(ContactMode::open)) != 0;
+  if (!touched_open) {
+    // Cycling between sticking and slipping: the contact is at the friction limit. It is
+    // held locked with its anchor moved so that the shear spring carries exactly μ·F_n
+    // along the stretch of this solution (a return mapping): a sticking block that just
+    // stopped keeps its load shared, without more slip.
+    if (c.mode == ContactMode::locked) {
+      w.at_limit = false;
+      j.shifted = cap_at_friction(c, w, g, 1.0) || j.shifted;
+      return false;
+    }
+    t.next = ContactMode::locked;  // the re-stick pre-stretches it to the limit
+    return friction_ > 0.0;        // nothing to stick with: it keeps sliding
+  }
+  // Cycling between open and closed: the contact carries almost no load (a closed state
+  // in tension against an open one that penetrates). A contact compressed at the step
+  // start is held closed and sliding along its tangential motion in this solution, so it
+  // bears the bounded Coulomb force; locked only if it does not move tangentially at all.
+  // A contact that starts the step with a gap is held open instead: closed, its spring
+  // would pull with the whole gap as tension. So is a contact that was open at the step
+  // start if its open state penetrates less than its closed state pulls, and by no more
+  // than `shallow`: a rolling block's vertex landing again at zero gap sank 1.5e-5 m open
+  // but pulled at 6e-5 m of tension (7e7 N) held closed, and the block lost most of its
+  // spin in one step. (A held-open penetration becomes the next step's accepted offset,
+  // so deeper ones would let a soft-contact block sink step by step.)
+  const double shallow = 1e-3 * model_.penetration_limit();
+  if (w.g0 > 0.0 ||
+      (b_.first_open[i] && b_.open_depth[i] < b_.closed_tension[i] && b_.open_depth[i] <= shallow)) {
+    if (c.mode == ContactMode::open) return false;
+    b_.visited[i] |= bit(ContactMode::open);
+    j.changed = true;
+    c.resume = c.mode;
+    c.mode = ContactMode::open;
+    w.at_limit = false;
+    return false;
+  }
+  const Vec3 du = w.t * d_;
+  const Vec3 tangential = du - c.normal * c.normal.dot(du);
+  if (c.mode == ContactMode::sliding) {
+    // It stays sliding, against its motion in this solution.
+    if (tangential.norm() > 0.0 && c.slip_direction.dot(tangential.normalized()) < 1.0 - 1e-9) {
+      c.slip_direction = tangential.normalized();
+      j.changed = true;
+    }
+    return false;
+  }
+  if (tangential.norm() > 0.0) {
+    t.next = ContactMode::sliding;
+    t.slip = tangential.normalized();
+  } else if (c.mode == ContactMode::locked) {
+    return false;
+  } else {
+    t.next = ContactMode::locked;
+  }
+  t.restick = false;
+  return true;
+}
+
+// Puts the contact in the mode t asks for.
+template <int N>
+void ContactLaw<N>::change_mode(Contact& c, Work<N>& w, std::size_t i, double g, const Transition& t, Judged& j) {
+  b_.visited[i] |= bit(t.next);
+  j.changed = true;
+  if (t.next == ContactMode::sliding && (c.mode != ContactMode::sliding || c.slip_direction.squaredNorm() == 0.0))
+    c.slip_direction = t.slip;
+  if (t.next == ContactMode::open) c.resume = c.mode;
+  // The friction would reverse the slip: the contact sticks, its shear spring stretched
+  // to the friction force it carried (restick).
+  if (t.restick) restick(c, w, g);
+  c.mode = t.next;
+  w.at_limit = false;
+}
+
+// Re-judges contact i against the solution d: open, sliding or locked.
+template <int N>
+void ContactLaw<N>::judge(std::size_t i, int iter, Judged& j) {
+  Contact& c = contacts_[i];
+  Work<N>& w = work_[i];
+  const double g = w.g0 + w.gn.dot(d_);
+  if (c.mode == ContactMode::open) {
+    if (g < 0.0) b_.open_depth[i] = -g;
+  } else {
+    b_.closed_tension[i] = std::max(0.0, g);
+  }
+  if (b_.held[i]) {
+    judge_held(c, w, i, g, j);
+    return;
+  }
+  Transition t{c.mode, c.slip_direction, false};
+  if (!propose(c, w, g, t, j) || t.next == c.mode) return;
+  const bool revisit = (b_.visited[i] & bit(t.next)) != 0;
+  if (revisit || iter >= free_iterations_) b_.held[i] = 1;
+  if (revisit && !resolve_cycle(c, w, i, g, t, j)) return;
+  change_mode(c, w, i, g, t, j);
+}
+
+// A held sliding contact may end the step in tension (g ≥ 0) or with its point moving
+// against its friction direction. Its implicit Coulomb force μ·p·(−g) then pushes along
+// the motion: in tension the "normal force" is negative. One such contact, held closed
+// 3e-5 m in tension under a tetrahedron spinning at 12 rad/s, put 6e6 N of friction along
+// a 13 mm slip and gave the step 78 kJ. A contact that carries no compression has no
+// friction, and friction never works along the motion: once the modes are final, such
+// contacts slide without friction and the step is solved again with the modes kept (each
+// contact loses its friction at most once). True if any did. A contact at its friction
+// limit pushes the same way in tension or once its point moves back against its stretch:
+// it is an elastic spring again, and the step is solved again.
+template <int N>
+bool ContactLaw<N>::drop_pushing_friction() {
+  bool dropped = false;
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    const Contact& c = contacts_[i];
+    Work<N>& w = work_[i];
+    if (c.mode == ContactMode::locked && w.at_limit) {
+      const Vec3 da = w.ta * d_;
+      if (w.g0 + w.gn.dot(d_) >= 0.0 || (da - c.normal * c.normal.dot(da)).dot(w.limit_direction) < 0.0) {
+        w.at_limit = false;
+        w.unloaded = true;
+        dropped = true;
+      }
+      continue;
+    }
+    if (c.mode != ContactMode::sliding || w.mu == 0.0 || !(friction_ > 0.0)) continue;
+    const Vec3 du = w.t * d_;
+    if (w.g0 + w.gn.dot(d_) >= 0.0 || (du - c.normal * c.normal.dot(du)).dot(c.slip_direction) < 0.0) {
+      w.mu = 0.0;
+      dropped = true;
+    }
+  }
+  return dropped;
+}
+
+// How far x violates the complementarity members' modes (m; 0 if consistent): an open
+// contact does not penetrate, a closed one carries no tension, a locked one's shear force
+// is within μ·F_n and a sliding one does not move against its friction.
+template <int N>
+double ContactLaw<N>::violation(const VecN<N>& x) const {
+  const double tolerance = 1e-9 * model_.radius;
+  double worst = 0.0;
+  for (const std::size_t i : b_.members) {
+    const Contact& c = contacts_[i];
+    const Work<N>& w = work_[i];
+    const double g = w.g0 + w.gn.dot(x);
+    if (c.mode == ContactMode::open) {
+      worst = std::max(worst, -g - tolerance);
+      continue;
+    }
+    worst = std::max(worst, g - tolerance);
+    if (!(friction_ > 0.0)) continue;
+    if (c.mode == ContactMode::locked) {
+      const Vec3 sv = w.s0 + w.ta * x;
+      const double stretch = (sv - c.normal * c.normal.dot(sv)).norm();
+      const double limit = friction_ * std::max(0.0, -p_ * g) / ps_;
+      worst = std::max(worst, stretch - limit * (1.0 + 1e-9) - tolerance);
+    } else {
+      const Vec3 du = w.t * x;
+      worst = std::max(worst, -(du - c.normal * c.normal.dot(du)).dot(c.slip_direction) - tolerance);
+    }
+  }
+  return worst;
+}
+
+// Back to member k's held state. (An anchor a trial set for a contact closing locked
+// stays: it is where the contact touches at the step start whichever combination set it,
+// and the chosen solution's shear force acts on it.)
+template <int N>
+void ContactLaw<N>::restore_member(std::size_t k) {
+  Contact& c = contacts_[b_.members[k]];
+  c.mode = b_.member_start[k].mode;
+  c.resume = b_.member_start[k].resume;
+  c.slip_direction = b_.member_start[k].slip_direction;
+}
+
+// Combination `code` in base 3, one digit per member: 0 open, 1 sliding, 2 locked.
+template <int N>
+void ContactLaw<N>::set_member_modes(unsigned code) {
+  for (std::size_t k = 0; k < b_.members.size(); ++k, code /= 3) {
+    Contact& c = contacts_[b_.members[k]];
+    const ContactMode start_mode = b_.member_start[k].mode;
+    restore_member(k);
+    const unsigned digit = code % 3;
+    if (digit == 0) {
+      c.mode = ContactMode::open;
+      if (start_mode != ContactMode::open) c.resume = start_mode;
+    } else if (digit == 1) {
+      c.mode = ContactMode::sliding;
+      if (start_mode != ContactMode::sliding) c.slip_direction = b_.member_slip[k];
+    } else {
+      c.mode = ContactMode::locked;
+    }
+  }
+}
+
+// Contacts held after cycling between open and closed get a complementarity solution once
+// the iteration has settled: the held state only ends the cycle, and it can be wrong both
+// ways -- held open, a landing vertex sinks; held closed, it pulls in tension (a rolling
+// sphere's landing vertex held closed 9e-5 m in tension, 1e8 N, beside a compressed one
+// 9 cm away: the couple reversed a 5.8 rad/s spin in one step and took 96 % of the
+// block's kinetic energy). Each such contact is open, sliding (along its tangential
+// motion in the held solution) or locked; of the 3^m combinations (m <= 4, the others
+// kept as they are) the first in which every one of them is consistent (violation) is
+// taken: the solution of the small complementarity problem. If none is, the one that
+// violates least. True if it changed the modes; d then holds the chosen solution.
+template <int N>
+bool ContactLaw<N>::complement() {
+  const std::uint8_t open_bit = bit(ContactMode::open);
+  b_.members.clear();
+  for (std::size_t i = 0; i < contacts_.size(); ++i)
+    if (b_.held[i] && (b_.visited[i] & open_bit) && (b_.visited[i] & static_cast<std::uint8_t>(~open_bit)))
+      b_.members.push_back(i);
+  if (b_.members.empty() || b_.members.size() > 4) return false;
+  double best = violation(d_);
+  if (!(best > 0.0)) return false;
+  b_.member_start.clear();
+  b_.member_slip.clear();
+  for (const std::size_t i : b_.members) {
+    const Contact& c = contacts_[i];
+    b_.member_start.push_back({c.mode, c.resume, c.slip_direction});
+    const Vec3 du = work_[i].t * d_;
+    const Vec3 ut = du - c.normal * c.normal.dot(du);
+    b_.member_slip.push_back(ut.norm() > 0.0 ? Vec3(ut.normalized()) : c.slip_direction);
+  }
+  unsigned combinations = 1;
+  for (std::size_t k = 0; k < b_.members.size(); ++k) combinations *= 3;
+  unsigned chosen = combinations;  // the held modes
+  VecN<N> x, best_x = d_;
+  for (unsigned code = 0; code < combinations; ++code) {
+    set_member_modes(code);
+    // The held modes are solved again too: the anchor and spring-zero moves of the last
+    // iteration came after d was solved. A changed member must be possible: without
+    // friction a closed contact only slides, and a sliding one needs a direction.
+    bool usable = true;
+    for (std::size_t k = 0; k < b_.members.size(); ++k) {
+      const Contact& c = contacts_[b_.members[k]];
+      if (c.mode == b_.member_start[k].mode &&
+          (c.mode != ContactMode::sliding || c.slip_direction == b_.member_start[k].slip_direction))
+        continue;
+      if (c.mode == ContactMode::locked && !(friction_ > 0.0)) usable = false;
+      if (c.mode == ContactMode::sliding && friction_ > 0.0 && c.slip_direction.squaredNorm() == 0.0) usable = false;
+    }
+    if (!usable) continue;
+    ++out_.iterations;
+    solve_modes(x);
+    if (!x.allFinite()) continue;
+    const double v = violation(x);
+    if (v < best) {
+      best = v;
+      chosen = code;
+      best_x = x;
+      if (!(v > 0.0)) break;
+    }
+  }
+  if (chosen == combinations) {
+    for (std::size_t k = 0; k < b_.members.size(); ++k) restore_member(k);
+    return false;
+  }
+  set_member_modes(chosen);
+  d_ = best_x;
+  return true;
+}
+
+// The converged solution: a contact at its friction limit ends the step with its anchor
+// moved to the limit.
+template <int N>
+StepOutcome ContactLaw<N>::accept() {
+  for (std::size_t i = 0; i < contacts_.size(); ++i)
+    if (contacts_[i].mode == ContactMode::locked && work_[i].at_limit)
+      cap_at_friction(contacts_[i], work_[i], work_[i].g0 + work_[i].gn.dot(d_), 1.0);
+  out_.converged = true;
+  for (const std::uint8_t h : b_.held) out_.held += h > 0 ? 1 : 0;
+  return out_;
+}
+
+// Solve, re-judge every contact, repeat until no mode changes and no anchor moves; then
+// the complementarity pass for contacts held between open and closed, and the solves that
+// drop friction that would push.
+template <int N>
+StepOutcome ContactLaw<N>::solve() {
+  assemble();
+  trial_slip();
+  start_iteration();
+  const int max_iter = free_iterations_ + 4 * static_cast<int>(contacts_.size()) + 1;
+  bool settled = false;       // the modes are final; only frictions are being dropped
+  bool complemented = false;  // complement() has run
+  for (int iter = 0; iter < max_iter || settled; ++iter) {
+    ++out_.iterations;
+    solve_modes(d_);
+    PhaseTimer timer(timing_, times_.open_close);
+    if (!d_.allFinite()) return out_;
+    if (settled) {
+      if (drop_pushing_friction()) continue;
+      return accept();
+    }
+    Judged j;
+    for (std::size_t i = 0; i < contacts_.size(); ++i) judge(i, iter, j);
+    // Anchor moves of held contacts converge geometrically; the last iteration accepts
+    // what is left of them.
+    if (!j.changed && (!j.shifted || iter + 1 >= max_iter)) {
+      if (!complemented) {
+        complemented = true;
+        complement();
+      }
+      settled = drop_pushing_friction();
+      if (!settled) return accept();
+    }
+  }
+  return out_;
+}
+
+// The previous contacts of the same kind and block feature as a contact, in their order:
+// all of them for a few contacts, or a range of them sorted by (kind, block feature,
+// order) for many (a detailed block carries hundreds; the pairwise scan was quadratic).
+class SameFeature {
+ public:
+  SameFeature(const std::vector<Contact>& previous, std::size_t now) : previous_(previous) {
+    sorted_ = previous.size() * now > 256;
+    if (!sorted_) return;
+    keyed_.clear();
+    for (std::size_t i = 0; i < previous.size(); ++i) keyed_.emplace_back(key(previous[i]), static_cast<std::int32_t>(i));
+    std::sort(keyed_.begin(), keyed_.end());
+  }
+  // Calls visit(old) for each, in order, until it returns false.
+  template <class Visit>
+  void each(const Contact& c, const Visit& visit) const {
+    if (!sorted_) {
+      for (const Contact& old : previous_)
+        if (old.kind == c.kind && old.block_feature == c.block_feature && !visit(old)) return;
+      return;
+    }
+    const std::uint64_t k = key(c);
+    for (auto it = std::lower_bound(keyed_.begin(), keyed_.end(), std::make_pair(k, std::int32_t{-1}));
+         it != keyed_.end() && it->first == k; ++it)
+      if (!visit(previous_[static_cast<std::size_t>(it->second)])) return;
+  }
+
+ private:
+  static std::uint64_t key(const Contact& c) {
+    return (static_cast<std::uint64_t>(c.kind) << 32) | static_cast<std::uint32_t>(c.block_feature);
+  }
+  const std::vector<Contact>& previous_;
+  bool sorted_ = false;
+  inline static thread_local std::vector<std::pair<std::uint64_t, std::int32_t>> keyed_;
+};
+
+// Takes the state of `old` into `c`, with its springs resumed where the last solve left
+// them: the exact rotation of the geometry update puts a rotating block's points up to
+// |θ|²·r/2 deeper than the linearised step predicted, and a spring compressed by that
+// extra depth would push it out with energy no force stored. So the compression never
+// exceeds the predicted one, and the accepted penetration follows the block out, never in.
+void carry_one(const Contact& old, Contact& c, const Pose& pose, double friction, double shear_stiffness,
+               double radius) {
+  c.mode = old.mode;
+  c.resume = old.resume;
+  c.anchored = old.anchored;
+  c.body_anchor = old.body_anchor;
+  c.ground_anchor = old.ground_anchor;
+  c.slip_direction = old.slip_direction;
+  c.normal_force = old.normal_force;
+  c.anchor_force = old.anchor_force;
+  double offset = old.gap_offset;
+  const double extra = old.spring_gap - (c.gap - offset);
+  if (extra > 1e-3 * -old.spring_gap && extra > 1e-9 * radius) offset = c.gap - old.spring_gap;
+  c.gap_offset = c.gap > offset ? std::min(0.0, c.gap) : offset;
+  if (c.anchored) {
+    const Vec3 xa = pose.centre + pose.map * c.body_anchor;
+    const Vec3 s_raw = xa - c.ground_anchor;
+    const Vec3 st = s_raw - c.normal * c.normal.dot(s_raw);
+    const double allowed = std::min(friction * c.anchor_force, old.spring_shear) / shear_stiffness;
+    const double stretch = st.norm();
+    if (stretch > allowed) c.ground_anchor += st * (1.0 - allowed / stretch);
+  }
+}
+
+}  // namespace
+
+template <int N>
+StepOutcome solve_step(const Model& model, const Pose& pose, const State& s, double dt, double friction,
+                       std::vector<Contact>& contacts, VecN<N>& d, PhaseTimes& times, bool freeze_strain,
+                       bool impact_phase) {
+  return ContactLaw<N>(model, pose, s, dt, friction, contacts, d, times, freeze_strain, impact_phase).solve();
+}
+
+bool carry_contacts(const std::vector<Contact>& previous, std::vector<Contact>& now, const Pose& pose,
+                    double friction, double shear_stiffness, double fresh_depth, double radius,
+                    std::vector<std::uint8_t>* matched) {
+  const SameFeature same(previous, now.size());
+  std::erase_if(now, [&](const Contact& c) {
+    if (c.kind != ContactKind::edge_edge || c.gap >= -fresh_depth) return false;
+    bool carried = false;
+    same.each(c, [&](const Contact& old) {
+      carried = old.terrain_feature == c.terrain_feature;
+      return !carried;
+    });
+    return !carried;
+  });
+  if (matched != nullptr) matched->assign(now.size(), 0);
+  thread_local std::vector<std::uint8_t> used;
+  used.assign(previous.size(), 0);
+  for (std::size_t i = 0; i < now.size(); ++i) {
+    Contact& c = now[i];
+    c.gap_offset = std::min(c.gap, 0.0);
+    const Contact* match = nullptr;
+    same.each(c, [&](const Contact& old) {
+      if (old.terrain_feature == c.terrain_feature) {
+        match = &old;
+        return false;
+      }
+      if (c.kind == ContactKind::vertex_face && old.normal.dot(c.normal) > 1.0 - 1e-12) match = &old;
+      return true;
+    });
+    if (match == nullptr) continue;
+    if (matched != nullptr) (*matched)[i] = 1;
+    used[static_cast<std::size_t>(match - previous.data())] = 1;
+    carry_one(*match, c, pose, friction, shear_stiffness, radius);
+  }
+  return std::all_of(used.begin(), used.end(), [](std::uint8_t u) { return u != 0; });
+}
+
+// Contacts that stay closed through a step have no normal relative velocity in the
+// physics: a penalty spring at Ω = √(k/m)·Δt ≫ 1 keeps a barely damped vibration instead,
+// which rocks a resting block and turns its friction forces from side to side until it
+// creeps down a slope it should stick to. Outside impacts the approaching normal velocity
+// of such contacts is therefore removed by non-negative impulses at the contact points
+// (projected Gauss–Seidel on the block's mass metric): each impulse only removes kinetic
+// energy, and a contact that separates is left to separate. A contact that ends the step
+// locked (sticking) has no tangential relative velocity either, yet Shi's velocity update
+// v₁ = 2d/Δt − v₀ keeps a velocity that flips sign each step while the displacement
+// stays zero (a yaw of ±4e-4 rad/s on a resting cube): its tangential velocity is removed
+// too, by impulses each within μ·F_n·Δt/√2 per tangent (inside the Coulomb cone), so a
+// sticking contact never holds more than friction could.
+template <int N>
+void settle_contacts(const Model& model, State& s, const std::vector<Persistent>& persistent) {
+  if (persistent.empty()) return;
+  const MatN<N> m = current_mass<N>(model, pose_of(model, s));
+  const SymmetricSolver<N> llt(m);
+  thread_local std::vector<VecN<N>> g, minv_g;
+  thread_local std::vector<double> weight, root_weight, impulse, lower, upper;
+  g.clear();
+  lower.clear();
+  upper.clear();
+  auto add_row = [&](const Vec3& point, const Vec3& direction, double lo, double hi) {
+    g.push_back(dof_matrix<N>(point - s.position).transpose() * direction);
+    lower.push_back(lo);
+    upper.push_back(hi);
+  };
+  for (const Persistent& c : persistent) {
+    add_row(c.point, c.normal, 0.0, std::numeric_limits<double>::infinity());
+    if (!(c.friction_impulse > 0.0)) continue;
+    const Vec3 t1 = c.normal.unitOrthogonal();
+    const Vec3 t2 = c.normal.cross(t1);
+    const double bound = c.friction_impulse / std::sqrt(2.0);
+    add_row(c.point, t1, -bound, bound);
+    add_row(c.point, t2, -bound, bound);
+  }
+  const std::size_t n = g.size();
+  minv_g.resize(n);
+  weight.assign(n, 0.0);
+  root_weight.assign(n, 0.0);
+  impulse.assign(n, 0.0);
+  for (std::size_t i = 0; i < n; ++i) {
+    minv_g[i] = llt.solve(g[i]);
+    weight[i] = g[i].dot(minv_g[i]);
+    if (weight[i] > 0.0) root_weight[i] = std::sqrt(weight[i]);
+  }
+  VecN<N> v = s.velocity.template head<N>();
+  // A sweep that leaves the velocity as it found it (to 1e-9 of it in the mass metric,
+  // or 1e-12 m/s) ends the iteration too: the impulses of redundant rows, such as the
+  // four corners of a face on the ground, can keep trading among themselves while the
+  // velocity they leave, which is all this settles, no longer changes.
+  const double still = 1e-18 * v.dot(m * v) + 1e-24 * model.mass;
+  for (int sweep = 0; sweep < 16; ++sweep) {
+    const VecN<N> v_start = v;
+    double largest = 0.0;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!(weight[i] > 0.0)) continue;
+      const double next = std::clamp(impulse[i] - g[i].dot(v) / weight[i], lower[i], upper[i]);
+      const double change = next - impulse[i];
+      v += change * minv_g[i];
+      impulse[i] = next;
+      largest = std::max(largest, std::abs(change) * root_weight[i]);
+    }
+    if (largest <= 1e-12 * (1.0 + v.norm())) break;
+    const VecN<N> change = v - v_start;
+    if (change.dot(m * change) <= still) break;
+  }
+  s.velocity.template head<N>() = v;
+}
+
+template StepOutcome solve_step<6>(const Model&, const Pose&, const State&, double, double, std::vector<Contact>&,
+                                   VecN<6>&, PhaseTimes&, bool, bool);
+template StepOutcome solve_step<12>(const Model&, const Pose&, const State&, double, double, std::vector<Contact>&,
+                                    VecN<12>&, PhaseTimes&, bool, bool);
+template void settle_contacts<6>(const Model&, State&, const std::vector<Persistent>&);
+template void settle_contacts<12>(const Model&, State&, const std::vector<Persistent>&);
+
+}  // namespace talus::dda::detail

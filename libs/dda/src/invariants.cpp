@@ -1,12 +1,16 @@
 // SPDX-License-Identifier: MIT
 // The physical invariants a run can be checked against at every step (Settings::
-// check_invariants): how deep the terrain and the block are inside each other. Slow
-// reference code, written for clarity, not used by the step itself.
+// check_invariants): how deep the terrain and the block are inside each other (slow
+// reference code, written for clarity); and the rim test that ends a block dropped past
+// the terrain's edge.
 #include "invariants.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
+
+#include "kinematics.hpp"
 
 namespace talus::dda::detail {
 
@@ -92,6 +96,110 @@ double block_depth_below_terrain(const std::vector<Vec3>& world, const TerrainPa
     }
   }
   return deepest;
+}
+
+
+namespace {
+
+// The rim point nearest to (x, y) in plan, looked for within `reach` and then within
+// four times as far, and so on, until one is found or the reach spans the terrain.
+std::optional<terrain::Surface::RimPoint> nearest_rim_point_anywhere(const terrain::Surface& surf, double x, double y,
+                                                                     double reach) {
+  const geometry::Aabb& b = surf.bounds();
+  const double span = (b.hi - b.lo).head<2>().norm() + std::abs(x - b.lo.x()) + std::abs(y - b.lo.y());
+  for (double r = reach;; r *= 4.0) {
+    if (const auto rim = surf.nearest_rim_point(x, y, std::min(r, span))) return rim;
+    if (!(r < span)) return std::nullopt;
+  }
+}
+
+}  // namespace
+
+// Whether part of the block has dropped past the terrain's rim, where the surface ends
+// with nothing beyond: a vertex with no ground under it lies lower than the rim's nearest
+// point, and deeper under the ground continued past the rim (the plane of that rim
+// point's triangle, where it faces up), by more than the penetration limit. Such a block
+// has tipped or fallen over the edge of the modelled ground: it can only fall on past
+// it, or swing under the sheet and come back inside the footprint below the ground,
+// where nothing holds it and it would overlap the terrain beyond the limit (a cube
+// tipping over the side edge of a rough bench slope did that, to 0.49 m under the
+// ground). A block that overhangs the rim while resting on or moving over the ground
+// lies on the continued plane, and one hanging over the crest of a slope that rises
+// beyond the rim lies above the rim: both go on. The test costs nothing while the
+// block's bounding sphere is clear of the rim, and near it looks only at the vertices
+// lower than the rim nearby by the penetration limit (`floor`).
+//
+// A TIN's footprint may have holes and bays (a survey's gaps): a block whose centroid is
+// over one, with its bounding sphere clear of the rim, is off the ground as a whole. The
+// same rule then holds with the nearest rim point at any distance: a block flying over a
+// gap goes on while it stays above the rim around it, and one that drops into it ends
+// once a vertex lies lower than its nearest rim point by the limit. (Before, the test
+// ended at the rim's reach: 0.1 m³ blocks rolled into an 8 m hole in a surveyed slope and
+// fell 9 m through it before the depth limit under the terrain's lowest point ended
+// them.)
+bool hangs_past_rim(const Model& model, const terrain::Surface& surf, const State& s, bool scan) {
+  // The bounding sphere with room for the 12-DOF path's strains.
+  const double r = 1.25 * model.radius;
+  const geometry::Aabb plan{s.position - Vec3::Constant(r), s.position + Vec3::Constant(r)};
+  // How far from a vertex its rim point is looked for: 2r (the vertex lies within r of
+  // the centroid, the rim within r of the centroid when near_rim), or, off the ground,
+  // the centroid's distance to the rim plus 2r.
+  double reach = 2.0 * r;
+  if (!surf.near_rim(plan)) {
+    if (!std::isnan(s.height)) return false;
+    const auto centre_rim = nearest_rim_point_anywhere(surf, s.position.x(), s.position.y(), 2.0 * r);
+    if (!centre_rim) return false;
+    reach = (centre_rim->point - s.position).head<2>().norm() * (1.0 + 1e-9) + 2.0 * r;
+    scan = true;
+  }
+  const double limit = model.penetration_limit();
+  // A vertex's rim point lies within `reach` of it in plan, so within that of the plan
+  // box, no higher than `top` (Surface::rim_top, raised by far more than the round-off of
+  // the depths below): a vertex at or above `floor` lies less than the limit below it,
+  // and is not past the rim. (A detailed block rolling off the end of the ground looked
+  // at thousands of vertices a step, most of them far above it.)
+  const double floor = surf.rim_top(plan.inflated(reach)) - limit;
+  const auto past = [&](const Vec3& p) {
+    if (p.z() >= floor || surf.height_at(p.x(), p.y())) return false;
+    const auto rim = surf.nearest_rim_point(p.x(), p.y(), reach);
+    if (!rim) return false;
+    const Vec3 n = surf.normal(static_cast<std::size_t>(rim->triangle));
+    const double below = rim->point.z() - p.z();
+    const double depth = n.z() > 0.1 ? std::min(below, n.dot(rim->point - p)) : below;
+    return depth > limit;
+  };
+  if (scan || model.index == nullptr || !surf.rim_bounds_footprint()) {
+    const std::vector<Vec3> vertices = world_vertices(model, s);
+    return std::any_of(vertices.begin(), vertices.end(), past);
+  }
+  // A detailed block over a grid, or a TIN without walls, overhangs or folds
+  // (Surface::rim_bounds_footprint): only the vertices of the tree nodes whose plan box
+  // may meet the rim or lies off the ground are looked at. The rim of such ground is the
+  // whole border of the ground in plan, so a box it does not meet lies wholly on the
+  // ground or wholly off it, as its centre does; every vertex of a box wholly on the
+  // ground has ground under it and is passed over by the test above. (A block of 20 480
+  // faces rolling along the edge of the bench slope spent a sixth of its run on the ground
+  // under each vertex.) The boxes are widened by far more than the round-off of the
+  // grid's own test of whether a point lies on it. (On a TIN a point within round-off of
+  // an inner edge may find no ground in either triangle's test; the scan would then look
+  // for the rim there, this walk does not.)
+  const Pose pose = pose_of(model, s);
+  thread_local std::vector<Vec3> unused;
+  const PlacedBlock at(model, pose, unused, false);
+  const double widening = 1e-9 * (s.position.head<2>().cwiseAbs().maxCoeff() + model.radius);
+  thread_local std::vector<std::int32_t> near;
+  near.clear();
+  model.index->vertices.query(
+      [&](const geometry::Aabb& body) {
+        const geometry::Aabb w = at.world_box(body).inflated(widening);
+        if (w.lo.z() >= floor) return false;
+        if (surf.near_rim(w)) return true;
+        const Vec3 c = w.center();
+        return !surf.height_at(c.x(), c.y());
+      },
+      near);
+  return std::any_of(near.begin(), near.end(),
+                     [&](std::int32_t i) { return past(at.vertex(static_cast<std::size_t>(i))); });
 }
 
 }  // namespace talus::dda::detail

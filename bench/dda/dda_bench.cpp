@@ -53,7 +53,8 @@ State first_contact(const Model& m, const Ground& g, double drop, double rolling
   r.velocity = rolling_speed * Vec3(1.0, 0.0, -1.0) / std::sqrt(2.0);
   r.angular_velocity = Vec3(0.0, rolling_speed / m.radius, 0.0);
   State s = start(m, r, core::RandomStream(1, core::Stream::impact, 0));
-  while (s.counters.contact_steps == 0) step(m, g, s);
+  Workspace ws;
+  while (s.counters.contact_steps == 0) step(m, g, s, ws);
   return s;
 }
 
@@ -66,9 +67,10 @@ bool first_contact_is_clean(const State& s) {
 // Batches of 500 steps from `checkpoint`, the last batch's end left in `s`.
 void run_batches(benchmark::State& bm, const Model& m, const Ground& g, const State& checkpoint, State& s) {
   std::uint64_t steps = 0;
+  Workspace ws;
   for (auto _ : bm) {
     s = checkpoint;
-    for (int i = 0; i < 500; ++i) step(m, g, s);
+    for (int i = 0; i < 500; ++i) step(m, g, s, ws);
     steps += 500;
   }
   bm.SetItemsProcessed(static_cast<std::int64_t>(steps));
@@ -121,10 +123,11 @@ void BM_ContactStepResting(benchmark::State& bm) {
   Release r;
   r.position = Vec3(7.0, 20.0, surface.height_at(7.0, 20.0)->z + 1.0);
   State s = start(m, r, core::RandomStream(1, core::Stream::impact, 0));
-  for (int i = 0; i < 3000; ++i) step(m, g, s);
+  Workspace ws;
+  for (int i = 0; i < 3000; ++i) step(m, g, s, ws);
   s.times = PhaseTimes{};
   const std::uint64_t before = s.counters.contact_steps;
-  for (auto _ : bm) step(m, g, s);
+  for (auto _ : bm) step(m, g, s, ws);
   if (s.end != EndReason::running) bm.SkipWithError(("the resting block ended: " + std::to_string(static_cast<int>(s.end))).c_str());
   report_phases(bm, s, static_cast<double>(s.counters.contact_steps - before));
   bm.SetItemsProcessed(bm.iterations());
@@ -221,10 +224,11 @@ void BM_FlightStep(benchmark::State& bm) {
   r.angular_velocity = Vec3(3.0, 1.0, 0.0);
   const State checkpoint = start(m, r, core::RandomStream(1, core::Stream::impact, 0));
   State s;
+  Workspace ws;
   std::uint64_t steps = 0;
   for (auto _ : bm) {
     s = checkpoint;
-    for (int i = 0; i < 1000; ++i) step(m, g, s);
+    for (int i = 0; i < 1000; ++i) step(m, g, s, ws);
     steps += 1000;
   }
   if (s.counters.contact_steps != 0) bm.SkipWithError("the flight touched the terrain");

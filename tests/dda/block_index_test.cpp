@@ -25,6 +25,9 @@
 namespace talus::dda {
 namespace {
 
+using detail::BlockBox;
+using detail::TerrainPatch;
+
 geometry::Polyhedron solid(block::SolidKind kind, int resolution, double roughness, int points = 40) {
   block::SolidSpec spec;
   spec.kind = kind;
@@ -254,9 +257,7 @@ TEST(DdaBlockIndex, ValleyCrossingsAreCarriedByNearerContacts) {
         const double depth = m.penetration_limit();
         depth_limit = std::min(depth_limit, depth);
         std::vector<Contact> with, without;
-        detail::cross_every_valley = true;
-        detail::detect_contacts(with_at, *surface, ds, depth, with_patch, with);
-        detail::cross_every_valley = false;
+        detail::detect_contacts(with_at, *surface, ds, depth, with_patch, with, {.every_valley = true});
         detail::detect_contacts(without_at, *surface, ds, depth, without_patch, without);
         // The valley crossings among `with`, and the rest equal to `without`.
         const auto valley_of = [&](const Contact& c) -> const TerrainPatch::Ridge* {
@@ -328,7 +329,7 @@ struct PairsTally {
 };
 
 // Along paths of small steps a detailed block's search reuses what it found before: its
-// box from an earlier pose (State::scratch_box), widened by the motion since, and its
+// box from an earlier pose (the workspace's BlockBox), widened by the motion since, and its
 // candidate pairs with each triangle and ridge, gathered with distances and prisms
 // widened by 2 % of its radius. The reused box holds the exact box, and the search finds
 // what a scan of every feature finds (the same contacts, in the same order, with the same

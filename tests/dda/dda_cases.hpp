@@ -32,10 +32,11 @@ inline FlightResult projectile(const Settings& set, double seconds) {
   r.velocity = Vec3(12.0, -3.0, 8.0);
   r.angular_velocity = Vec3(1.0, 2.0, -0.5);
   State s = start(m, r, impact_stream());
+  Workspace ws;
   FlightResult out;
   const Vec3 gv(0.0, 0.0, -set.gravity);
   while (s.time < seconds - 1e-9 && s.end == EndReason::running) {
-    step(m, g, s);
+    step(m, g, s, ws);
     const double t = s.time;
     out.position_error = std::max(out.position_error, (s.position - (r.position + r.velocity * t + 0.5 * gv * t * t)).norm());
     out.velocity_error = std::max(out.velocity_error, (s.velocity.head<3>() - (r.velocity + gv * t)).norm());
@@ -69,14 +70,15 @@ inline SlideResult on_slope(Settings set, double theta_deg, double mu, double se
   Release r = on_incline(theta_deg, 1.0, -5.0, 8.0);
   r.orientation = r.orientation * Eigen::Quaterniond(Eigen::AngleAxisd(turn_deg * M_PI / 180.0, Vec3::UnitZ()));
   State s = start(m, r, impact_stream());
-  while (s.time < settle - 1e-9 && s.end == EndReason::running) step(m, g, s);
+  Workspace ws;
+  while (s.time < settle - 1e-9 && s.end == EndReason::running) step(m, g, s, ws);
   const Vec3 settled = s.position;
   const Eigen::Quaterniond q_settled = s.orientation;
   const Vec3 normal = incline_normal(theta_deg);
   double sink = 0.0;
   int samples = 0;
   while (s.time < seconds - 1e-9 && s.end == EndReason::running) {
-    step(m, g, s);
+    step(m, g, s, ws);
     if (s.time > 0.5 * seconds) {
       sink += (r.position - s.position).dot(normal);
       ++samples;
@@ -110,12 +112,13 @@ inline ReboundResult rebound(const Settings& set, double v_in, double restitutio
   r.position.z() += h;
   r.velocity = Vec3(0.0, 0.0, -std::sqrt(std::max(0.0, v_in * v_in - 2.0 * set.gravity * h)));
   State s = start(m, r, impact_stream());
+  Workspace ws;
   ReboundResult out;
   out.omega = std::sqrt(4.0 * m.stiffness / m.mass) * set.time_step;
   bool touched = false;
   for (int i = 0; i < 20000 && s.end == EndReason::running; ++i) {
     const Vec3 v_before = s.velocity.head<3>();
-    step(m, g, s);
+    step(m, g, s, ws);
     const bool closed = std::any_of(s.contacts.begin(), s.contacts.end(),
                                     [](const Contact& c) { return c.mode != ContactMode::open; });
     if (closed && !touched) {
@@ -153,8 +156,9 @@ inline SpinResult spin(Settings set, std::int64_t steps) {
   r.angular_velocity = 10.0 * Vec3(0.3, -0.5, 0.8).normalized();
   r.velocity = Vec3(1.0, 0.0, 0.0);
   State s = start(m, r, impact_stream());
+  Workspace ws;
   const double e0 = kinetic_energy(m, s);
-  while (s.end == EndReason::running) step(m, g, s);
+  while (s.end == EndReason::running) step(m, g, s, ws);
   geometry::Polyhedron now = block;
   now.vertices = world_vertices(m, s);
   SpinResult out;

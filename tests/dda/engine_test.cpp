@@ -28,8 +28,8 @@ constexpr double kG = 9.81;
 core::RandomStream impacts() { return testing::impact_stream(); }
 
 // Runs n steps (or until the state ends).
-void advance(const Model& m, const Ground& g, State& s, int n) {
-  for (int i = 0; i < n && s.end == EndReason::running; ++i) step(m, g, s);
+void advance(const Model& m, const Ground& g, State& s, Workspace& ws, int n) {
+  for (int i = 0; i < n && s.end == EndReason::running; ++i) step(m, g, s, ws);
 }
 
 // Free fall and projectile flight: Shi's constant-acceleration scheme is exact for
@@ -117,10 +117,11 @@ struct Hop {
 TEST(DdaFlight, HopNearTheGroundIsFlight) {
   const Hop hop{Settings{}};
   State s = start(hop.m, hop.r, impacts());
+  Workspace ws;
   std::uint64_t steps_in_flight = 0;
   double flown = 0.0;
   while (s.end == EndReason::running && s.counters.contact_steps == 0) {
-    step(hop.m, hop.g, s);
+    step(hop.m, hop.g, s, ws);
     if (s.counters.contact_steps > 0) break;
     ++steps_in_flight;
     const double t = s.time;
@@ -144,9 +145,10 @@ TEST(DdaFlight, WithoutTheFlightTestEveryStepSearchesAndFliesTheSame) {
   set.flight_test = false;
   const Hop hop{set};
   State s = start(hop.m, hop.r, impacts());
+  Workspace ws;
   // Up and back down along the normal takes 0.24 s; until 0.2 s nothing can touch.
   while (s.end == EndReason::running && s.time < 0.2) {
-    step(hop.m, hop.g, s);
+    step(hop.m, hop.g, s, ws);
     const double t = s.time;
     EXPECT_LT((s.position - hop.parabola(t)).norm(), 1e-12) << t;
     EXPECT_LT((s.velocity.segment<3>(3) - hop.r.angular_velocity).norm(), 1e-12) << t;
@@ -307,7 +309,8 @@ TEST(DdaImpact, ReboundDoesNotDependOnTheStep) {
     r.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(20.0 * M_PI / 180.0, Vec3::UnitZ()) *
                                        Eigen::AngleAxisd(10.0 * M_PI / 180.0, Vec3::UnitY()));
     State s = start(m, r, impacts());
-    while (s.end == EndReason::running && s.time < 3.0) step(m, g, s);
+    Workspace ws;
+    while (s.end == EndReason::running && s.time < 3.0) step(m, g, s, ws);
     EXPECT_FALSE(is_failure(s.end)) << to_string(s.end);
     return s.max_jump_height;
   };
@@ -334,6 +337,7 @@ TEST(DdaImpact, RockingBlockComesToRest) {
     r.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(0.9, axis.normalized()));
     r.angular_velocity = Vec3(1.5, 1.0, 0.0);
     State s = start(m, r, impacts());
+    Workspace ws;
     double lowest = std::numeric_limits<double>::infinity();
     for (const Vec3& x : world_vertices(m, s)) lowest = std::min(lowest, x.z());
     r.position.z() += 0.02 - lowest;
@@ -341,7 +345,7 @@ TEST(DdaImpact, RockingBlockComesToRest) {
     const double e0 = mechanical_energy(m, s);
     double gain = 0.0;
     while (s.end == EndReason::running && s.time < 20.0) {
-      step(m, g, s);
+      step(m, g, s, ws);
       gain = std::max(gain, mechanical_energy(m, s) - e0);
     }
     EXPECT_EQ(s.end, EndReason::rest) << "axis " << axis.transpose() << " t " << s.time;
@@ -368,6 +372,7 @@ TEST(DdaImpact, LawRemovesAtMostTheNormalApproachEnergy) {
     for (const Case& c : {Case{Vec3(0, 0, -7), Vec3(0, 0, 7)}, Case{Vec3(5, 0, -0.4), Vec3(5, 0, 0.4)},
                           Case{Vec3(3, 2, -1.5), Vec3(3, 2, 1.2)}}) {
       State s = start(m, Release{}, impacts());
+      Workspace ws;
       s.episode.active = true;
       s.episode.impact = true;
       s.episode.velocity_in = c.v_in;
@@ -419,6 +424,7 @@ TEST(DdaImpact, ArrivalWhileSlidingIsAnImpact) {
   set.check_invariants = true;
   const Model m = Model::build(set, cube(1.0));
   State s = start(m, testing::on_incline(40.0, 1.0, -10.0, 0.0), impacts());
+  Workspace ws;
   Vec3 v_in = Vec3::Zero();
   double kinetic_in = 0.0, kinetic_out = -1.0;
   std::int64_t closed_at_arrival = 0;
@@ -427,7 +433,7 @@ TEST(DdaImpact, ArrivalWhileSlidingIsAnImpact) {
     const double kinetic = kinetic_energy(m, s);
     const std::int64_t closed =
         std::count_if(s.contacts.begin(), s.contacts.end(), [](const Contact& c) { return c.mode != ContactMode::open; });
-    step(m, g, s);
+    step(m, g, s, ws);
     if (s.impacts == 1 && kinetic_in == 0.0) {
       v_in = v;
       kinetic_in = kinetic;
@@ -473,10 +479,11 @@ TEST(DdaImpact, NoEnergyGainWithoutTheLaw) {
       r.velocity = Vec3(1.0, 0.5, 0.0);
       r.angular_velocity = Vec3(0.0, 2.0, 1.0);
       State s = start(m, r, impacts());
+      Workspace ws;
       const double e0 = mechanical_energy(m, s);
       double worst = 0.0;
       for (int i = 0; i < 3000 && s.end == EndReason::running; ++i) {
-        step(m, g, s);
+        step(m, g, s, ws);
         worst = std::max(worst, mechanical_energy(m, s) - e0);
       }
       // 1e-6 of the initial energy (≈ 7e4 J): round-off and the spring energy stored at
@@ -523,7 +530,8 @@ TEST(DdaContact, SlideVersusTopple) {
     const Model m = Model::build(set, cube(1.0));
     const Release r = testing::on_incline(c.theta, 1.0, -20.0, 5.0);
     State s = start(m, r, impacts());
-    advance(m, g, s, 1500);
+    Workspace ws;
+    advance(m, g, s, ws, 1500);
     const double moved = (s.position - r.position).norm();
     const double turned = Eigen::AngleAxisd(s.orientation * r.orientation.inverse()).angle();
     SCOPED_TRACE(::testing::Message() << "theta " << c.theta << " mu " << c.mu << " moved " << moved
@@ -559,11 +567,12 @@ TEST(DdaStep, SlowBlockTakesLongerStepsAndStopsWhereItShould) {
     Release r = testing::on_incline(theta, 1.0, -10.0, 5.0);
     r.velocity = v0 * testing::incline_down(theta);
     State s = start(m, r, impacts());
+    Workspace ws;
     Outcome out{0.0, 0.0, 0.0, 0};
     Vec3 stopped = Vec3::Zero();
     while (s.time < 2.0 - 1e-9 && s.end == EndReason::running) {
       const double before = s.time;
-      step(m, g, s);
+      step(m, g, s, ws);
       out.longest = std::max(out.longest, s.time - before);
       if (before < 1.0 && s.time >= 1.0) stopped = s.position;  // 0.52 s after the stop
     }
@@ -630,15 +639,11 @@ TEST(DdaContact, CandidatesSetAsideDoNotChangeTheRoll) {
   };
   State last;
   const auto roll = [&](double scale, bool pass_over = true) {
-    const double saved = detail::set_aside_scale;
-    detail::set_aside_scale = scale;
-    detail::pass_over_set_aside = pass_over;
     Release r;
     r.position = Vec3(-10.0, 5.0, 10.0 * std::tan(theta * M_PI / 180.0)) + (below + 1e-6) * n;
     State s = start(m, r, impacts());
-    while (s.time < 1.0 - 1e-9 && s.end == EndReason::running) step(m, g, s);
-    detail::set_aside_scale = saved;
-    detail::pass_over_set_aside = true;
+    Workspace ws({.set_aside_scale = scale, .pass_over = pass_over});
+    while (s.time < 1.0 - 1e-9 && s.end == EndReason::running) step(m, g, s, ws);
     EXPECT_EQ(s.end, EndReason::running) << "scale " << scale;
     last = s;
     return Outcome{(s.position - r.position).dot(testing::incline_down(theta)), s.counters};
@@ -694,7 +699,6 @@ TEST(DdaContact, FlightSearchPassesOverAsTheStepWould) {
   const auto& [theta, plane, mats, g, n, m] = scene;
   ASSERT_NE(m.index, nullptr);
   const auto fall = [&](bool pass_over) {
-    detail::pass_over_set_aside = pass_over;
     Release r;
     r.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(0.7, Vec3(1.0, 2.0, 3.0).normalized()));
     double below = 0.0;  // the block's extent along −n
@@ -704,8 +708,8 @@ TEST(DdaContact, FlightSearchPassesOverAsTheStepWould) {
     r.velocity = -0.3 * n + 1.0 * testing::incline_down(theta);
     r.angular_velocity = Vec3(0.3, -1.0, 0.2);
     State s = start(m, r, impacts());
-    while (s.time < 1.5 - 1e-9 && s.end == EndReason::running) step(m, g, s);
-    detail::pass_over_set_aside = true;
+    Workspace ws({.pass_over = pass_over});
+    while (s.time < 1.5 - 1e-9 && s.end == EndReason::running) step(m, g, s, ws);
     EXPECT_EQ(s.end, EndReason::running) << s.time;
     EXPECT_EQ(s.counters.energy_violations, 0u);
     EXPECT_EQ(s.counters.depth_violations, 0u);

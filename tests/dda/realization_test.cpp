@@ -18,6 +18,9 @@
 namespace talus::dda {
 namespace {
 
+using detail::BlockBox;
+using detail::TerrainPatch;
+
 terrain::Terrain bench_slope(double sigma) {
   terrain::Terrain t = terrain::build_grid_terrain(terrain::make_synthetic(terrain::SyntheticSlope{}, "bench"),
                                                    terrain::Diagonal::alternating, 11, "bench");

@@ -57,10 +57,10 @@ double point_reach(const Model& model, const State& s, const Vec3& x, double h, 
 }
 
 // Aims `pass` at a rigid detailed block's near search from `pose` for a step of length h
-// with the set-aside scale `scale` (PassOver): the step-start motion in the body frame,
+// with the set-aside scale `scale` (MotionFilter): the step-start motion in the body frame,
 // the fall and the round-off allowance. The keep lists are left as they are.
 void aim_pass_over(const Model& model, const State& s, const Pose& pose, double h, double scale,
-                   detail::PassOver& pass) {
+                   MotionFilter& pass) {
   pass.velocity = pose.map.transpose() * s.velocity.head<3>();
   pass.spin = pose.map.transpose() * s.velocity.segment<3>(3);
   pass.h = h;

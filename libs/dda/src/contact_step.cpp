@@ -9,6 +9,7 @@
 #include "episodes.hpp"
 #include "invariants.hpp"
 #include "step.hpp"
+#include "workspace.hpp"
 
 namespace talus::dda::detail {
 
@@ -130,7 +131,7 @@ struct Approach {
 template <int N>
 class ContactStep {
  public:
-  ContactStep(const Model& model, const Ground& ground, State& s);
+  ContactStep(const Model& model, const Ground& ground, State& s, Scratch& w);
 
   void detect();
   void solve();
@@ -168,6 +169,7 @@ class ContactStep {
   const Model& model_;
   const Ground& ground_;
   State& s_;
+  Scratch& w_;
   const Settings& set_;
   StepBuffers& b_;
   const bool timing_;
@@ -194,11 +196,11 @@ class ContactStep {
   // the restitution law accounts for the impact's losses, as on the rigid path.
   bool arriving_ = false;
   bool freeze_strain_ = false;
-  double aside_scale_ = set_aside_scale;
+  double aside_scale_;
   std::size_t found_ = 0;
   double near_ = 0.0;
   bool pass_over_ = false;
-  PassOver pass_;
+  MotionFilter pass_;
   // The solution's largest translation (m) and squared turn (rad²), for `closes`.
   double shift_ = 0.0, turn2_ = 0.0;
   // Of the contacts kept at the step end.
@@ -209,10 +211,11 @@ class ContactStep {
 };
 
 template <int N>
-ContactStep<N>::ContactStep(const Model& model, const Ground& ground, State& s)
+ContactStep<N>::ContactStep(const Model& model, const Ground& ground, State& s, Scratch& w)
     : model_(model),
       ground_(ground),
       s_(s),
+      w_(w),
       set_(model.settings),
       b_(buffers()),
       timing_(model.settings.time_phases),
@@ -225,19 +228,20 @@ ContactStep<N>::ContactStep(const Model& model, const Ground& ground, State& s)
       energy_start_(kinetic_now_ + model.mass * model.settings.gravity * s.position.z() + strain_energy(model, s) +
                     s.stored_energy),
       dt_(s.dt),
-      contacts_(s.scratch_contacts),
+      contacts_(w.handoff.contacts),
       pose_(pose_of(model, s)),
-      at_(model, pose_, s.scratch_vertices, false, &s.scratch_box),
-      friction_(s.friction) {
+      at_(model, pose_, w.vertices, false, &w.box),
+      friction_(s.friction),
+      aside_scale_(w.paths.set_aside_scale) {
   arriving_ = std::none_of(s.contacts.begin(), s.contacts.end(),
                            [](const Contact& c) { return c.mode != ContactMode::open; });
   freeze_strain_ = N == 12 && !set_.impact_strains && (arriving_ || (s.episode.active && s.episode.impact));
-  pass_over_ = N == 6 && model.index != nullptr && pass_over_set_aside;
+  pass_over_ = N == 6 && model.index != nullptr && w.paths.pass_over;
   if (pass_over_) keep_carried_features();
 }
 
 // A near search passes over the vertex–triangle, edge–ridge and terrain vertex candidates
-// the step would set aside (PassOver): most of a fine mesh's candidates near the ground.
+// the step would set aside (MotionFilter): most of a fine mesh's candidates near the ground.
 // The vertices, edges and terrain vertices of the last step's contacts are never passed
 // over (they may carry a state). Off after a solve whose check of them as a group fails:
 // the step is then solved again with every candidate, as if they had never been passed
@@ -272,7 +276,8 @@ bool ContactStep<N>::carry(std::vector<Contact>& into, std::vector<std::uint8_t>
 template <int N>
 void ContactStep<N>::search_in_full(std::vector<Contact>& into, std::vector<std::uint8_t>& matched) const {
   into.clear();
-  detect_contacts(at_, *ground_.surface, search_reach(model_, s_, dt_), depth_, s_.patch, into);
+  detect_contacts(at_, *ground_.surface, search_reach(model_, s_, dt_), depth_, w_.patch, into,
+                  {0.0, nullptr, w_.paths.cross_every_valley});
   carry(into, matched);
 }
 
@@ -283,7 +288,7 @@ bool ContactStep<N>::goes_aside(const Contact& c, bool carries) const {
 }
 
 // Candidates within the search distance whose gap is more than twice what their point
-// moves at the step-start motion (point_reach; set_aside_scale) are set aside, unless
+// moves at the step-start motion (point_reach; ReferencePaths::set_aside_scale) are set aside, unless
 // they carry a state from the last step: they stay open through the open–close
 // iteration and cost only the check of the solution (judge). A solution that would close
 // one of them is solved again with the margin widened (8 times the motion, then every
@@ -306,19 +311,20 @@ void ContactStep<N>::detect() {
 template <int N>
 void ContactStep<N>::find_candidates() {
   const double reach = search_reach(model_, s_, dt_);
-  near_ = aside_scale_ == set_aside_scale ? near_reach(model_, s_, dt_, aside_scale_) : 0.0;
+  near_ = aside_scale_ == w_.paths.set_aside_scale ? near_reach(model_, s_, dt_, aside_scale_) : 0.0;
   const double searched = near_ > 0.0 ? near_ : reach;
-  if (searched != s_.scratch_reach) {
+  if (searched != w_.handoff.reach) {
     contacts_.clear();
     const bool passing = pass_over_ && near_ > 0.0;
     if (passing) aim_pass_over(model_, s_, pose_, dt_, aside_scale_, pass_);
-    detect_contacts(at_, *ground_.surface, reach, depth_, s_.patch, contacts_, near_, passing ? &pass_ : nullptr);
+    detect_contacts(at_, *ground_.surface, reach, depth_, w_.patch, contacts_,
+                    {near_, passing ? &pass_ : nullptr, w_.paths.cross_every_valley});
   } else if (pass_over_ && near_ > 0.0) {
     // The flight test's search, which passed over the same candidates.
-    pass_.passed = s_.scratch_passed;
-    pass_.least_gap = s_.scratch_least_gap;
+    pass_.passed = w_.handoff.passed;
+    pass_.least_gap = w_.handoff.least_gap;
   }
-  s_.scratch_reach = -1.0;
+  w_.handoff.reach = -1.0;
 }
 
 // The realization's friction until it is drawn: the mean of the first candidate's
@@ -595,8 +601,8 @@ bool ContactStep<N>::keep_contacts() {
 template <int N>
 void ContactStep<N>::check_overlap() {
   if (!set_.check_invariants) return;
-  const double overlap = std::max(terrain_depth_in_block(model_, pose_of(model_, s_), s_.patch),
-                                  block_depth_below_terrain(world_vertices(model_, s_), s_.patch, model_.radius));
+  const double overlap = std::max(terrain_depth_in_block(model_, pose_of(model_, s_), w_.patch),
+                                  block_depth_below_terrain(world_vertices(model_, s_), w_.patch, model_.radius));
   s_.max_depth = std::max(s_.max_depth, overlap);
   if (overlap > depth_) ++s_.counters.depth_violations;
 }
@@ -686,8 +692,8 @@ double ContactStep<N>::next_step_length() const {
 }  // namespace
 
 template <int N>
-void contact_step(const Model& model, const Ground& ground, State& s) {
-  ContactStep<N> step(model, ground, s);
+void contact_step(const Model& model, const Ground& ground, State& s, Scratch& w) {
+  ContactStep<N> step(model, ground, s, w);
   for (;;) {
     step.detect();
     step.solve();
@@ -705,7 +711,7 @@ void contact_step(const Model& model, const Ground& ground, State& s) {
   s.dt = step.next_step_length();
 }
 
-template void contact_step<6>(const Model&, const Ground&, State&);
-template void contact_step<12>(const Model&, const Ground&, State&);
+template void contact_step<6>(const Model&, const Ground&, State&, Scratch&);
+template void contact_step<12>(const Model&, const Ground&, State&, Scratch&);
 
 }  // namespace talus::dda::detail

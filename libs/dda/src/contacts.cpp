@@ -392,9 +392,9 @@ double ridge_level_limit(const TerrainPatch::Ridge& te, const PlacedBlock& at, d
 
 // Whether the search of `model` crosses its edges with ridge te: every ridge but a valley,
 // whose crossings a block of short edges leaves to its vertex contacts
-// (Model::crosses_valleys; cross_every_valley, the tests' reference, crosses them all).
-bool crosses(const Model& model, const TerrainPatch::Ridge& te) {
-  return !te.valley() || model.crosses_valleys() || cross_every_valley;
+// (Model::crosses_valleys; `every_valley`, SearchFilter's, crosses them all).
+bool crosses(const Model& model, const TerrainPatch::Ridge& te, bool every_valley) {
+  return !te.valley() || model.crosses_valleys() || every_valley;
 }
 
 // The convex edges of a convex block (VertexClimb::fills) that `keeps` (gather_ridge_pairs's
@@ -896,7 +896,7 @@ struct Live {
 // that gathered at this very pose, in its order, so the same contacts in the same order,
 // those of the scan. Terrain vertices are searched afresh (the faces near each).
 void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds, double vertex_ds, double depth,
-                    const TerrainPatch::Candidates& c, const Live& live, std::vector<Contact>& out, PassOver* pass) {
+                    const TerrainPatch::Candidates& c, const Live& live, std::vector<Contact>& out, MotionFilter* pass) {
   const Model& model = at.model();
   const Pose& pose = at.pose();
   const BlockIndex* index = at.index();
@@ -952,7 +952,7 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
       if (body_gap - slab.tol >= ds || body_gap + slab.tol <= -depth) continue;
       const std::int32_t vi = vertices[k];
       if (pass != nullptr) {
-        // A candidate the step would set aside (PassOver): its gap's lower bound beyond
+        // A candidate the motion filter passes over: its gap's lower bound beyond
         // what it can move, by more than that figure's round-off.
         const double low = body_gap - slab.tol;
         if (low > pass->scale * pass->fall) {
@@ -987,19 +987,19 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
   const double face_tol = kSlack * vertex_margin + 1e-6 * model.radius;
   thread_local std::vector<std::int32_t> faces;
   // How much more than a terrain vertex's own point its contact's point may move, per
-  // metre of gap, times the set-aside scale (PassOver): scale·|ω|·h.
+  // metre of gap, times the motion filter's scale: scale·|ω|·h.
   const double turn = pass != nullptr ? pass->scale * pass->spin.norm() * pass->h : 0.0;
   for (const TerrainPatch::Vertex& tv : patch.vertices) {
     if (!contains(vertex_reach, tv.p)) continue;
     const Vec3 qb = pose.inverse_map * (tv.p - pose.centre);
     if (pass != nullptr && turn < 0.5 &&
         !std::binary_search(pass->keep_terrain->begin(), pass->keep_terrain->end(), tv.id)) {
-      // A terrain vertex whose contact the step would set aside (PassOver). Its contact's
+      // A terrain vertex whose contact the motion filter passes over. Its contact's
       // gap is its distance to a face it lies over, at least its distance to the block's
       // hull, which is at least |d| − S(d/|d|) for d from the centre (S the support, an
       // upper bound; a few round-offs less). The contact's point, its foot on that face,
       // moves at most |v + ω × d|·h + |ω|·h·gap + ½g·h²: a gap beyond scale times that
-      // is set aside, as it is when the bound times (1 − scale·|ω|·h) exceeds scale
+      // is passed over, as it is when the bound times (1 − scale·|ω|·h) exceeds scale
       // times the rest.
       const Vec3 d = tv.p - pose.centre;
       const double length = d.norm();
@@ -1050,7 +1050,7 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
       if (body_gaps[k] >= limit) continue;
       const std::int32_t be = edges[k];
       if (pass != nullptr) {
-        // A crossing the step would set aside (PassOver): the level less its round-off
+        // A crossing the motion filter passes over: the level less its round-off
         // (that of the limit over ds) bounds the crossing's gap below when positive.
         const double low = body_gaps[k] - (limit - ds);
         if (low > pass->scale * pass->fall) {
@@ -1083,9 +1083,10 @@ void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds,
 // The feature pairs of a scanned block (few vertices) that can form a contact within
 // search distance ds and depth limit `depth`, in the order detect_scanned tests them:
 // for each, the tests of detect_scanned that only a distance decides (a box, a gap),
-// widened to these distances. `prune` off keeps every pair (the brute-force reference).
+// widened to these distances. `prune` off keeps every pair (the brute-force reference);
+// `every_valley` crosses every valley (SearchFilter).
 void gather_candidates(const PlacedBlock& at, const TerrainPatch& patch, double ds, double depth, bool prune,
-                       TerrainPatch::Candidates& c) {
+                       bool every_valley, TerrainPatch::Candidates& c) {
   const Model& model = at.model();
   const std::vector<Vec3>& world = at.vertices();
   const double margin = std::max(ds, depth);
@@ -1113,7 +1114,7 @@ void gather_candidates(const PlacedBlock& at, const TerrainPatch& patch, double 
   for (std::size_t k = 0; k < patch.vertices.size(); ++k)
     if (!prune || contains(reach, patch.vertices[k].p)) c.vertices.push_back(static_cast<std::int32_t>(k));
   for (std::size_t k = 0; k < patch.ridges.size(); ++k)
-    if (crosses(model, patch.ridges[k]) && (!prune || overlaps(patch.ridges[k].box, reach)))
+    if (crosses(model, patch.ridges[k], every_valley) && (!prune || overlaps(patch.ridges[k].box, reach)))
       c.ridges.push_back(static_cast<std::int32_t>(k));
   for (std::size_t be = 0; be < model.edges.size(); ++be) {
     const BlockEdge& bedge = model.edges[be];
@@ -1399,8 +1400,9 @@ inline __attribute__((always_inline)) bool pairs_serve(const TerrainPatch::Candi
 }  // namespace
 
 void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, double search_distance,
-                     double depth_limit, TerrainPatch& patch, std::vector<Contact>& out, double near_distance,
-                     PassOver* pass) {
+                     double depth_limit, TerrainPatch& patch, std::vector<Contact>& out, const SearchFilter& filter) {
+  const double near_distance = filter.near_distance;
+  MotionFilter* const pass = filter.motion;
   const geometry::Aabb box = at.box().inflated(std::max(search_distance, depth_limit));
   if (patch.surface != &surface || patch.box.empty() || !patch.box.contains(box.lo) || !patch.box.contains(box.hi)) {
     // Gather with a margin of half the block's radius, so the next steps reuse it.
@@ -1514,7 +1516,7 @@ void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, dou
               gather_triangle_pairs(at, tri, ds + widening, depth_limit + widening, widening, pairs);
             });
     refresh(c.ridges, patch.ridges, c.ridge_pairs, live.ridges,
-            [&](const TerrainPatch::Ridge& te) { return crosses(model, te); },
+            [&](const TerrainPatch::Ridge& te) { return crosses(model, te, filter.every_valley); },
             [&](const TerrainPatch::Ridge& te, TerrainPatch::Candidates::Pairs& pairs) {
               gather_ridge_pairs(at, te, ds + widening, depth_limit + widening, widening, pairs);
             });
@@ -1527,13 +1529,14 @@ void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, dou
   const bool reusable = search_distance + moved <= g.ds && depth_limit + moved <= g.depth && moved <= g.motion;
   if (!reusable) {
     const double widening = kCandidateWidening * model.radius;
-    gather_candidates(at, patch, search_distance + widening, depth_limit + widening, true, c);
+    gather_candidates(at, patch, search_distance + widening, depth_limit + widening, true, filter.every_valley, c);
   }
   detect_scanned(at, patch, search_distance, depth_limit, true, c, out);
 }
 
 void detect_contacts_brute_force(const Model& model, const terrain::Surface& surface, const Pose& pose,
-                                 double search_distance, double depth_limit, std::vector<Contact>& out) {
+                                 double search_distance, double depth_limit, std::vector<Contact>& out,
+                                 bool every_valley) {
   std::vector<std::int32_t> all(surface.triangle_count());
   std::iota(all.begin(), all.end(), 0);
   TerrainPatch patch;
@@ -1541,7 +1544,7 @@ void detect_contacts_brute_force(const Model& model, const terrain::Surface& sur
   std::vector<Vec3> world;
   const PlacedBlock at(model, pose, world, true);
   TerrainPatch::Candidates every;
-  gather_candidates(at, patch, search_distance, depth_limit, false, every);
+  gather_candidates(at, patch, search_distance, depth_limit, false, every_valley, every);
   detect_scanned(at, patch, search_distance, depth_limit, false, every, out);
 }
 

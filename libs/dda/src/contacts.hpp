@@ -6,6 +6,7 @@
 #include "block_index.hpp"
 #include "talus/dda/model.hpp"
 #include "talus/dda/state.hpp"
+#include "workspace.hpp"
 #include "talus/terrain/terrain.hpp"
 
 namespace talus::dda::detail {
@@ -87,20 +88,6 @@ class PlacedBlock {
   geometry::Aabb box_;
 };
 
-/// How many times its displacement at the step-start motion a contact step allows a
-/// candidate's gap before it sets the candidate aside (engine.cpp, contact_step; the
-/// smallest gap set aside). A setting of the tests only, per thread: ∞ keeps every
-/// candidate in the solve (the reference path), a tiny value sets almost all aside and
-/// makes the step widen again and again.
-inline thread_local double set_aside_scale = 2.0;
-/// Whether a near search passes over the candidates the step would set aside (PassOver);
-/// off only for tests, as the reference the passing over must equal to the bit.
-inline thread_local bool pass_over_set_aside = true;
-/// Whether every block's edges are crossed with the terrain's valleys, whatever its edges'
-/// length (Model::crosses_valleys); on only for tests, as the reference a search without
-/// them is compared with.
-inline thread_local bool cross_every_valley = false;
-
 /// Finds every block–terrain contact candidate within `search_distance` (m) of the block
 /// `at`: block vertex – terrain triangle, terrain vertex – block face, block edge – terrain
 /// ridge edge. Candidates deeper than `depth_limit` (m) are ignored (they belong to another
@@ -109,40 +96,46 @@ inline thread_local bool cross_every_valley = false;
 /// A detailed block's features are found through its index, with the same contacts in
 /// the same order as scanning them all would give.
 ///
-/// `near_distance` (m), when positive and less than `search_distance`, narrows a detailed
-/// block's search: its vertex–triangle and edge–ridge pairs only within that distance;
-/// terrain vertex – block face contacts (whose choice of face depends on the distance)
-/// and the patch still within `search_distance`. The contacts are then those of the full
-/// search less its vertex–triangle and edge–ridge contacts with a gap of near_distance
-/// or more, in the same order with the same numbers. A scanned block ignores it.
-///
-/// `pass`, when given, passes over the candidates of a rigid detailed block's near search
-/// that contact_step would set aside (PassOver).
-struct PassOver;
+/// `filter` narrows the search beyond its distances (SearchFilter).
+struct MotionFilter;
+/// What a search leaves out beyond its distances: an explicit filter of the caller's.
+struct SearchFilter {
+  /// When positive and less than the search distance (m), narrows a detailed block's
+  /// search: its vertex–triangle and edge–ridge pairs only within this distance; terrain
+  /// vertex – block face contacts (whose choice of face depends on the distance) and the
+  /// patch still within the search distance. The contacts are then those of the full
+  /// search less its vertex–triangle and edge–ridge contacts with a gap of near_distance
+  /// or more, in the same order with the same numbers. A scanned block ignores it.
+  double near_distance = 0.0;
+  /// When given, a rigid detailed block's search within near_distance passes over the
+  /// candidates this filter shows cannot close under a bounded motion (MotionFilter).
+  MotionFilter* motion = nullptr;
+  /// Crosses the block's edges with every valley of the terrain, whatever their length
+  /// (Model::crosses_valleys decides otherwise).
+  bool every_valley = false;
+};
 void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, double search_distance,
-                     double depth_limit, TerrainPatch& patch, std::vector<Contact>& out, double near_distance = 0.0,
-                     PassOver* pass = nullptr);
+                     double depth_limit, TerrainPatch& patch, std::vector<Contact>& out,
+                     const SearchFilter& filter = {});
 
-/// The candidates of a near search that a rigid step sets aside, passed over by the
-/// search (detect_contacts) before they are placed, tested and built. Each is one the step
-/// would have set aside: its gap, bounded below (less the round-off of the bound), is
-/// more than `scale` times what its point moves at the step-start motion, point_reach,
-/// scale·(|v + ω × r|·h + ½g·h²), with the speed computed in the body frame and 1e-9 of
-/// it and `allowance` on top; and it carries no contact of the last step.
+/// Candidates a search passes over before they are placed, tested and built: those whose
+/// gap, bounded below (less the round-off of the bound), is more than `scale` times what
+/// their point moves at a given motion, scale·(|v + ω × r|·h + ½g·h²), with the speed
+/// computed in the body frame and 1e-9 of it and `allowance` on top; and whose feature is
+/// none of the kept ones.
 /// - A vertex–triangle pair: its body-frame gap (BodyPlane); its vertex none of `keep`.
 /// - An edge–ridge pair: the ends' level along the ridge's `out` bounds the crossing's
 ///   gap; the speed |v + ω × r| is convex in r, so largest at an end; none of `keep_edges`.
 /// - A terrain vertex, before its face query: its distance to the block's hull, at least
 ///   |d| − S(d/|d|), bounds its contact's gap; the contact's point, on a face that gap
 ///   away, moves up to |ω|·h·gap more than the vertex's own point; none of `keep_terrain`.
-/// The step checks them as a group after its solve (contact_step): `least_gap` bounds
-/// their gaps below.
-struct PassOver {
+/// `least_gap` bounds their gaps below, for the caller's check of them as a group.
+struct MotionFilter {
   Vec3 velocity = Vec3::Zero();  ///< Fᵀv, the centre's velocity in the body frame (m/s)
   Vec3 spin = Vec3::Zero();      ///< Fᵀω, the spin in the body frame (rad/s)
   double h = 0.0;                ///< the step's length (s)
   double fall = 0.0;             ///< ½g·h², as point_reach computes it (m)
-  double scale = 2.0;            ///< set_aside_scale
+  double scale = 2.0;            ///< the multiple of the motion (-)
   /// The round-off of the world lever x − centre that point_reach turns by ω, times
   /// scale·h (m): 1e-9 of the centre's coordinates and the radius.
   double allowance = 0.0;
@@ -153,7 +146,7 @@ struct PassOver {
   std::size_t passed = 0;        ///< out: candidates passed over
   double least_gap = std::numeric_limits<double>::infinity();  ///< out: the least bound of their gaps (m)
 
-  /// The gap (m) beyond which a candidate whose point moves at `speed` (m/s) is set aside:
+  /// The gap (m) beyond which a candidate whose point moves at `speed` (m/s) is passed over:
   /// scale·(speed·h + ½g·h²), with 1e-9 of it and `allowance` on top.
   double reach(double speed) const { return scale * (speed * h + fall) * (1.0 + 1e-9) + allowance; }
   /// Counts a candidate passed over, its gap bounded below by `low` (m).
@@ -169,9 +162,10 @@ struct PassOver {
 };
 
 /// Brute-force reference of detect_contacts: every triangle of the surface and every
-/// feature of the block, no pruning.
+/// feature of the block, no pruning (`every_valley` as SearchFilter's).
 void detect_contacts_brute_force(const Model& model, const terrain::Surface& surface, const Pose& pose,
-                                 double search_distance, double depth_limit, std::vector<Contact>& out);
+                                 double search_distance, double depth_limit, std::vector<Contact>& out,
+                                 bool every_valley = false);
 
 /// How far apart the hull of the world points `block` and the triangle `corners` lie (m)
 /// along the direction from `centre` to the triangle's point nearest to it: a lower

@@ -7,6 +7,7 @@
 
 #include "episodes.hpp"
 #include "step.hpp"
+#include "workspace.hpp"
 #include "talus/core/error.hpp"
 
 namespace talus::dda {
@@ -30,6 +31,11 @@ bool is_failure(EndReason reason) {
 }
 
 using namespace detail;
+
+Workspace::Workspace(const ReferencePaths& paths) : impl_(std::make_unique<Scratch>()) { impl_->paths = paths; }
+Workspace::~Workspace() = default;
+Workspace::Workspace(Workspace&&) noexcept = default;
+Workspace& Workspace::operator=(Workspace&&) noexcept = default;
 
 // The simulated-time limit: the setting, or 60 s plus the time to cross the terrain's
 // plan diagonal at 1 m/s (a block that averages less than that is creeping, not falling).
@@ -65,33 +71,46 @@ State start(const Model& model, const Release& release, core::RandomStream impac
   return s;
 }
 
-void step(const Model& model, const Ground& ground, State& s) {
-  if (s.end != EndReason::running) return;
-  if (ground.surface == nullptr) throw core::InputError("terrain", "no terrain surface given");
-  if (s.counters.steps == 0 && model.settings.trajectory_interval > 0.0 && s.trajectory.empty()) {
+namespace {
+
+// The first step's start: the trajectory's first sample and the simulated-time limit.
+void begin(const Model& model, const Ground& ground, State& s) {
+  if (model.settings.trajectory_interval > 0.0 && s.trajectory.empty()) {
     double height = std::numeric_limits<double>::quiet_NaN();
     if (const auto hit = ground.surface->height_at(s.position.x(), s.position.y())) height = s.position.z() - hit->z;
     s.trajectory.push_back(TrajectorySample{s.time, s.position, s.velocity.head<3>(), height, mechanical_energy(model, s)});
     s.next_sample_time = model.settings.trajectory_interval;
   }
-  if (s.counters.steps == 0) s.time_limit = time_limit(model, *ground.surface);
+  s.time_limit = time_limit(model, *ground.surface);
+}
+
+// A flight step when the flight test is on, no contact is closed and the block is clear
+// of the terrain for a step: true if it flew (the step is done).
+bool fly(const Model& model, const Ground& ground, State& s, Scratch& w) {
+  if (!model.settings.flight_test ||
+      std::any_of(s.contacts.begin(), s.contacts.end(), [](const Contact& c) { return c.mode != ContactMode::open; }))
+    return false;
+  PhaseTimer timer(model.settings.time_phases, s.times.flight);
+  const double h = flight_step(model, ground, s, w);
+  if (!(h > 0.0)) return false;
+  s.contacts.clear();
+  if (s.episode.active) end_episode(model, s);
+  finish_step(model, ground, s, h);
+  return true;
+}
+
+}  // namespace
+
+void step(const Model& model, const Ground& ground, State& s, Workspace& workspace) {
+  if (s.end != EndReason::running) return;
+  if (ground.surface == nullptr) throw core::InputError("terrain", "no terrain surface given");
+  if (s.counters.steps == 0) begin(model, ground, s);
   // The last step ends exactly at the time limit.
   if (s.time + s.dt > s.time_limit) s.dt = std::max(s.time_limit - s.time, 1e-3 * model.settings.min_time_step);
-  bool flew = false;
-  if (model.settings.flight_test && std::none_of(s.contacts.begin(), s.contacts.end(),
-                   [](const Contact& c) { return c.mode != ContactMode::open; })) {
-    PhaseTimer timer(model.settings.time_phases, s.times.flight);
-    const double h = flight_step(model, ground, s);
-    flew = h > 0.0;
-    if (flew) {
-      s.contacts.clear();
-      if (s.episode.active) end_episode(model, s);
-      finish_step(model, ground, s, h);
-    }
-  }
-  if (flew) return;
-  if (model.dof == DofPath::rigid6) contact_step<6>(model, ground, s);
-  else contact_step<12>(model, ground, s);
+  Scratch& w = workspace.scratch();
+  if (fly(model, ground, s, w)) return;
+  if (model.dof == DofPath::rigid6) contact_step<6>(model, ground, s, w);
+  else contact_step<12>(model, ground, s, w);
 }
 
 Summary summarize(const State& s) {
@@ -119,7 +138,8 @@ Summary summarize(const State& s) {
 
 Summary run(const Model& model, const Ground& ground, const Release& release, core::RandomStream impact_stream) {
   State s = start(model, release, impact_stream);
-  while (s.end == EndReason::running) step(model, ground, s);
+  Workspace workspace;
+  while (s.end == EndReason::running) step(model, ground, s, workspace);
   return summarize(s);
 }
 

@@ -9,6 +9,7 @@
 #include "contact_law.hpp"
 #include "episodes.hpp"
 #include "step.hpp"
+#include "workspace.hpp"
 
 namespace talus::dda::detail {
 
@@ -34,24 +35,24 @@ geometry::Aabb swept_sphere_box(const Model& model, const State& s, double h) {
 // that holds the box, else from the triangles gathered for an earlier flight box that
 // holds it; a new gathering takes a margin so that the next steps' boxes fall inside.
 template <class Visit>
-void for_each_triangle_near(const Model& model, const Ground& ground, State& s, const geometry::Aabb& box,
+void for_each_triangle_near(const Model& model, const Ground& ground, Scratch& w, const geometry::Aabb& box,
                             Visit&& visit) {
-  const TerrainPatch& patch = s.patch;
+  const TerrainPatch& patch = w.patch;
   if (patch.surface == ground.surface && !patch.box.empty() && patch.box.contains(box.lo) &&
       patch.box.contains(box.hi)) {
     for (const TerrainPatch::Triangle& t : patch.triangles)
       if (t.box.overlaps(box) && !visit(t.normal, t.p, t.box)) return;
     return;
   }
-  FlightPatch& flight = s.flight_patch;
+  FlightPatch& flight = w.flight_patch;
   if (flight.surface != ground.surface || flight.box.empty() || !flight.box.contains(box.lo) ||
       !flight.box.contains(box.hi)) {
     flight.surface = ground.surface;
     flight.box = box.inflated(std::max(model.radius, 0.5 * box.extent().maxCoeff()));
     flight.triangles.clear();
-    s.scratch_triangles.clear();
-    ground.surface->triangles_in_box(flight.box, s.scratch_triangles);
-    for (std::int32_t t : s.scratch_triangles) {
+    w.triangles.clear();
+    ground.surface->triangles_in_box(flight.box, w.triangles);
+    for (std::int32_t t : w.triangles) {
       FlightPatch::Triangle d;
       d.p = ground.surface->triangle_vertices(static_cast<std::size_t>(t));
       for (const Vec3& p : d.p) d.box.add(p);
@@ -78,7 +79,7 @@ void for_each_triangle_near(const Model& model, const Ground& ground, State& s, 
 // Both horizons of the flight test are decided in one pass: `h_short` ≤ `h_long`, and the
 // box of the shorter lies inside the longer's (the box of a parabola's arc is spanned by
 // its ends and apex). Returns the longer horizon that passes, h_long or h_short, or 0.
-double clear_horizon(const Model& model, const Ground& ground, State& s, double h_long, double h_short,
+double clear_horizon(const Model& model, const Ground& ground, State& s, Scratch& w, double h_long, double h_short,
                      const std::vector<Vec3>* block) {
   const geometry::Aabb box_long = swept_sphere_box(model, s, h_long).inflated(model.max_step_displacement());
   const geometry::Aabb box_short =
@@ -107,7 +108,7 @@ double clear_horizon(const Model& model, const Ground& ground, State& s, double 
     long_clear = long_clear && clears(reach_long);
     short_clear = short_clear && (!in_short || clears(reach_short));
   };
-  for_each_triangle_near(model, ground, s, box_long, [&](const Vec3& normal, const std::array<Vec3, 3>& corners,
+  for_each_triangle_near(model, ground, w, box_long, [&](const Vec3& normal, const std::array<Vec3, 3>& corners,
                                                         const geometry::Aabb& tbox) {
     judge(normal, corners, tbox);
     return long_clear || short_clear;
@@ -120,7 +121,7 @@ double clear_horizon(const Model& model, const Ground& ground, State& s, double 
 // bounding sphere of the horizon h can meet; some time below a step once one triangle
 // allows less. `at`: the block at its pose (a detailed block is bounded through its
 // vertex tree, FlightBound's second form).
-double clear_time(const Model& model, const Ground& ground, State& s, double h, const PlacedBlock& at) {
+double clear_time(const Model& model, const Ground& ground, State& s, Scratch& w, double h, const PlacedBlock& at) {
   const geometry::Aabb box = swept_sphere_box(model, s, h).inflated(model.max_step_displacement());
   thread_local FlightBound bound;
   const double round_off = 1e-9 * (s.position.cwiseAbs().maxCoeff() + model.radius);
@@ -137,7 +138,7 @@ double clear_time(const Model& model, const Ground& ground, State& s, double h, 
   const double enough = s.dt;
   bound.settle_below(enough);
   if (at.index() == nullptr) {
-    for_each_triangle_near(model, ground, s, box, [&](const Vec3& normal, const std::array<Vec3, 3>& corners,
+    for_each_triangle_near(model, ground, w, box, [&](const Vec3& normal, const std::array<Vec3, 3>& corners,
                                                       const geometry::Aabb&) {
       clear = std::min(clear, bound.triangle_time(normal, corners, clear));
       return clear >= enough;
@@ -157,7 +158,7 @@ double clear_time(const Model& model, const Ground& ground, State& s, double h, 
   };
   thread_local std::vector<Near> near;
   near.clear();
-  for_each_triangle_near(model, ground, s, box, [&](const Vec3& normal, const std::array<Vec3, 3>& corners,
+  for_each_triangle_near(model, ground, w, box, [&](const Vec3& normal, const std::array<Vec3, 3>& corners,
                                                     const geometry::Aabb&) {
     const double quick = bound.quick_triangle_time(normal, corners, h);
     if (quick < h) near.push_back({quick, near.size(), normal, corners});
@@ -211,32 +212,32 @@ bool stays_open(const Model& model, const State& s, const std::vector<Contact>& 
 // which moves no point by more than half of it, so the answer is the same.
 //
 // That near search passes over the candidates a contact step from this pose would set
-// aside (PassOver; none is kept, as no contact is carried). The answer is the same: the
-// gap of each is more than set_aside_scale (at least 1) times its point's motion at the
+// aside (MotionFilter; none is kept, as no contact is carried). The answer is the same: the
+// gap of each is more than the set-aside scale (at least 1) times its point's motion at the
 // step-start motion, which the free motion's gap (stays_open) takes off at most once. A
 // contact step from this pose takes what was passed over (scratch_passed) for its check
 // of them, as if its own search had passed over them.
-bool beyond_contact_reach(const Model& model, const Ground& ground, State& s, const PlacedBlock& at, double dt) {
-  s.scratch_contacts.clear();
+bool beyond_contact_reach(const Model& model, const Ground& ground, State& s, Scratch& w, const PlacedBlock& at, double dt) {
+  w.handoff.contacts.clear();
   const double reach = search_reach(model, s, dt);
-  const double near = s.contacts.empty() ? near_reach(model, s, dt, set_aside_scale) : 0.0;
-  detail::PassOver pass;
-  const bool passing = near > 0.0 && detail::pass_over_set_aside && set_aside_scale >= 1.0;
+  const double near = s.contacts.empty() ? near_reach(model, s, dt, w.paths.set_aside_scale) : 0.0;
+  MotionFilter pass;
+  const bool passing = near > 0.0 && w.paths.pass_over && w.paths.set_aside_scale >= 1.0;
   if (passing) {
     static const std::vector<std::int32_t> none;
     pass.keep = pass.keep_edges = pass.keep_terrain = &none;
-    aim_pass_over(model, s, at.pose(), dt, set_aside_scale, pass);
+    aim_pass_over(model, s, at.pose(), dt, w.paths.set_aside_scale, pass);
   }
-  detect_contacts(at, *ground.surface, reach, model.penetration_limit(), s.patch, s.scratch_contacts, near,
-                  passing ? &pass : nullptr);
-  s.scratch_reach = near > 0.0 ? near : reach;
-  s.scratch_passed = pass.passed;
-  s.scratch_least_gap = pass.least_gap;
+  detect_contacts(at, *ground.surface, reach, model.penetration_limit(), w.patch, w.handoff.contacts,
+                  {near, passing ? &pass : nullptr, w.paths.cross_every_valley});
+  w.handoff.reach = near > 0.0 ? near : reach;
+  w.handoff.passed = pass.passed;
+  w.handoff.least_gap = pass.least_gap;
   s.counters.flight_passed += pass.passed;
-  if (s.scratch_contacts.empty()) return true;
+  if (w.handoff.contacts.empty()) return true;
   // A contact carried from the last step (anchored, a micro-gap open) keeps its shear
   // spring's memory only through a contact step.
-  return model.dof == DofPath::rigid6 && s.contacts.empty() && stays_open(model, s, s.scratch_contacts, dt);
+  return model.dof == DofPath::rigid6 && s.contacts.empty() && stays_open(model, s, w.handoff.contacts, dt);
 }
 
 // What nominal flight steps sample, at the k − 1 nominal steps of length dt inside a long
@@ -265,9 +266,9 @@ void sample_flight(const Model& model, const Ground& ground, State& s, double dt
 
 // A flight step, if the block is clear of the terrain for at least one step: returns its
 // length (s), 0 if the block needs a contact step.
-double flight_step(const Model& model, const Ground& ground, State& s) {
+double flight_step(const Model& model, const Ground& ground, State& s, Scratch& w) {
   const double dt = s.dt;
-  s.scratch_reach = -1.0;
+  w.handoff.reach = -1.0;
   if (s.time + dt > s.clear_until) {
     // Every test below passes for a horizon only if it passes for any shorter one (the
     // boxes and distances grow with it): the longest that passes of 64, 8 and 1 steps
@@ -283,19 +284,19 @@ double flight_step(const Model& model, const Ground& ground, State& s) {
     // detailed one is left to the search), whether its vertices lie farther above their
     // planes than the contact search distance of 8 or 1 steps; then, near the ground, the
     // contact search itself (one step, below).
-    double horizon = clear_horizon(model, ground, s, first, dt, nullptr);
-    if (horizon == 8.0 * dt && clear_horizon(model, ground, s, 64.0 * dt, 64.0 * dt, nullptr) > 0.0)
+    double horizon = clear_horizon(model, ground, s, w, first, dt, nullptr);
+    if (horizon == 8.0 * dt && clear_horizon(model, ground, s, w, 64.0 * dt, 64.0 * dt, nullptr) > 0.0)
       horizon = 64.0 * dt;
     std::optional<Pose> pose;
     std::optional<PlacedBlock> at;
     if (horizon == 0.0 && (model.index == nullptr || model.dof == DofPath::rigid6)) {
       pose = pose_of(model, s);
-      at.emplace(model, *pose, s.scratch_vertices, false, &s.scratch_box);
+      at.emplace(model, *pose, w.vertices, false, &w.box);
       if (model.dof == DofPath::rigid6) {
-        const double clear = clear_time(model, ground, s, 64.0 * dt, *at);
+        const double clear = clear_time(model, ground, s, w, 64.0 * dt, *at);
         if (clear >= dt) horizon = clear;
       } else {
-        horizon = clear_horizon(model, ground, s, first, dt, &s.scratch_vertices);
+        horizon = clear_horizon(model, ground, s, w, first, dt, &w.vertices);
       }
     }
     // The search sees a block vertex only against the triangles it lies over (in plan or
@@ -309,9 +310,9 @@ double flight_step(const Model& model, const Ground& ground, State& s) {
     if (horizon == 0.0 && predicted_reach(model, s, dt) <= model.max_step_displacement()) {
       if (!at) {
         pose = pose_of(model, s);
-        at.emplace(model, *pose, s.scratch_vertices, false, &s.scratch_box);
+        at.emplace(model, *pose, w.vertices, false, &w.box);
       }
-      if (beyond_contact_reach(model, ground, s, *at, dt)) horizon = dt;
+      if (beyond_contact_reach(model, ground, s, w, *at, dt)) horizon = dt;
     }
     if (horizon == 0.0) return 0.0;
     s.clear_until = s.time + horizon;

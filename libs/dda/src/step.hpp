@@ -12,6 +12,8 @@
 
 namespace talus::dda::detail {
 
+struct Scratch;
+
 // --- Energies (energy.cpp) ---------------------------------------------------------------
 
 /// ½mv² + ½ωᵀJω: the rigid part of the kinetic energy (J).
@@ -49,9 +51,9 @@ double near_reach(const Model& model, const State& s, double h, double scale);
 /// motion, `scale` times over (m): its velocity, the strain rates' bound and gravity.
 double point_reach(const Model& model, const State& s, const Vec3& x, double h, double scale);
 /// Aims `pass` at a rigid detailed block's near search from `pose` for a step of length h
-/// with the set-aside scale `scale` (PassOver): the step-start motion in the body frame,
+/// with the set-aside scale `scale` (MotionFilter): the step-start motion in the body frame,
 /// the fall and the round-off allowance. The keep lists are left as they are.
-void aim_pass_over(const Model& model, const State& s, const Pose& pose, double h, double scale, PassOver& pass);
+void aim_pass_over(const Model& model, const State& s, const Pose& pose, double h, double scale, MotionFilter& pass);
 
 // --- Bookkeeping of an accepted step (bookkeeping.cpp) -----------------------------------
 
@@ -100,10 +102,10 @@ void apply_displacement(const Model& model, State& s, const VecN<N>& d, double d
 
 /// A flight step, if the block is clear of the terrain for at least one step: returns its
 /// length (s), 0 if the block needs a contact step (flight.cpp).
-double flight_step(const Model& model, const Ground& ground, State& s);
+double flight_step(const Model& model, const Ground& ground, State& s, Scratch& w);
 
 /// A contact step of the path with N unknowns (contact_step.cpp).
 template <int N>
-void contact_step(const Model& model, const Ground& ground, State& s);
+void contact_step(const Model& model, const Ground& ground, State& s, Scratch& w);
 
 }  // namespace talus::dda::detail

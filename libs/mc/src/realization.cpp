@@ -362,6 +362,7 @@ RealizationResult run_realization(const Scene& scene, std::uint32_t index, const
 
   RealizationResult result;
   dda::State state = dda::start(model, draw.release, RandomStream(s.seed, Stream::impact, index));
+  dda::Workspace workspace;
   Observer observer(scene, surface, model, index, result);
   const bool observe = observer.active();
   auto rotational = [&model](const dda::State& st, double kinetic) {
@@ -373,7 +374,7 @@ RealizationResult run_realization(const Scene& scene, std::uint32_t index, const
   while (state.end == dda::EndReason::running) {
     const Before before{state.time, state.position, state.velocity.head<3>(), rotational(state, kinetic),
                         state.counters.flight_steps};
-    dda::step(model, ground, state);
+    dda::step(model, ground, state, workspace);
     if (abandon != nullptr && (state.counters.steps & 255u) == 0 && abandon->load(std::memory_order_relaxed))
       throw Abandoned{};
     kinetic = state.kinetic;

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 #pragma once
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -18,6 +19,44 @@ struct Ground {
   std::span<const terrain::Material> materials;
 };
 
+/// Switches between the engine's fast paths and the slower reference paths they must equal
+/// to the bit, for the tests that compare them (docs/dda.md, "Reference paths"). The
+/// defaults are the engine's own paths.
+struct ReferencePaths {
+  /// How many times its point's motion at the step-start motion a candidate's gap may be
+  /// before a contact step sets it aside (-): ∞ keeps every candidate in the solve, a tiny
+  /// value sets almost all aside and makes the step widen again and again.
+  double set_aside_scale = 2.0;
+  /// A near search passes over the candidates a step would set aside; false: none.
+  bool pass_over = true;
+  /// Every block's edges are crossed with the terrain's valleys, whatever their length
+  /// (Model::crosses_valleys); the reference a search without them is compared with.
+  bool cross_every_valley = false;
+};
+
+namespace detail {
+struct Scratch;
+}
+
+/// What a realization's steps keep from one step to the next only to go faster (the
+/// terrain features near the block, the feature pairs gathered from them, buffers): no
+/// result depends on it, and a checkpoint (a copy of the State) does not hold it. One per
+/// realization, used with one Ground throughout.
+class Workspace {
+ public:
+  explicit Workspace(const ReferencePaths& paths = {});
+  ~Workspace();
+  Workspace(Workspace&&) noexcept;
+  Workspace& operator=(Workspace&&) noexcept;
+  Workspace(const Workspace&) = delete;
+  Workspace& operator=(const Workspace&) = delete;
+  /// The engine's own view of it.
+  detail::Scratch& scratch() { return *impl_; }
+
+ private:
+  std::unique_ptr<detail::Scratch> impl_;
+};
+
 /// The initial state of a realization: the block at `release`, per-impact draws from
 /// `impact_stream` (core::Stream::impact of the realization). Throws core::InputError
 /// ("release") on a non-finite release or a zero main direction.
@@ -27,8 +66,9 @@ State start(const Model& model, const Release& release, core::RandomStream impac
 /// test (exact parabola when no contact is possible), contact detection, assembly,
 /// open–close iteration with solves, update. Never throws for numerical trouble: that
 /// ends the realization with a failure reason. Throws core::InputError ("terrain") if a
-/// triangle names a material that `ground` lacks. Does nothing once ended.
-void step(const Model& model, const Ground& ground, State& state);
+/// triangle names a material that `ground` lacks. Does nothing once ended. `workspace`
+/// is the realization's own (Workspace).
+void step(const Model& model, const Ground& ground, State& state, Workspace& workspace);
 
 /// Per-realization result.
 struct Summary {

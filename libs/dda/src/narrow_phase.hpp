@@ -1,0 +1,269 @@
+// SPDX-License-Identifier: MIT
+// The narrow phase of the contact search: the exact tests of a block feature against a
+// terrain feature (vertex–triangle, terrain vertex–face, edge–ridge), the primitives they
+// share, and the searches over gathered pairs that apply them (narrow_phase.cpp). Every
+// test is a pure function of the geometry and the pose.
+#pragma once
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "contacts.hpp"
+
+namespace talus::dda::detail {
+
+// Scalar box tests: the Eigen array form of Aabb::overlaps/contains does not vectorise
+// for 3-vectors and was a sixth of the contact search.
+inline bool overlaps(const geometry::Aabb& a, const geometry::Aabb& b) {
+  return a.lo.x() <= b.hi.x() && b.lo.x() <= a.hi.x() && a.lo.y() <= b.hi.y() && b.lo.y() <= a.hi.y() &&
+         a.lo.z() <= b.hi.z() && b.lo.z() <= a.hi.z();
+}
+inline bool contains(const geometry::Aabb& a, const Vec3& p) {
+  return a.lo.x() <= p.x() && p.x() <= a.hi.x() && a.lo.y() <= p.y() && p.y() <= a.hi.y() && a.lo.z() <= p.z() &&
+         p.z() <= a.hi.z();
+}
+
+// Point in polygon (crossing number) in the face's (u, v) coordinates.
+inline bool inside_polygon(const std::vector<Eigen::Vector2d>& poly, const Eigen::Vector2d& q) {
+  bool inside = false;
+  const std::size_t n = poly.size();
+  for (std::size_t i = 0, j = n - 1; i < n; j = i++) {
+    const Eigen::Vector2d& a = poly[i];
+    const Eigen::Vector2d& b = poly[j];
+    if ((a.y() > q.y()) != (b.y() > q.y())) {
+      const double x = a.x() + (q.y() - a.y()) / (b.y() - a.y()) * (b.x() - a.x());
+      if (q.x() < x) inside = !inside;
+    }
+  }
+  return inside;
+}
+
+// Whether p lies over or under the triangle in plan (the triangle counter-clockwise
+// seen from above, as every upward-facing terrain triangle is).
+inline bool inside_plan(const TerrainPatch::Triangle& tri, const Vec3& p) {
+  for (int k = 0; k < 3; ++k) {
+    const Vec3& a = tri.p[k];
+    const Vec3& b = tri.p[(k + 1) % 3];
+    if ((b.x() - a.x()) * (p.y() - a.y()) - (b.y() - a.y()) * (p.x() - a.x()) < 0.0) return false;
+  }
+  return true;
+}
+
+// Closest points of segments p0-p1 and q0-q1: parameters s (on p) and t (on q) of the
+// infinite lines, when both lie in [0, 1]; callers keep only crossings strictly inside
+// both segments. The numerators are compared with the (positive) denominator before
+// dividing: most pairs cross outside a segment, and a quotient outside [0, 1] is exactly
+// a numerator outside [0, denominator], so the divisions are spared without changing a
+// result.
+inline __attribute__((always_inline)) bool line_parameters(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1, double& s, double& t) {
+  const Vec3 d1 = p1 - p0, d2 = q1 - q0, r = p0 - q0;
+  const double a = d1.dot(d1), e = d2.dot(d2), f = d2.dot(r), c = d1.dot(r), b = d1.dot(d2);
+  const double denom = a * e - b * b;
+  // Nearly parallel edges meet as vertex–face contacts instead.
+  if (denom <= 1e-6 * a * e) return false;
+  const double s_num = b * f - c * e;
+  const double t_num = a * f - b * c;
+  if (s_num < 0.0 || s_num > denom || t_num < 0.0 || t_num > denom) return false;
+  s = s_num / denom;
+  t = t_num / denom;
+  return true;
+}
+
+// The squared distance between segments p0-p1 and q0-q1 (Ericson, Real-Time Collision
+// Detection 5.1.9; degenerate segments included).
+inline double segment_distance2(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1) {
+  const Vec3 d1 = p1 - p0, d2 = q1 - q0, r = p0 - q0;
+  const double a = d1.squaredNorm(), e = d2.squaredNorm(), f = d2.dot(r);
+  double s = 0.0, t = 0.0;
+  if (a <= 0.0 && e <= 0.0) return r.squaredNorm();
+  if (a <= 0.0) {
+    t = std::clamp(f / e, 0.0, 1.0);
+  } else {
+    const double c = d1.dot(r);
+    if (e <= 0.0) {
+      s = std::clamp(-c / a, 0.0, 1.0);
+    } else {
+      const double b = d1.dot(d2);
+      const double denom = a * e - b * b;
+      s = denom > 0.0 ? std::clamp((b * f - c * e) / denom, 0.0, 1.0) : 0.0;
+      t = (b * s + f) / e;
+      if (t < 0.0) {
+        t = 0.0;
+        s = std::clamp(-c / a, 0.0, 1.0);
+      } else if (t > 1.0) {
+        t = 1.0;
+        s = std::clamp((b - c) / a, 0.0, 1.0);
+      }
+    }
+  }
+  return (p0 + s * d1 - (q0 + t * d2)).squaredNorm();
+}
+
+// Relative round-off allowances of the index queries: the queries only select candidates
+// that the exact tests below then decide, so the allowances are generous.
+constexpr double kRound = 1e-12;   // of world coordinates
+constexpr double kSlack = 1e-6;    // of the search margin
+
+inline double magnitude(const geometry::Aabb& b) { return std::max(b.lo.cwiseAbs().maxCoeff(), b.hi.cwiseAbs().maxCoeff()); }
+
+// m·r for the point k of coordinate rows `rows` of n points each (Pairs::coordinates),
+// summed as Eigen sums a 3-vector's dot product (the first two products, then the third),
+// so that it equals m.dot(r) to the last bit.
+inline double coordinate_dot(const Vec3& m, const double* rows, std::size_t n, std::size_t k) {
+  return (m.x() * rows[k] + m.y() * rows[n + k]) + m.z() * rows[2 * n + k];
+}
+
+// A world plane's signed value w·(x − a) over the block's body frame, x = centre + F·r:
+// w·(centre − a) + (Fᵀw)·r, with its extremes over a body box (centre c, half-sizes h)
+// widened by `tol` (m times |w|) for the round-off of the world test it stands for.
+struct BodyPlane {
+  BodyPlane() = default;
+  BodyPlane(const Pose& pose, const Vec3& w, const Vec3& a, double widening)
+      : m(pose.map.transpose() * w), m_abs(m.cwiseAbs()), s0(w.dot(pose.centre - a)), tol(widening) {}
+  double max_over(const Vec3& c, const Vec3& h) const { return s0 + m.dot(c) + m_abs.dot(h) + tol; }
+  double min_over(const Vec3& c, const Vec3& h) const { return s0 + m.dot(c) - m_abs.dot(h) - tol; }
+  /// min_over of the point r (a box of no size): the same value.
+  double min_at(const Vec3& r) const { return s0 + m.dot(r) - tol; }
+  /// max_over of the point r: the same value.
+  double max_at(const Vec3& r) const { return s0 + m.dot(r) + tol; }
+  Vec3 m = Vec3::Zero(), m_abs = Vec3::Zero();
+  double s0 = 0.0, tol = 0.0;
+};
+
+// An edge whose two ends both have a value s₀ + m·r of at least this along a ridge's
+// `out` (BodyPlane(pose, te.out, te.pa, 0)) cannot cross the ridge within ds (docs/dda.md,
+// "The ridge's level"; detect_indexed). The allowances cover the round-off of those values
+// (a world vertex's, per coordinate) and of the exact test's own gap, for each pose the
+// values are compared across: 1 for a step's test, 2 for the gathering that serves it.
+inline double ridge_level_limit(const TerrainPatch::Ridge& te, const PlacedBlock& at, double ds, double margin, int poses) {
+  return ds + poses * (2.0 * te.out_allowance + 4.0 * at.round_off()) + 1e-9 * margin;
+}
+
+// and the index of a detailed one.
+
+// Block vertex p (world) against terrain triangle `tri`: whether its gap (set in `gap`)
+// lies in (−depth, ds) and it lies inside the triangle's normal prism or, for ground that
+// faces up, above or below the triangle in plan. In a concave valley (a slope meeting a
+// steeper face) a vertex that has crossed the valley line lies under the steep face in
+// plan but outside the normal prisms of both faces: without the plan test neither holds
+// it and it sinks into the steep face unresisted.
+inline bool vertex_meets_triangle(const TerrainPatch::Triangle& tri, const Vec3& p, double ds, double depth,
+                                  double& gap) {
+  gap = (p - tri.p[0]).dot(tri.normal);
+  if (gap >= ds || gap <= -depth) return false;
+  const Vec3 e0 = tri.p[1] - tri.p[0], e1 = tri.p[2] - tri.p[1], e2 = tri.p[0] - tri.p[2];
+  const bool in_prism = e0.cross(p - tri.p[0]).dot(tri.normal) >= 0.0 &&
+                        e1.cross(p - tri.p[1]).dot(tri.normal) >= 0.0 &&
+                        e2.cross(p - tri.p[2]).dot(tri.normal) >= 0.0;
+  return in_prism || (tri.normal.z() > 0.0 && inside_plan(tri, p));
+}
+
+inline void add_vertex_contact(const TerrainPatch::Triangle& tri, std::int32_t vertex, const Vec3& p, double gap,
+                        std::vector<Contact>& out) {
+  Contact& c = out.emplace_back();  // built in place: a contact is some 200 bytes
+  c.kind = ContactKind::vertex_face;
+  c.block_feature = vertex;
+  c.terrain_feature = tri.index;
+  c.triangle = tri.index;
+  c.point = p;
+  c.normal = tri.normal;
+  c.gap = gap;
+}
+
+// Terrain vertex tv (qb: in the body frame) – block face: a spike of rough ground piercing
+// a face between block vertices, tested in the body frame where the face polygons are
+// stored. Only a vertex that is an extreme point of the terrain towards the face can
+// touch it: every terrain edge from it must leave on the outer side of the face plane. A
+// vertex of flat or concave ground (a grid node under a sliding cube) is no spike:
+// without this test it would take a side face's horizontal normal and trip the block. A
+// vertex of ground that is flat around it is no spike either: the block's own vertices
+// on that plane carry the face, and a redundant spring inside the face only makes the
+// contact states ambiguous. `faces` (ascending) are the faces whose polygon is within the
+// margin of qb (a detailed block's index), or null for all of them; a face further away
+// fails the gap or the polygon test. The allowance `face_tol` for the fallback's least
+// depth covers the faces a scanned mesh splits one plane into (docs/dda.md, Detection).
+void terrain_vertex_contact(const PlacedBlock& at, const TerrainPatch& patch, const TerrainPatch::Vertex& tv,
+                            const Vec3& qb, const std::vector<std::int32_t>* faces, double ds, double depth,
+                            double face_tol, std::vector<Contact>& out);
+
+// Whether point p lies in the ground of `patch` no deeper than `depth` (m): under a
+// triangle's plane, inside its normal prism or, for ground that faces up, under it in
+// plan (the test of a block vertex that has penetrated, vertex_meets_triangle).
+inline bool in_ground(const TerrainPatch& patch, const Vec3& p, double depth) {
+  double gap = 0.0;
+  return std::any_of(patch.triangles.begin(), patch.triangles.end(),
+                     [&](const TerrainPatch::Triangle& tri) { return vertex_meets_triangle(tri, p, 0.0, depth, gap); });
+}
+
+// Block edge `be` (world ends p0, p1) – terrain ridge te of `patch`: a crossing strictly
+// inside both.
+inline __attribute__((always_inline)) void edge_meets_ridge(const Pose& pose, std::int32_t be, const Vec3& p0,
+                                                            const Vec3& p1, const TerrainPatch& patch,
+                                                            const TerrainPatch::Ridge& te, double ds, double depth,
+                                                            std::vector<Contact>& out) {
+  double s = 0.0, t = 0.0;
+  if (!line_parameters(p0, p1, te.pa, te.pb, s, t)) return;
+  constexpr double kEnd = 1e-6;  // ends are vertex contacts
+  if (s <= kEnd || s >= 1.0 - kEnd || t <= kEnd || t >= 1.0 - kEnd) return;
+  Vec3 n = (p1 - p0).cross(te.pb - te.pa).normalized();
+  if (n.dot(te.normal_sum) < 0.0) n = -n;
+  const Vec3 pc = p0 + s * (p1 - p0);
+  // The normal points out of the terrain and, at a convex edge of the block, into the
+  // block: a pair for which the two disagree (a ridge seen edge-on, e₁ × e₂ nearly across
+  // the ground) has no way out along it and is left to the other contacts.
+  if (n.dot(pose.centre - pc) <= 0.0) return;
+  const Vec3 qc = te.pa + t * (te.pb - te.pa);
+  const double gap = (pc - qc).dot(n);
+  if (gap >= ds || gap <= -depth) return;
+  // A crossing below the ridge (gap < 0) is inside the ground only if it lies under the
+  // planes of both triangles on a crest (pc − qc = gap·n: n·nᵢ > 0 for both), under
+  // either in a valley (n·nᵢ ≥ 0 for one of them holds always). A block edge beside a
+  // crest, over one side and under the other side's plane continued, is out of the ground:
+  // it was taken as a penetrated contact with a normal that points out of one side only.
+  if (gap < 0.0 && te.convex && !(n.dot(te.normals[0]) > 0.0 && n.dot(te.normals[1]) > 0.0)) return;
+  // Near an end of the ridge (or beside a narrow triangle) the crossing's foot may lie
+  // over a third triangle, whose plane that test does not see: a crossing below the
+  // ridge is kept only where some triangle holds it as it would hold a block vertex
+  // there, within twice the depth limit: it lies within |gap| + |qc − end| ≤ 2·depth of
+  // any plane through that end. (14 of 61 532 crossings below ridges, in random poses on
+  // the roughest bench slope, lay up to 2.5 cm above the ground, all within |gap| of a
+  // ridge's end.) The crest test above stays: the index gathers a crest's deep pairs by
+  // it (gather_ridge_pairs), and it is cheaper.
+  if (gap < 0.0 && !in_ground(patch, pc, 2.0 * depth)) return;
+  Contact c;
+  c.kind = ContactKind::edge_edge;
+  c.block_feature = be;
+  c.terrain_feature = te.key();
+  c.triangle = te.triangle;
+  c.point = pc;
+  c.normal = n;
+  c.gap = gap;
+  out.push_back(c);
+}
+
+inline geometry::Aabb edge_box(const Vec3& p0, const Vec3& p1, double margin) {
+  return geometry::Aabb{p0.cwiseMin(p1), p0.cwiseMax(p1)}.inflated(margin);
+}
+
+struct Live;
+
+/// The search of detect_contacts in `patch` for a detailed block, over the pairs of `c`
+/// whose triangles and ridges `live` lists (broad_phase.hpp): every test of a search that
+/// gathered at this very pose, in its order, so the same contacts in the same order, those
+/// of the scan. Vertex–triangle and edge–ridge pairs within ds, terrain vertices (the
+/// faces near each) within vertex_ds; `pass`, when given, passes over what it shows cannot
+/// close (MotionFilter).
+void detect_indexed(const PlacedBlock& at, const TerrainPatch& patch, double ds, double vertex_ds, double depth,
+                    const TerrainPatch::Candidates& c, const Live& live, std::vector<Contact>& out,
+                    MotionFilter* pass);
+
+/// The search of detect_contacts in `patch` for a scanned block, over the pairs of `c`
+/// (gathered at this pose or one close enough, with distances at least this search's
+/// plus the block's motion since): every test in the order of a scan of all the pairs,
+/// so the same contacts in the same order. `prune` off tests every pair (the reference).
+void detect_scanned(const PlacedBlock& at, const TerrainPatch& patch, double ds, double depth, bool prune,
+                    const TerrainPatch::Candidates& c, std::vector<Contact>& out);
+
+}  // namespace talus::dda::detail

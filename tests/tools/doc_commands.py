@@ -50,6 +50,8 @@ EXCLUDED = [
      "50 kill-and-resume trials take minutes; the dda_run_kill_resume test runs the same script with 4"),
     (r"^bench/dda/threshold_sensitivity\.sh\b", "36 runs of 1000 realizations"),
     (r"^bench/dda/compare_runs\.py compare\b", "compares with run files of an earlier revision (BEFORE-S1.h5)"),
+    (r"^bench/dda/equality\.sh\b",
+     "record equality of two builds: 170 runs with each (about 70 s on two cores), one of them another build"),
     (r"^make (-j2 )?-C samples/bench-slope( check)?\s*(#.*)?$",
      "the whole bench-slope study (about 35 s on two cores) and its check; the bench_slope_make test runs "
      "the check (the study at 16 realizations per level, outputs checked)"),

@@ -23,17 +23,9 @@ double search_reach(const Model& model, const State& s, double h) {
   return std::max(2.0 * predicted_reach(model, s, h), model.max_step_displacement());
 }
 
-// The near search distance of a contact step of length h (m), or 0 for none: every
-// candidate the full search finds beyond it is set aside (its gap is more than `scale`
-// times what its point moves at the step-start motion, point_reach), so a detailed rigid
-// block searches its vertex–triangle and edge–ridge pairs only within it, and the step
-// looks beyond it only when its solution moves some point that far (contact_step). The
-// full distance has a floor (the step control's displacement bound) that slow motion
-// stays far below: for a rolling sphere of 5 120 triangles most candidates lie between
-// the two. Contact points lie within the radius of the centroid, so their motion is at
-// most predicted_reach; a micro-gap (1e-6 radius) carried from the last step is always
-// within it. Until the realization's friction is drawn (from the first candidate of the
-// full search, contact_step) the search is full.
+// The near search distance (m), or 0: every candidate the full search finds beyond it is
+// set aside (its gap exceeds `scale` times its point's motion), so a detailed rigid block
+// need not search there.
 double near_reach(const Model& model, const State& s, double h, double scale) {
   if (model.index == nullptr || model.dof != DofPath::rigid6 || !s.friction_drawn || !std::isfinite(scale) ||
       !(scale > 0.0))
@@ -45,9 +37,7 @@ double near_reach(const Model& model, const State& s, double h, double scale) {
 }
 
 // How far the block point x (world, m) can move in a step of length h at the step-start
-// motion, `scale` times over (m): its velocity, the strain rates' bound and gravity, as
-// predicted_reach for the whole block. A contact candidate further from the ground than
-// this is set aside for the step; the step's solution is checked against it.
+// motion, `scale` times over (m): velocity, the strain rates' bound and gravity.
 double point_reach(const Model& model, const State& s, const Vec3& x, double h, double scale) {
   const Vec3 r = x - s.position;
   const Vec3 v = s.velocity.head<3>() + s.velocity.segment<3>(3).cross(r);
@@ -85,10 +75,9 @@ void sample_trajectory(const Model& model, State& s, double t, const Vec3& p, co
 // The centroid `height` (m) above the terrain triangle `triangle` below it, at the end of
 // a step or at a nominal step inside a long flight step: the jump maxima.
 void note_jump(const terrain::Surface& surf, State& s, double height, std::int32_t triangle) {
-  // Jumps count from the first real touch of the terrain (a closed contact) on: the
-  // release drop is no jump, nor is a step that only searched for contacts. Beside the
-  // vertical height, the distance to the plane of the triangle below, along its normal
-  // (on a slope the vertical height overstates a jump by 1/cos of the slope).
+  // Jumps count from the first closed contact on; beside the vertical height, the distance
+  // to the plane of the triangle below along its normal (the vertical overstates a jump on
+  // a slope).
   if (!s.touched) return;
   s.max_jump_height = std::max(s.max_jump_height, height);
   // On a height field the normal's z is in (0, 1] (to round-off): the normal height is at

@@ -97,13 +97,9 @@ void fill_patch(const terrain::Surface& surface, const std::vector<std::int32_t>
   }
 }
 
-// A bound of ‖F − F₀‖₂ for the map F of `pose` and an earlier map F₀ of the same block
-// (`rigid0`: a rotation too): every block point r has moved by at most that times |r|
-// besides the centre's motion. Between rotations ‖F − F₀‖₂ = ‖F·F₀ᵀ − I‖₂ = 2 sin(θ/2) =
-// √(3 − tr(F·F₀ᵀ)) for the angle θ between them; 1e-14 under the root covers the trace's
-// round-off and the maps' departure from orthonormality (a few ulps of a normalized
-// quaternion's). For a rolling block this is 1/√2 of the Frobenius norm, which the
-// 12-DOF path keeps.
+// A bound of ‖F − F₀‖₂ for the map F of `pose` and an earlier F₀ (`rigid0`: a rotation):
+// between rotations √(3 − tr(F·F₀ᵀ)) = 2 sin(θ/2), with 1e-14 for round-off; else the
+// Frobenius norm.
 double map_change(const Pose& pose, const Mat3& map0, bool rigid0) {
   if (!pose.rigid || !rigid0) return (pose.map - map0).norm();
   const double trace = pose.map.row(0).dot(map0.row(0)) + pose.map.row(1).dot(map0.row(1)) +
@@ -113,10 +109,9 @@ double map_change(const Pose& pose, const Mat3& map0, bool rigid0) {
 
 namespace {
 
-// How many vertices a walk over a convex block's vertex graph (VertexClimb::below) may
-// visit before a tree query is cheaper: 64, or a share of the block's vertices (a walk's
-// pairs serve longer than a query's, *Reusing the pairs*, and a finer mesh has more
-// vertices in the same cap).
+// How many vertices a walk (VertexClimb::below) may visit before a tree query is cheaper:
+// 64, or a share of a fine mesh's vertices, whose caps hold more (docs/dda.md, Reusing the
+// pairs).
 std::size_t walk_limit(const Model& model) { return std::max<std::size_t>(64, model.vertices.size() / 20); }
 
 // The slack of a walk for the plane m·r = level (VertexClimb::below): a few ulps of
@@ -125,12 +120,9 @@ double walk_slack(const Model& model, const Vec3& m, double level) {
   return 1e-9 * (model.radius * m.norm() + std::abs(level));
 }
 
-// The cap of a walk under a plane (VertexClimb::below into `under`, its lowest value and
-// the level it walked to): the lowest vertex, and how far from it the vertices walked and
-// their edges reach. The polytope's part under the plane has for its corners the
-// vertices under it (all walked) and points on their edges, so every block point above
-// the level lies above it by at least (level − lowest)·|r − pivot| / reach (docs/dda.md,
-// "Reusing the pairs").
+// The cap of a walk under a plane: its lowest vertex and the reach of the vertices walked
+// and their edges; every point above the level lies above it by (level − lowest)·|r −
+// pivot|/reach.
 TerrainPatch::Candidates::Cap walked_cap(const Model& model, const VertexClimb& climb,
                                          const std::vector<std::int32_t>& under, double lowest, double level) {
   TerrainPatch::Candidates::Cap cap;
@@ -178,13 +170,9 @@ void start_gathering(const PlacedBlock& at, double ds, double depth, double moti
 }
 
 
-// The vertices of a detailed block that can pass the vertex–triangle tests of detect_in
-// with `tri`: in tbox, under the ceiling, in the slab of the triangle's plane from −depth
-// to ds, and inside the triangle's normal prism or (ground that faces up) its vertical
-// prism, the prisms widened by `motion` (m). Tested on the body-frame boxes of the vertex
-// tree, where a world plane's signed value is linear in r. Replaces `out`, in tree order.
-// Returns whether they were found by a walk under the triangle's plane, raised to at
-// least `rise` (m) over the block's lowest vertex, and then that walk's cap into `cap`.
+// The vertices that can pass the vertex–triangle tests with `tri` (its slab, the ceiling,
+// its prisms widened by `motion`), on the body-frame boxes of the vertex tree or by a walk;
+// into `out`.
 [[gnu::noinline]] bool vertices_near(const PlacedBlock& at, const TerrainPatch::Triangle& tri, const geometry::Aabb& tbox,
                                      double ceiling, double ds, double depth, double motion, double rise,
                                      std::vector<std::int32_t>& out, TerrainPatch::Candidates::Cap& cap) {
@@ -229,10 +217,9 @@ void start_gathering(const PlacedBlock& at, double ds, double depth, double moti
   const Model& model = at.model();
   const VertexClimb& climb = at.index()->climb;
   if (climb.fills()) {
-    // A vertex that passes has s0 + m·r − tol < ds, so lies under a plane of the body
-    // frame: those are found by a walk over the vertex graph (VertexClimb::below), and
-    // each is given the tree's test on its own box, unless they are more than a tree
-    // query costs.
+    // A vertex that passes lies under a plane of the body frame (s0 + m·r − tol < ds):
+    // found by a walk over the vertex graph, each then given the tree's test on its own
+    // box.
     thread_local std::vector<std::int32_t> under;
     double lowest = 0.0;
     double level = ds + floor_plane.tol - floor_plane.s0;
@@ -260,24 +247,9 @@ bool crosses(const Model& model, const TerrainPatch::Ridge& te, bool every_valle
 
 namespace {
 
-// The convex edges of a convex block (VertexClimb::fills) that `keeps` (gather_ridge_pairs's
-// tests of an edge: those of its tree query on the edge's own box, and those on its
-// segment), into `edges` (in no particular order), found by walks over the vertex graph:
-// false when the walks would visit more vertices than a tree query costs (`edges` then
-// incomplete). In the body frame, with the ridge
-// from a to a + along: every edge that passes has a point within `deep` of the ridge, and
-// within `shallow` of it or an end under the ridge's planes `sides` (may_be_under of
-// gather_ridge_pairs: on a crest both, else either of `planes`; any when there are none). A
-// point within D of the ridge lies under the plane u·r = max over the ridge of u·r + D for
-// every unit u, and so does an end of its edge: with u the direction from the ridge's
-// point nearest the centre to the centre, the plane cuts off the block's side next to
-// the ridge. So every such edge has an end under one of: that plane for `shallow`, and
-// for `deep` either that plane again or the planes of the ridge's triangles. Before
-// those, one walk under the plane `out` at `out_limit` (gather_ridge_pairs keeps no edge
-// with both ends above it), which alone finds every edge that can pass when it is short.
-//
-// When that walk alone served, its cap is set in `cap` and `capped` (walked_cap); its
-// level is raised to at least `rise` (m) over the block's lowest vertex along `out`.
+// The convex edges of a convex block that `keeps`, found by walks over the vertex graph
+// under the planes every passing edge has an end under (docs/dda.md, The ridge's level);
+// false: use a query.
 template <class Keeps>
 bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, double shallow, double deep, int planes,
                    bool crest, const std::array<BodyPlane, 2>& sides, const BodyPlane& out, double out_limit,
@@ -339,14 +311,8 @@ bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, doub
   return walk(u, ridge_top + deep, deep);
 }
 
-// The convex edges of a detailed block that can pass the edge–ridge tests of
-// detect_indexed with ridge te within search distance ds and depth limit `depth` at this
-// pose or any pose whose points lie within `motion` (m) of theirs (ds and depth must
-// include that motion): the edge near the ridge's box and segment, under the ceiling, the
-// planes of the ridge's triangles widened by the motion. Into p, ascending, with what
-// their reuse rests on (pairs_serve): the block's separation from a ridge it lies apart
-// from, the cap of the walk under the ridge's `out` plane (its level raised by the
-// motion), else a tree query's.
+// The convex edges that can pass the edge–ridge tests with ridge te at this pose or any
+// within `motion` (m), into p, ascending, with what their reuse rests on (pairs_serve).
 [[gnu::noinline]] void gather_ridge_pairs(const PlacedBlock& at, const TerrainPatch::Ridge& te, double ds,
                                           double depth, double motion, TerrainPatch::Candidates::Pairs& p) {
   using Basis = TerrainPatch::Candidates::Pairs::Basis;
@@ -366,20 +332,14 @@ bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, doub
     eigen.computeDirect(pose.map.transpose() * pose.map, Eigen::EigenvaluesOnly);
     stretch = std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff())) * (1.0 + 1e-6);
   }
-  // In the body frame: the ridge's segment, and the distances lengthened by F⁻¹. A pair
-  // with gap ≥ 0 has its crossing within ds of the ridge. One with gap < 0 has it at
-  // most `depth` from the ridge, below the plane of a triangle of the ridge: the normal
-  // n, oriented along the triangles' normal sum, has n·nᵢ ≥ 0 for one of them, and
-  // (pc − qc)·nᵢ = gap·(n·nᵢ) ≤ 0 (unknown for an edge of more than two triangles);
-  // on a crest below both planes (edge_meets_ridge).
+  // In the body frame (distances lengthened by F⁻¹): a pair's crossing lies within ds of
+  // the ridge, or within `depth` and below a plane of one of its triangles (both on a
+  // crest).
   const geometry::Aabb ridge_box = te.box.inflated(margin);
   const double tol = at.round_off() + kRound * magnitude(ridge_box) + kSlack * margin + 1e-9 * model.radius;
-  // Every pair passes the distance tests below: its edge lies within `deep` of the
-  // ridge in the body frame, so within stretch·deep in the world. A ridge the block lies
-  // farther from has none, and most in the block's box do (those beside a round block's
-  // box corners): skipped by their separation, a lower bound of the distance between
-  // the ridge and the hull of the world vertices, which lie within twice their
-  // round-off of the exact images of the body points.
+  // A ridge the block lies farther from than any passing edge can (its separation, a lower
+  // bound of the distance to the hull of the world vertices) has no pairs: most ridges in
+  // the box.
   if (!climb.empty()) {
     const double apart = separation(at, {te.pa, te.pb, te.pb}) - 4.0 * at.round_off() - 1e-9 * model.radius;
     const double lengthened = stretch * at.inverse_stretch() * (1.0 + 1e-9);
@@ -407,10 +367,9 @@ bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, doub
   // Only edges at most `margin` above the ridge's highest point can pass (a crossing
   // lies in the ridge's box inflated by the margin).
   const BodyPlane ceiling_plane(pose, Vec3::UnitZ(), Vec3(0.0, 0.0, te.box.hi.z() + margin), tol);
-  // detect_indexed passes over an edge with both ends more than its ds above the ridge
-  // along `out`; a point moves by at most `motion` before the pairs are gathered again,
-  // so an edge with both ends more than ds (which holds that motion) above it here
-  // never reaches the test.
+  // The narrow phase passes over an edge with both ends more than ds above the ridge along
+  // `out` (ridge_level_limit), and a point moves at most `motion` before the pairs are
+  // gathered again.
   const BodyPlane out_plane(pose, te.out, te.pa, 0.0);
   const double out_limit = ridge_level_limit(te, at, ds, margin, 2);
   // Whether a deep pair may lie under the ridge's planes, `under(k)` telling whether
@@ -432,10 +391,8 @@ bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, doub
     if (distance2 > (deep + size) * (deep + size)) return false;
     return may_be_under([&](int k) { return sides[static_cast<std::size_t>(k)].min_over(c, h) <= 0.0; });
   };
-  // The same tests on each edge's own segment: its distance to the ridge's instead of
-  // a box's, its ends' plane values instead of a box's extremes (a segment's extremes
-  // along a plane lie at its ends). An edge's box is as long as the edge: the box
-  // tests let through 1.5–3 times the pairs that pass these.
+  // The same tests on each edge's own segment (its distance and its ends' plane values),
+  // which let through far fewer pairs than its box.
   const auto segment_passes = [&](std::int32_t e) {
     const BlockEdge& edge = model.edges[static_cast<std::size_t>(e)];
     const Vec3& r0 = model.vertices[static_cast<std::size_t>(edge.a)];
@@ -473,11 +430,8 @@ bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, doub
 }
 
 // How far (m) the block lies wholly outside the prisms of `tri` that vertex_meets_triangle
-// tests a vertex against: its normal prism and, for ground that faces up, its prism over
-// the triangle in plan; ≤ 0 when not. Outside a prism means beyond the plane of one of
-// its sides, with w the side's inward normal (n × e over an edge e, or e turned left in
-// plan): w·(x − a) is at most w·(centre − a) plus the block's support along w (round-off
-// included), and the test's own round-off is within 4·|w|·tol of it (vertices_near).
+// tests (≤ 0 when not): beyond a side's plane by the support along its inward normal,
+// round-off included.
 double outside_prisms(const PlacedBlock& at, const TerrainPatch::Triangle& tri, double tol) {
   const Vec3& centre = at.pose().centre;
   const auto beyond = [&](bool plan) {
@@ -497,11 +451,9 @@ double outside_prisms(const PlacedBlock& at, const TerrainPatch::Triangle& tri, 
   return outside;
 }
 
-// The features of `patch` (of `count`; `box(k)` the box of feature k) whose boxes come
-// within `margin` and `box_widening` (m) of a detailed block's box, into `ids` (in patch
-// order), with their pairs in `pairs`, gathered in g. A feature that was among them
-// before, from the same patch and block, keeps its pairs (they have their own reuse
-// test, pairs_serve); the others are to be gathered.
+// The features of `patch` whose boxes come within `margin` and `box_widening` (m) of the
+// block's box, into `ids` in patch order; one already there keeps its pairs (pairs_serve
+// decides them).
 template <class Box>
 void gather_by_boxes(const PlacedBlock& at, std::size_t count, const Box& box, double margin, double box_widening,
                      TerrainPatch::Candidates::Gathering& g, std::vector<std::int32_t>& ids,
@@ -526,10 +478,8 @@ void gather_by_boxes(const PlacedBlock& at, std::size_t count, const Box& box, d
   }
 }
 
-// The vertices of a detailed block that can pass the vertex–triangle tests with `tri`
-// within search distance ds and depth limit `depth` at this pose or any pose whose points
-// lie within `motion` (m) of theirs (ds and depth must include that motion), ascending,
-// into p with what their reuse rests on (pairs_serve).
+// The vertices that can pass the vertex–triangle tests with `tri` at this pose or any
+// within `motion` (m), ascending, into p, with what their reuse rests on (pairs_serve).
 void gather_triangle_pairs(const PlacedBlock& at, const TerrainPatch::Triangle& tri, double ds, double depth,
                            double motion, TerrainPatch::Candidates::Pairs& p) {
   using Basis = TerrainPatch::Candidates::Pairs::Basis;
@@ -539,11 +489,9 @@ void gather_triangle_pairs(const PlacedBlock& at, const TerrainPatch::Triangle& 
   p.coordinates.clear();
   const double margin = std::max(ds, depth);
   const geometry::Aabb tbox = tri.box.inflated(margin);
-  // A plane the whole block lies above by more than ds has none of its vertices in the
-  // slab of vertices_near's floor test: the block's least value along the normal is
-  // bounded below by its support (round-off included), and the test's own round-off is
-  // within tol of it. Most triangles of the box lie so (the ground beside and below a
-  // round block's box corners), and this costs one support query.
+  // A plane the whole block lies above by more than ds (its support bounds that, round-off
+  // included) has none of its vertices in the slab: one support query settles most
+  // triangles of the box.
   const double tol = at.round_off() + kRound * magnitude(tbox);
   if (!at.index()->climb.empty()) {
     const double above =
@@ -603,15 +551,9 @@ double moved_since(const TerrainPatch::Candidates::Gathering& g, const Model& mo
 
 namespace {
 
-// Whether a detailed block's pairs p with one triangle or ridge serve a search at `pose`
-// with distances ds and depth (m) (docs/dda.md, "Reusing the pairs"). Every point has
-// moved by at most `moved` = |Δcentre| + ‖ΔF‖·radius since they were gathered. Those of
-// a tree query serve while that is within the motion their tests were widened by, with
-// ds + moved and depth + moved within their distances. Those of a walk serve too while
-// the points within its cap's reach of its pivot move by at most that, μ = |Δ(pivot)| +
-// ‖ΔF‖·reach, and ‖ΔF‖·reach ≤ rise: every point the walk left out then stays out of
-// reach. None serve while the block stays above the triangle's plane, beside its prisms
-// or apart from the ridge.
+// Whether pairs p serve a search at `pose` with ds and depth (m): the motion since they
+// were gathered within what their tests were widened by, or a walk's cap still holds
+// (docs/dda.md, Reusing the pairs).
 inline __attribute__((always_inline)) bool pairs_serve(const TerrainPatch::Candidates::Pairs& p, const Motion& since,
                                                        double ds, double depth) {
   using Basis = TerrainPatch::Candidates::Pairs::Basis;
@@ -643,10 +585,9 @@ inline __attribute__((always_inline)) bool pairs_serve(const TerrainPatch::Candi
 
 namespace {
 
-// Whether a detailed block's pairs p still serve a search at ds and `depth` (m) from the
-// pose of `at`: first on bounds of the motion since they were gathered (the sums of the
-// motions between searches, `c`), and on the two poses only when those do not show it;
-// the poses' motion since each earlier search is computed once per search (`since`).
+// Whether pairs p still serve: first on bounds of the motion since the gathering (the sums
+// between searches in `c`), on the two poses only when those do not show it; `since` caches
+// per search.
 bool still_serve(TerrainPatch::Candidates::Pairs& p, const TerrainPatch::Candidates& c, const Model& model,
                  const Pose& pose, double ds, double depth, double slack, std::vector<Motion>& since) {
   using Basis = TerrainPatch::Candidates::Pairs::Basis;
@@ -760,11 +701,9 @@ void refresh_pairs(const PlacedBlock& at, TerrainPatch& patch, double ds, double
       });
 }
 
-// The feature pairs of a scanned block (few vertices) that can form a contact within
-// search distance ds and depth limit `depth`, in the order detect_scanned tests them:
-// for each, the tests of detect_scanned that only a distance decides (a box, a gap),
-// widened to these distances. `prune` off keeps every pair (the brute-force reference);
-// `every_valley` crosses every valley (SearchFilter).
+// The pairs of a scanned block that can form a contact within ds and `depth`, in the order
+// detect_scanned tests them; `prune` off keeps every pair; `every_valley` crosses every
+// valley.
 void gather_candidates(const PlacedBlock& at, const TerrainPatch& patch, double ds, double depth, bool prune,
                        bool every_valley, TerrainPatch::Candidates& c) {
   const Model& model = at.model();

@@ -44,11 +44,9 @@ class SameFeature {
   inline static thread_local std::vector<std::pair<std::uint64_t, std::int32_t>> keyed_;
 };
 
-// Takes the state of `old` into `c`, with its springs resumed where the last solve left
-// them: the exact rotation of the geometry update puts a rotating block's points up to
-// |θ|²·r/2 deeper than the linearised step predicted, and a spring compressed by that
-// extra depth would push it out with energy no force stored. So the compression never
-// exceeds the predicted one, and the accepted penetration follows the block out, never in.
+// Takes the state of `old` into `c`, springs resumed where the last solve left them: the
+// exact rotation puts points deeper than the step predicted, and that extra depth must not
+// push out.
 void carry_one(const Contact& old, Contact& c, const Pose& pose, double friction, double shear_stiffness,
                double radius) {
   c.mode = old.mode;

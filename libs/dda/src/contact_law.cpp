@@ -19,11 +19,9 @@ struct Work {
   Vec3 s0;                              // shear spring stretch at the step start
   double g0 = 0.0;                      // gap − offset at the step start
   double mu = 1.0;                      // share of the friction coefficient a sliding contact gets
-  // A locked contact at its friction limit in this step: its shear spring is replaced in
-  // the solve by the Coulomb force μ·F_n against `limit_direction` (F_n implicit, as for a
-  // sliding contact), the exact return mapping of the spring; its anchor is moved to the
-  // limit once the step is accepted. `unloaded`: it was at the limit and its point moved
-  // back, so it is an elastic spring again for the rest of the step.
+  // At its friction limit a locked contact's shear spring is replaced by the implicit
+  // Coulomb force against `limit_direction` (the exact return mapping); `unloaded`: it
+  // moved back, elastic again.
   bool at_limit = false;
   bool unloaded = false;
   Vec3 limit_direction = Vec3::Zero();
@@ -69,14 +67,9 @@ struct Judged {
   bool shifted = false;
 };
 
-// One step's contact law over its contacts. Each contact may visit each of its three modes
-// once per step; a contact whose re-judgement would take it back to a mode it already had
-// in this step (open -> locked -> open, locked -> sliding -> locked, ...) is held closed --
-// sliding if it slid -- for the rest of the step, and so is every contact that changes
-// state after `max_open_close_iterations`. The iteration therefore always ends, after at
-// most max_open_close_iterations + 5·(contacts) + 1 solves (the last ones dropping friction
-// that would push); a held contact carries at most the small tension or slip error of one
-// state flip (counted in Counters::held_contacts).
+// One step's contact law. A contact whose re-judgement would revisit a mode, or that
+// changes after max_open_close_iterations, is held: the iteration always ends (docs/dda.md,
+// The open–close iteration).
 template <int N>
 class ContactLaw {
  public:
@@ -176,16 +169,9 @@ void ContactLaw<N>::assemble() {
   }
 }
 
-// The Coulomb force of a contact that slides into this step opposes its trial slip: the
-// slip of this step's solution with no friction at all (open contacts out, closed ones
-// with their normal springs, locked ones with their shear springs). For a translating
-// block that is the implicit (radial-return) direction, the one the converged slip
-// takes; the previous step's slip lags behind it, and on a block sliding slowly with a
-// small sideways velocity the lagging force overshot sideways each step: a sway of
-// ±1.4 mm/s that kept a cube sliding at 2.4 mm/s down a slope it should stick to.
-// The rigid path only: on the 12-DOF path a friction set against the trial slip kept 3 of
-// 8 cubes of the landing case sliding at 2.7 mm/s, with a rocking velocity that flipped
-// sign every step; set against the previous step's slip, all 8 stick (cause not traced).
+// Friction of a contact sliding into the step opposes the trial slip (the frictionless
+// solution), the implicit direction; the last step's lags and let a slowly sliding cube
+// sway and creep.
 template <int N>
 void ContactLaw<N>::trial_slip() {
   if (!(N == 6 && friction_ > 0.0 && std::any_of(contacts_.begin(), contacts_.end(), [](const Contact& c) {
@@ -218,12 +204,8 @@ void ContactLaw<N>::trial_slip() {
   }
 }
 
-// The per-contact records of the iteration: the modes each contact has visited, whether
-// it is held, the last penetration of its open state and tension of its closed state (m,
-// which of the two violates less decides how a contact cycling between them is held),
-// whether it opened the step open, and the last move of its spring zero (unbounded for a
-// contact that starts the step with its spring unloaded at its accepted offset, zero --
-// no move allowed -- for any other).
+// Per contact: the modes visited, whether held, its open penetration and closed tension
+// (which violates less decides how a cycling contact is held), its spring zero's last move.
 template <int N>
 void ContactLaw<N>::start_iteration() {
   const std::size_t n = contacts_.size();
@@ -335,15 +317,9 @@ void ContactLaw<N>::set_limit(Work<N>& w, const Vec3& st, double g) {
   w.limit_at = d_;
 }
 
-// A contact that re-sticks after slipping gets its shear spring stretched to the friction
-// force it carried, so the force is continuous and the load does not jump to the other
-// contacts (which would make a block ratchet down a slope it should stick to). That
-// stretch stores ½(μF_n)²/k_s that no force stored, negligible at rest but not under an
-// impact's forces: there the anchor starts unstretched. Nor does it exceed the friction
-// force the contact carried into the step (its normal force at the end of the last step):
-// a force it never carried is not continued, and a transient iterate pressing a contact
-// that opened the step with a gap 1e-3 m deep pre-stretched its anchor with 847 J that
-// turned into motion of a block at rest.
+// A re-sticking contact's spring starts stretched to the friction force it carried (never
+// more than its last normal force allows), so the load does not jump; under an impact,
+// unstretched.
 template <int N>
 void ContactLaw<N>::restick(Contact& c, Work<N>& w, double g) {
   const double stretch = impact_phase_ ? 0.0 : friction_ * std::min(-p_ * g, c.normal_force) / ps_;
@@ -354,14 +330,9 @@ void ContactLaw<N>::restick(Contact& c, Work<N>& w, double g) {
   w.ta = w.t;
 }
 
-// A held contact keeps its mode but not a force friction cannot carry: a locked one has
-// its anchor moved to the friction limit of this solution (none in tension), and a
-// sliding one may still stick once, since Coulomb friction must never push along the
-// slip. Nor a pull that does work: a closed contact that started the step with a gap and
-// ends it in tension (0 < g < g₀) pulls the block towards the ground along its whole
-// approach. It opens, and stays open (held): a contact held locked after the free
-// iterations, 9 mm off at the step start and 0.17 mm in tension at its end, did 1.7 MJ of
-// work on a block at rest.
+// A held contact keeps its mode but no force friction cannot carry, and a closed one that
+// started with a gap and ends in tension opens: it would pull the block in along its whole
+// approach.
 template <int N>
 void ContactLaw<N>::judge_held(Contact& c, Work<N>& w, std::size_t i, double g, Judged& j) {
   if (c.mode != ContactMode::open && w.g0 > 0.0 && g > 0.0) {
@@ -370,17 +341,9 @@ void ContactLaw<N>::judge_held(Contact& c, Work<N>& w, std::size_t i, double g, 
     j.changed = true;
     return;
   }
-  // A held contact that started the step unloaded (at its accepted offset, as a landing
-  // vertex found already below the surface does) and ends it in tension has its spring's
-  // zero moved to where its point ends, never above the surface (a return mapping of the
-  // normal spring, as the anchor's for friction), and the solution is redone; again only
-  // while the tension it is left with shrinks. (Moved whatever the tension, the shifts of
-  // two sliding contacts of a 1000 m³ cube fed on each other, a zero went 2.4 cm up in
-  // eight iterations and the step gained 2.2e10 J.) Opened instead, it could sink with
-  // nothing to stop it; held with its pull, a rolling sphere's landing vertex held 4e-5 m
-  // in tension (4.5e7 N) beside a compressed one 4 cm away, and the couple turned 5 rad/s
-  // of rolling spin into 3 rad/s about the slope line: 17 % of the block's kinetic energy
-  // in one step.
+  // A held contact that started unloaded at its offset and ends in tension has its spring's
+  // zero moved to its end point (never above the surface), and only while its tension
+  // shrinks.
   if (c.mode != ContactMode::open && g > 1e-12 * model_.radius && c.gap_offset < 0.0 && g < b_.last_shift[i]) {
     const double shift = std::min(g, -c.gap_offset);
     c.gap_offset += shift;
@@ -442,10 +405,9 @@ bool ContactLaw<N>::propose(Contact& c, Work<N>& w, double g, Transition& t, Jud
   const Vec3 st = sv - c.normal * c.normal.dot(sv);
   const double fs = ps_ * st.norm();
   if (w.at_limit) {
-    // At the limit while its anchored point moves on along the stretch; moved back (or no
-    // longer stretched past the limit), it unloads: an elastic spring again. Its force
-    // follows the stretch's direction (a radial return): the solution is redone until the
-    // direction holds, and only then may a larger slip slide.
+    // At the limit while its point moves on along the stretch; moved back or no longer past
+    // the limit, it unloads. The force follows the stretch's direction until that holds (a
+    // radial return).
     const Vec3 da = w.ta * d_;
     if ((da - c.normal * c.normal.dot(da)).dot(w.limit_direction) < 0.0 || !(fs > friction_ * (-p_ * g))) {
       w.at_limit = false;
@@ -461,25 +423,15 @@ bool ContactLaw<N>::propose(Contact& c, Work<N>& w, double g, Transition& t, Jud
     }
   }
   if (fs > friction_ * (-p_ * g) * (1.0 + 1e-12) && st.norm() > 0.0) {
-    // A slip within the shear spring's elastic range (μ·F_n/k_s) leaves the contact
-    // locked at its friction limit (a return mapping, as in elastoplastic friction): a
-    // sticking contact at its limit -- the uphill edge of a block resting on a slope --
-    // stays locked instead of alternating between sliding and re-sticking each step,
-    // which made a resting block creep. A larger slip slides, with the Coulomb force
-    // implicit and opposite the motion.
+    // A slip within the spring's elastic range (μ·F_n/k_s) leaves the contact locked at its
+    // limit (elastoplastic friction), so a block resting at its limit does not creep; a
+    // larger slip slides.
     const Vec3 du = w.t * d_;
     const double slipped = (du - c.normal * c.normal.dot(du)).norm();
     if (slipped <= friction_ * (-p_ * g) / ps_) {
-      // The spring is replaced by the Coulomb force along the stretch and the step solved
-      // again: the exact return mapping. Moving the anchor to the limit of each solution
-      // instead converged by a factor Σk_s / (2m/Δt² + Σk_s), 0.997 for four springs of a
-      // 1 m³ cube at 1 ms, and the iteration's bound stopped it at a few percent of the
-      // displacement: a cube whose contacts were all at their limit on a plane 0.5 %
-      // steeper than its friction angle did not slide. A contact that unloaded in this
-      // step has its anchor moved instead (bounded: it cannot cycle between the two). So
-      // has every contact on the 12-DOF path: there the Coulomb force let a cube whose
-      // friction angle exceeds the slope by 0.05° slide off at 2.5 mm/s (its strain mode
-      // keeps vibrating), while with anchors moved it stays.
+      // The implicit Coulomb force replaces the spring (exact return mapping; moving the
+      // anchor each iteration converged too slowly to let a cube slide). The 12-DOF path
+      // and unloaded contacts move anchors.
       if (N == 12 || w.unloaded) {
         j.shifted = cap_at_friction(c, w, g, 1.0) || j.shifted;
       } else if (!w.at_limit) {
@@ -501,10 +453,9 @@ template <int N>
 bool ContactLaw<N>::resolve_cycle(Contact& c, Work<N>& w, std::size_t i, double g, Transition& t, Judged& j) {
   const bool touched_open = ((b_.visited[i] | bit(t.next)) & bit(ContactMode::open)) != 0;
   if (!touched_open) {
-    // Cycling between sticking and slipping: the contact is at the friction limit. It is
-    // held locked with its anchor moved so that the shear spring carries exactly μ·F_n
-    // along the stretch of this solution (a return mapping): a sticking block that just
-    // stopped keeps its load shared, without more slip.
+    // Cycling between sticking and slipping: held locked with its anchor moved so its
+    // spring carries exactly μ·F_n (a return mapping): the load stays shared, without more
+    // slip.
     if (c.mode == ContactMode::locked) {
       w.at_limit = false;
       j.shifted = cap_at_friction(c, w, g, 1.0) || j.shifted;
@@ -513,17 +464,9 @@ bool ContactLaw<N>::resolve_cycle(Contact& c, Work<N>& w, std::size_t i, double 
     t.next = ContactMode::locked;  // the re-stick pre-stretches it to the limit
     return friction_ > 0.0;        // nothing to stick with: it keeps sliding
   }
-  // Cycling between open and closed: the contact carries almost no load (a closed state
-  // in tension against an open one that penetrates). A contact compressed at the step
-  // start is held closed and sliding along its tangential motion in this solution, so it
-  // bears the bounded Coulomb force; locked only if it does not move tangentially at all.
-  // A contact that starts the step with a gap is held open instead: closed, its spring
-  // would pull with the whole gap as tension. So is a contact that was open at the step
-  // start if its open state penetrates less than its closed state pulls, and by no more
-  // than `shallow`: a rolling block's vertex landing again at zero gap sank 1.5e-5 m open
-  // but pulled at 6e-5 m of tension (7e7 N) held closed, and the block lost most of its
-  // spin in one step. (A held-open penetration becomes the next step's accepted offset,
-  // so deeper ones would let a soft-contact block sink step by step.)
+  // Cycling between open and closed: held open if it started with a gap, or if open it
+  // penetrates less (and by at most `shallow`) than closed it pulls; otherwise held closed
+  // and sliding.
   const double shallow = 1e-3 * model_.penetration_limit();
   if (w.g0 > 0.0 ||
       (b_.first_open[i] && b_.open_depth[i] < b_.closed_tension[i] && b_.open_depth[i] <= shallow)) {
@@ -595,16 +538,9 @@ void ContactLaw<N>::judge(std::size_t i, int iter, Judged& j) {
   change_mode(c, w, i, g, t, j);
 }
 
-// A held sliding contact may end the step in tension (g ≥ 0) or with its point moving
-// against its friction direction. Its implicit Coulomb force μ·p·(−g) then pushes along
-// the motion: in tension the "normal force" is negative. One such contact, held closed
-// 3e-5 m in tension under a tetrahedron spinning at 12 rad/s, put 6e6 N of friction along
-// a 13 mm slip and gave the step 78 kJ. A contact that carries no compression has no
-// friction, and friction never works along the motion: once the modes are final, such
-// contacts slide without friction and the step is solved again with the modes kept (each
-// contact loses its friction at most once). True if any did. A contact at its friction
-// limit pushes the same way in tension or once its point moves back against its stretch:
-// it is an elastic spring again, and the step is solved again.
+// Friction never pushes along the motion: once the modes are final, a sliding contact in
+// tension or moving against its friction loses it, and one at its limit unloads; solved
+// again. True if any did.
 template <int N>
 bool ContactLaw<N>::drop_pushing_friction() {
   bool dropped = false;
@@ -691,16 +627,9 @@ void ContactLaw<N>::set_member_modes(unsigned code) {
   }
 }
 
-// Contacts held after cycling between open and closed get a complementarity solution once
-// the iteration has settled: the held state only ends the cycle, and it can be wrong both
-// ways -- held open, a landing vertex sinks; held closed, it pulls in tension (a rolling
-// sphere's landing vertex held closed 9e-5 m in tension, 1e8 N, beside a compressed one
-// 9 cm away: the couple reversed a 5.8 rad/s spin in one step and took 96 % of the
-// block's kinetic energy). Each such contact is open, sliding (along its tangential
-// motion in the held solution) or locked; of the 3^m combinations (m <= 4, the others
-// kept as they are) the first in which every one of them is consistent (violation) is
-// taken: the solution of the small complementarity problem. If none is, the one that
-// violates least. True if it changed the modes; d then holds the chosen solution.
+// Contacts held between open and closed get a small complementarity solution once the
+// iteration settles: of the 3^m mode combinations (m ≤ 4) the first consistent one, else
+// the least violating.
 template <int N>
 bool ContactLaw<N>::complement() {
   const std::uint8_t open_bit = bit(ContactMode::open);

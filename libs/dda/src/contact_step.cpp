@@ -190,10 +190,9 @@ class ContactStep {
   double dt_before_touch_ = 0.0;  // the step a cut to the moment of touch shortened (s)
   double touch_ = 0.0;            // the moment of touch a cut ends the step at (s)
   double factor_ = 1.0;           // a shortening's factor on the step
-  // full12: the constant-strain mode cannot carry an impact (it would keep most of the
-  // impact energy as an undamped vibration, docs/dda.md), so unless asked its increments
-  // are held at zero while the block arrives from flight and during impact episodes;
-  // the restitution law accounts for the impact's losses, as on the rigid path.
+  // full12: the constant-strain mode would keep most of an impact's energy as undamped
+  // vibration (docs/dda.md), so unless asked its increments are held at zero through
+  // arrivals and impacts.
   bool arriving_ = false;
   bool freeze_strain_ = false;
   double aside_scale_;
@@ -240,12 +239,8 @@ ContactStep<N>::ContactStep(const Model& model, const Ground& ground, State& s, 
   if (pass_over_) keep_carried_features();
 }
 
-// A near search passes over the vertex–triangle, edge–ridge and terrain vertex candidates
-// the step would set aside (MotionFilter): most of a fine mesh's candidates near the ground.
-// The vertices, edges and terrain vertices of the last step's contacts are never passed
-// over (they may carry a state). Off after a solve whose check of them as a group fails:
-// the step is then solved again with every candidate, as if they had never been passed
-// over.
+// A near search passes over the candidates the step would set aside (MotionFilter), except
+// the features of the last step's contacts, which may carry a state.
 template <int N>
 void ContactStep<N>::keep_carried_features() {
   b_.keep.clear();
@@ -287,14 +282,9 @@ bool ContactStep<N>::goes_aside(const Contact& c, bool carries) const {
   return !carries && c.mode == ContactMode::open && c.gap > point_reach(model_, s_, c.point, dt_, aside_scale_);
 }
 
-// Candidates within the search distance whose gap is more than twice what their point
-// moves at the step-start motion (point_reach; ReferencePaths::set_aside_scale) are set aside, unless
-// they carry a state from the last step: they stay open through the open–close
-// iteration and cost only the check of the solution (judge). A solution that would close
-// one of them is solved again with the margin widened (8 times the motion, then every
-// candidate in the solve), so the step accepts only solutions in which every candidate
-// found is in a consistent state. A fine mesh near the ground has most of its candidates
-// out of such reach: a rolling sphere of 5 120 triangles solves with a third of them.
+// Candidates farther from the ground than twice their point's motion (point_reach) stay
+// open through the iteration; a solution that closes one is solved again with a wider
+// margin (judge).
 template <int N>
 void ContactStep<N>::detect() {
   pass_.restart();
@@ -367,11 +357,9 @@ void ContactStep<N>::solve() {
                            arriving_ || (s_.episode.active && s_.episode.impact));
 }
 
-// The candidates passed over, as a group: a point r moves by at most h·|v + ω × r| + E,
-// E = |d_t − h·v| + |θ − h·ω|·radius, and one passed over had a gap beyond twice the first
-// term, so it closes only if its gap is below 2E. If the least of their gaps is not beyond
-// that, the step is solved again without passing over, and each is checked on its own, as
-// it would have been.
+// One passed over closes only if its gap is below 2E, E = |d_t − h·v| + |θ − h·ω|·radius
+// (its gap exceeded twice the rest of its point's motion): if the least gap may be, solve
+// with all.
 template <int N>
 bool ContactStep<N>::passed_over_may_close() const {
   if constexpr (N == 6) {
@@ -385,10 +373,8 @@ bool ContactStep<N>::passed_over_may_close() const {
   return false;
 }
 
-// The open–close iteration's own test of an open contact (solve_step). On the rigid path
-// a point r from the centre moves by at most |d_t| + |θ|·|r|, and a gap beyond that (with
-// 1e-9 of it for the round-off of the test's six products) cannot close: most candidates
-// set aside are passed over so, without the test.
+// On the rigid path a point r moves by at most |d_t| + |θ|·|r|: a gap beyond that (1e-9 of
+// it for round-off) cannot close, and the exact test is skipped.
 template <int N>
 template <class C>
 bool ContactStep<N>::closes(const C& c) const {
@@ -401,12 +387,9 @@ bool ContactStep<N>::closes(const C& c) const {
   return c.gap - c.gap_offset + gn.dot(d_) < 0.0;
 }
 
-// Whether a candidate set aside closes in the solution. After a near search: a candidate
-// beyond the near distance (open, uncarried, gap ≥ near) closes only if its point moves by
-// more than that; no point of the rigid block moves by more than |d_t| + |θ|·radius. If
-// some may, the full search finds them, and those it sets aside are checked as the others
-// (the kept ones are those of the near search), exactly as if it had been searched in the
-// first place.
+// After a near search, a candidate beyond the near distance closes only if some point moves
+// that far (|d_t| + |θ|·radius): then the full search's set-aside candidates are checked
+// too.
 template <int N>
 bool ContactStep<N>::set_aside_closes() {
   shift_ = d_.template head<3>().norm();
@@ -433,11 +416,8 @@ double ContactStep<N>::shortening() const {
   return moved > limit_ ? std::max(0.1, 0.9 * limit_ / moved) : 1.0;
 }
 
-// The step's energy balance is its error estimate: nothing in the model is a source, so a
-// solution that gains more than `max_step_energy_gain` (1 %) of the kinetic energy plus
-// m·g·radius is wrong -- an open–close iteration that never settled, a feature pair
-// crossing a terrain edge deep inside -- and is redone with a shorter step; only at the
-// smallest one does the energy limiter take the gain back.
+// Nothing in the model is a source, so a solution that gains more than max_step_energy_gain
+// of the kinetic energy plus m·g·radius is an error, redone with a shorter step.
 template <int N>
 bool ContactStep<N>::gains_energy() const {
   if (!(dt_ > set_.min_time_step && set_.max_step_energy_gain > 0.0)) return false;
@@ -458,10 +438,9 @@ Retry ContactStep<N>::judge() {
   if (set_aside_closes()) return Retry::widen;
   factor_ = shortening();
   if (factor_ == 1.0 && !impact_cut_) {
-    // A contact that closes from a gap with a real approach speed: the step ends at the
-    // moment of touch (on the free motion). The penalty impact then starts at zero gap; a
-    // spring force spread over a whole step of which the contact only saw a part would
-    // dissipate energy the restitution law should decide about. Once per step.
+    // A contact closing from a gap at an impact's speed ends the step at the moment of
+    // touch, so the penalty impact starts at zero gap and the law, not a partial step,
+    // decides its losses.
     touch_ = time_of_impact<N>(model_, s_, pose_, contacts_, b_.start_modes, dt_);
     impact_cut_ = true;
     if (touch_ < dt_ * (1.0 - 1e-9) && touch_ > set_.min_time_step) return Retry::cut_to_touch;
@@ -522,10 +501,9 @@ double ContactStep<N>::approach_energy(const VecN<6>& gn, double speed) {
   return inverse_mass > 0.0 ? 0.5 * speed * speed / inverse_mass : 0.0;
 }
 
-// Keeps the closed contacts with the state they end the step in, and the memory of those
-// that opened by less than a micro-gap (the penalty spring's own oscillation); notes the
-// fastest arrival, the springs' energy and the contacts closed through the whole step.
-// False when a contact is deeper than the penetration limit: the run ends.
+// Keeps the closed contacts in their end states and those opened by less than a micro-gap;
+// notes the fastest arrival, the springs' energy and the persistent contacts. False:
+// penetration.
 template <int N>
 bool ContactStep<N>::keep_contacts() {
   const double p = model_.stiffness;
@@ -629,14 +607,9 @@ double ContactStep<N>::end_approach() const {
   return fastest;
 }
 
-// An episode starts with the first closed contact. A contact that closes at an impact's
-// approach speed while others are closed (a block sliding down the slope face at 13 m/s
-// that reaches the flat toe hits it at 9 m/s along its normal) starts an impact along
-// that contact's normal: it is not part of the rolling or sliding episode, which has no
-// law (left in it, the stiff spring sent a tetrahedron back up from the toe at 9.5 m/s,
-// S1, realization 312). The episode ends when every contact opens; an impact in progress
-// is finished once no closed point still approaches at an impact's speed and the springs
-// have given back its compression.
+// An episode starts with the first closed contact; a contact closing at an impact's speed
+// while others are closed is an impact of its own; an impact ends once rebounded
+// (rebound_complete).
 template <int N>
 void ContactStep<N>::update_episode() {
   if (any_closed_ && !s_.episode.active) {
@@ -662,21 +635,9 @@ void ContactStep<N>::settle() {
   finish_step(model_, ground_, s_, dt_);
 }
 
-// Grow back towards the nominal step after a cut. A step cut to end at the moment of
-// touch is not a cut for accuracy: the impact that follows gets the step it was cut from.
-// Grown back from the touch instead (×1.3 from a fraction of the step), the impact was
-// spread over many short steps at Ω = √(k/m)·Δt ≈ 0.1–5, where Shi's scheme damps a
-// spring most, and the contact, closed through them, was settled as persistent: a
-// tetrahedron's vertex striking at 2.5 m/s left with 2 % of its approach at Δt = 1 ms
+// Grow back after a cut (×1.3), from the step a touch cut shortened (the impact gets a
+// whole step); a slow or settling rigid block grows up to rest_step_ratio steps
 // (docs/dda.md, Step control).
-// A rigid block that is slow (below slow_kinetic_energy, ½·(0.5 m/s)² per unit mass by
-// default: no approach of it is an impact's) outside an impact, or that has stayed below
-// the rest threshold for a fifth of the rest dwell (settling, creeping, at rest), grows
-// its steps further, up to rest_step_ratio nominal ones: a block in the dwell moves by
-// micrometres (docs/dda.md, Step control, measures what it changes). The displacement
-// limit and the energy check cut these steps as any other; the dwell still ends when it
-// did, its last step cut to end it. (The 12-DOF path's strain mode, at Ω ≈ 3 for a 1 m
-// block at 1 ms, keeps the nominal step.)
 template <int N>
 double ContactStep<N>::next_step_length() const {
   const bool slow = set_.slow_kinetic_energy > 0.0 && s_.kinetic < set_.slow_kinetic_energy * model_.mass &&

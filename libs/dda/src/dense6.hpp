@@ -1,14 +1,8 @@
-// The 6 × 6 factorizations of a rigid block's step: Cholesky for the symmetric systems
-// and LU with partial pivoting for those a sliding contact makes unsymmetric.
-//
-// They compute what Eigen 3.4's LLT<Mat6> and PartialPivLU<Mat6> compute, operation for
-// operation, so their results are the same to the last bit (DdaDense6 tests this on
-// random and contact-like systems): the same sums in the same order, the same divisions,
-// the same pivots, and on a matrix that is not positive definite the same partial factor
-// and the same (meaningless) solution. What they leave out is what a 6 × 6 system does
-// not need: Eigen's copy and L1 norm (kept for a condition estimate nobody reads) and its
-// loops over blocks of run-time size. The step solves several such systems; Eigen spent
-// about 1 000 instructions on each factorization and 1 650 on each LU.
+// SPDX-License-Identifier: MIT
+// The 6 × 6 factorizations of a rigid block's step (Cholesky; LU with partial pivoting when
+// a sliding contact makes the system unsymmetric): Eigen 3.4's LLT<Mat6> and
+// PartialPivLU<Mat6> operation for operation, so the same bits (DdaDense6), without their
+// copies, unused condition estimate and run-time-size loops.
 #pragma once
 
 #include <Eigen/Core>
@@ -102,11 +96,8 @@ inline void backward_transposed(const Mat& l, Vec& x) {
 
 }  // namespace dense6
 
-// The Cholesky factor L (a = L·Lᵀ) of a symmetric 6 × 6 matrix, of which the lower
-// triangle is read. Column by column: l_kk = √(a_kk − Σ_{j<k} l_kj²) and
-// l_ik = (a_ik − Σ_{j<k} l_ij·l_kj) / l_kk, the sums in order of j. A pivot that is not
-// positive stops it (positive_definite() false), the columns from there on left as
-// they were.
+// The Cholesky factor L (a = L·Lᵀ) of a symmetric 6 × 6 matrix (lower triangle read),
+// column by column, the sums in order of j; a pivot that is not positive stops it.
 class Cholesky6 {
  public:
   explicit Cholesky6(const dense6::Mat& a) : l_(a) {

@@ -23,11 +23,9 @@ void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, dou
     patch.candidates.gathering.model = nullptr;
     patch.candidates.ridge_gathering.model = nullptr;
   }
-  // The candidate pairs are gathered afresh when the block has moved, since they were
-  // gathered, by more than their wider distances allow: a block point moves by at most
-  // |Δcentre| + ‖ΔF‖·radius, and a gap, a box or a point's distance to a box by no more
-  // than that. A detailed block's were gathered with its prism and plane tests widened by
-  // a motion, which bounds it too, or that of the points near its walks' pivots.
+  // Pairs are gathered afresh when the block has moved by more than their wider distances
+  // allow: a point moves by at most |Δcentre| + ‖ΔF‖·radius, a gap or a box distance no
+  // more.
   const Model& model = at.model();
   const Pose& pose = at.pose();
   TerrainPatch::Candidates& c = patch.candidates;

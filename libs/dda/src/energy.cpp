@@ -54,11 +54,9 @@ double relax_springs(State& s, double energy, double& rest) {
 
 }  // namespace
 
-// Nothing in the model is a source of energy, but a contact step can still gain some: a
-// friction direction that a held contact could not revise, a feature pair found deep
-// inside at a fast impact. Whatever the step gained beyond round-off is taken back
-// from the kinetic energy (the velocity is scaled, its direction kept), and counted, so
-// that a realization can never gain energy it had no source for.
+// Nothing in the model is a source of energy, yet a contact step can gain some: the gain
+// beyond round-off is taken back from the motion (direction kept), then the springs, and
+// counted.
 void limit_energy(const Model& model, State& s, double energy_start) {
   const double kinetic = kinetic_energy(model, s);
   // total_energy(model, s), written out to reuse the kinetic energy.
@@ -98,10 +96,9 @@ void limit_energy(const Model& model, State& s, double energy_start) {
       c.spring_shear *= keep_shear;
     }
   }
-  // And what is left after that raised the block: the rise is taken back (a settled
-  // block's step lifted it 1.6 µm, 0.04 J, with no motion or spring left to take it
-  // from). The next step's contacts take the lowered pose's extra depth as accepted
-  // penetration (carry_contacts), so it is not pushed out again.
+  // What is left raised the block: the rise is taken back; the next step's contacts take
+  // the extra depth as accepted penetration (carry_contacts), so it is not pushed out
+  // again.
   if (!(rest > 0.0) || !(model.settings.gravity > 0.0)) return;
   s.position.z() -= rest / (model.mass * model.settings.gravity);
   s.energy_removed += rest;

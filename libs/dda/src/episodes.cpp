@@ -120,12 +120,9 @@ void finish_impact(const Model& model, State& s) {
     double factor = vout > cap ? cap / vout : 1.0;
     if (kinetic_out * factor * factor > energy_ratio * e.kinetic_in)
       factor = std::sqrt(energy_ratio * e.kinetic_in / kinetic_out);
-    // The law supplies the inelasticity the stiff penalty contact lacks in the normal
-    // direction; friction during the impact is already in the DDA rebound. So it removes
-    // at most the kinetic energy of the normal approach (a perfectly plastic impact): a
-    // normal impact follows the law exactly, a grazing hop (a tumbling block's facet
-    // landing, a small bounce) loses little, and a chain of ever smaller bounces loses a
-    // finite amount however many of them count as impacts (docs/dda.md).
+    // The law supplies the normal inelasticity the stiff penalty contact lacks, so it
+    // removes at most the normal approach's kinetic energy: a grazing hop loses little, a
+    // chain of bounces a finite amount.
     if (model.bound_by_normal_approach && factor < 1.0 && kinetic_out > 0.0) {
       const double normal_energy =
           std::max(0.5 * model.mass * e.approach_speed * e.approach_speed, e.point_approach_energy);
@@ -176,10 +173,8 @@ void end_episode(const Model& model, State& s) {
   s.episode.active = false;
 }
 
-// An impact whose block stays in contact (it lands and slides or rolls on) has rebounded
-// once the block no longer approaches the ground along the impact normal and its
-// contact springs hold less than 1 % of the impact's kinetic energy: the law applies then
-// rather than never.
+// An impact whose block stays in contact has rebounded once it no longer approaches along
+// the impact normal and its springs hold under 1 % of the impact's kinetic energy.
 bool rebound_complete(const Model& model, const State& s, double spring_energy) {
   const Episode& e = s.episode;
   if (s.velocity.head<3>().dot(e.normal) < 0.0) return false;

@@ -30,10 +30,9 @@ geometry::Aabb swept_sphere_box(const Model& model, const State& s, double h) {
   return box.inflated(model.radius);
 }
 
-// Calls visit(normal, corners, box) for every terrain triangle whose box meets `box`
-// (and maybe a few more), until it returns false: from the patch under the block when
-// that holds the box, else from the triangles gathered for an earlier flight box that
-// holds it; a new gathering takes a margin so that the next steps' boxes fall inside.
+// Calls visit(normal, corners, box) for every terrain triangle whose box meets `box` (and
+// maybe a few more) until it returns false: from the contact patch if it holds the box,
+// else the flight's own.
 template <class Visit>
 void for_each_triangle_near(const Model& model, const Ground& ground, Scratch& w, const geometry::Aabb& box,
                             Visit&& visit) {
@@ -64,21 +63,9 @@ void for_each_triangle_near(const Model& model, const Ground& ground, Scratch& w
     if (t.box.overlaps(box) && !visit(t.normal, t.p, t.box)) return;
 }
 
-// Whether no terrain triangle can be touched before time + h. A triangle whose box
-// the swept bounding sphere misses is out of reach; one whose box it meets is still out
-// of reach when every vertex of the block (`block`, world, m; null to skip this test)
-// lies farther above the triangle's plane than any point of the block can move in the
-// horizon: the block is the convex hull of its vertices or inside it, so nothing of it
-// can cross that plane in time; or when the block and the triangle are that far apart
-// along the direction from the block's centroid to the triangle (separation). The
-// block test serves the 12-DOF path (the rigid path has clear_time), whose strains
-// vibrate: the clearance asked is the contact search distance of the horizon (twice the
-// farthest a point can move on the free parabola and spin, at least the displacement
-// limit).
-//
-// Both horizons of the flight test are decided in one pass: `h_short` ≤ `h_long`, and the
-// box of the shorter lies inside the longer's (the box of a parabola's arc is spanned by
-// its ends and apex). Returns the longer horizon that passes, h_long or h_short, or 0.
+// Whether no triangle can be touched before time + h: the swept bounding sphere misses its
+// box, or (`block` given, 12-DOF) every vertex lies farther above its plane, or apart from
+// it, than the search distance.
 double clear_horizon(const Model& model, const Ground& ground, State& s, Scratch& w, double h_long, double h_short,
                      const std::vector<Vec3>* block) {
   const geometry::Aabb box_long = swept_sphere_box(model, s, h_long).inflated(model.max_step_displacement());
@@ -117,10 +104,8 @@ double clear_horizon(const Model& model, const Ground& ground, State& s, Scratch
 }
 
 // How long (s, at most h) the rigid block in free flight provably stays clear of the
-// terrain: a conservative advancement (FlightBound) over the triangles that the swept
-// bounding sphere of the horizon h can meet; some time below a step once one triangle
-// allows less. `at`: the block at its pose (a detailed block is bounded through its
-// vertex tree, FlightBound's second form).
+// terrain (FlightBound over the triangles the swept sphere can meet); some time below a
+// step once one allows less.
 double clear_time(const Model& model, const Ground& ground, State& s, Scratch& w, double h, const PlacedBlock& at) {
   const geometry::Aabb box = swept_sphere_box(model, s, h).inflated(model.max_step_displacement());
   thread_local FlightBound bound;
@@ -145,11 +130,9 @@ double clear_time(const Model& model, const Ground& ground, State& s, Scratch& w
     });
     return clear;
   }
-  // A detailed block's bound searches its vertex tree per triangle. The triangles are
-  // taken in the order of a bound of their time in constant time (from the block's box),
-  // the least first, and those whose quick bound already reaches the time found are not
-  // searched at all: the time is the same minimum, and near the ground the triangle that
-  // ends the flight is usually the first searched.
+  // A detailed block's triangles in the order of a constant-time bound of their time, least
+  // first; those whose quick bound already reaches the time found need no search (the same
+  // minimum).
   struct Near {
     double quick;
     std::size_t order;
@@ -181,10 +164,8 @@ Eigen::Matrix<double, 6, 1> free_displacement(const Model& model, const State& s
   return d;
 }
 
-// Whether the free motion keeps every candidate in `contacts` open through a step of
-// length dt. A candidate's gap on the rigid free motion, linear in the rotation as the
-// contact step computes it, is g(t) = gap + (n·(v + ω × r))·t + ½(n·g)·t²: the contact
-// step's own test (a step whose contacts all stay open is the free motion).
+// Whether the free motion keeps every candidate open through the step: the gap on the rigid
+// free motion as the contact step computes it, g(t) = gap + (n·(v + ω × r))·t + ½(n·g)·t².
 bool stays_open(const Model& model, const State& s, const std::vector<Contact>& contacts, double dt) {
   const Vec3 v = s.velocity.head<3>();
   const Vec3 w = s.velocity.segment<3>(3);
@@ -201,22 +182,9 @@ bool stays_open(const Model& model, const State& s, const std::vector<Contact>& 
   return true;
 }
 
-// Whether no contact can close in the next step of length dt, by the contact search a
-// contact step would make from the block placed at its pose (`at`): it finds no
-// candidate, or (rigid path, no contact carried from the last step) the free motion
-// keeps all it finds open. The candidates stay in
-// scratch_contacts, and a contact step from this pose reuses them.
-//
-// A detailed rigid block with no contact carried searches only within the near distance
-// (near_reach): a candidate beyond it stays open through the step on the free motion,
-// which moves no point by more than half of it, so the answer is the same.
-//
-// That near search passes over the candidates a contact step from this pose would set
-// aside (MotionFilter; none is kept, as no contact is carried). The answer is the same: the
-// gap of each is more than the set-aside scale (at least 1) times its point's motion at the
-// step-start motion, which the free motion's gap (stays_open) takes off at most once. A
-// contact step from this pose takes what was passed over (scratch_passed) for its check
-// of them, as if its own search had passed over them.
+// Whether no contact can close in the next step, by the search a contact step would make
+// from this pose (handed to it); a rigid detailed block's near search passes over what that
+// step would set aside.
 bool beyond_contact_reach(const Model& model, const Ground& ground, State& s, Scratch& w, const PlacedBlock& at, double dt) {
   w.handoff.contacts.clear();
   const double reach = search_reach(model, s, dt);
@@ -270,20 +238,13 @@ double flight_step(const Model& model, const Ground& ground, State& s, Scratch& 
   const double dt = s.dt;
   w.handoff.reach = -1.0;
   if (s.time + dt > s.clear_until) {
-    // Every test below passes for a horizon only if it passes for any shorter one (the
-    // boxes and distances grow with it): the longest that passes of 64, 8 and 1 steps
-    // is found by testing 8 first. Right after contact the long horizons would fail
-    // anyway: one step is tested.
+    // A test that passes for a horizon passes for any shorter one: of 64, 8 and 1 steps, 8
+    // is tested first; right after contact, only one step.
     const bool after_contact = s.counters.steps > 0 && s.last_step_contact;
     const double first = after_contact ? dt : 8.0 * dt;
-    // First the swept bounding sphere against the terrain's triangle boxes (no geometry
-    // of the block); then the block against the triangles whose boxes it meets: on the
-    // rigid path for as long as FlightBound proves it clear of each (up to 64 steps; the
-    // flight then runs to the last step that ends before that time; a detailed block
-    // through its vertex tree), on the 12-DOF path, for a block of few vertices (a
-    // detailed one is left to the search), whether its vertices lie farther above their
-    // planes than the contact search distance of 8 or 1 steps; then, near the ground, the
-    // contact search itself (one step, below).
+    // The swept sphere against the triangles' boxes; then the block against the triangles
+    // it meets (rigid: FlightBound, up to 64 steps; 12-DOF: vertex heights); then, near the
+    // ground, the contact search.
     double horizon = clear_horizon(model, ground, s, w, first, dt, nullptr);
     if (horizon == 8.0 * dt && clear_horizon(model, ground, s, w, 64.0 * dt, 64.0 * dt, nullptr) > 0.0)
       horizon = 64.0 * dt;
@@ -299,14 +260,8 @@ double flight_step(const Model& model, const Ground& ground, State& s, Scratch& 
         horizon = clear_horizon(model, ground, s, w, first, dt, &w.vertices);
       }
     }
-    // The search sees a block vertex only against the triangles it lies over (in plan or
-    // along their normals): near a concave kink a vertex moving over the rising side is
-    // found only once it is there. A contact step therefore searches again at every
-    // step and moves no vertex farther than the step control's bound, and so does a
-    // flight that the search decides: one step, in which no point of the block can move
-    // farther. (Over 8 steps, a 1 m³ cube rolling slowly on the roughest bench slope let
-    // such vertices in by up to a few centimetres, which the next contact step then
-    // accepted as penetration: its overlap grew step by step to 0.7 m.)
+    // The search sees a vertex only against the triangles it lies over, so near a concave
+    // kink a flight it decides lasts one step, bounded as a contact step's displacement is.
     if (horizon == 0.0 && predicted_reach(model, s, dt) <= model.max_step_displacement()) {
       if (!at) {
         pose = pose_of(model, s);
@@ -319,21 +274,17 @@ double flight_step(const Model& model, const Ground& ground, State& s, Scratch& 
   }
   double h = dt;
   if (model.dof == DofPath::rigid6) {
-    // The exact parabola (Shi's scheme reproduces it to round-off) and the exact spin,
-    // whatever the step: within the time the block is proven clear it takes whole
-    // nominal steps of up to flight_step_ratio at once, ending no later than that time or
-    // the time limit (trajectory samples inside it come from sample_flight, so asking for
-    // a trajectory does not change the steps).
+    // The exact parabola and spin whatever the step: whole nominal steps, up to
+    // flight_step_ratio, within the proven clear time; what nominal steps would sample
+    // comes from sample_flight.
     const double whole = std::floor((std::min(s.clear_until, s.time_limit) - s.time) / dt);
     const int k = static_cast<int>(std::clamp(whole, 1.0, std::floor(model.settings.flight_step_ratio)));
     h = k * dt;
     if (k > 1) sample_flight(model, ground, s, dt, k);
     apply_displacement<6>(model, s, free_displacement(model, s, h), h, false, false);
   } else {
-    // Strains keep oscillating in flight: solve the contact-free 12-DOF step. The
-    // stretch update is not linear in the step, so the vibration's energy drifts by a
-    // few 1e-9 of the block's potential energy per step; like a contact step's, a gain
-    // is taken back.
+    // Strains keep oscillating in flight: the contact-free 12-DOF solve; the stretch update
+    // is not linear in the step, so a small energy gain is taken back as a contact step's.
     const double energy_start = mechanical_energy(model, s) + strain_energy(model, s);
     std::vector<Contact> none;
     VecN<12> d;

@@ -11,13 +11,9 @@
 namespace talus::dda::detail {
 
 
-// How far apart the block (the hull of its world vertices `block`) and the triangle
-// `corners` lie (m) along the direction from `centre` (the block's centroid) to the
-// triangle's point nearest to it: the separating direction of a block near
-// a triangle whose plane, continued, passes by the block (a steeper triangle beside the
-// one under it). The triangle's extent along it is that of its corners, and the
-// block's that of its vertices, so the value is a lower bound of their distance whatever
-// the direction's round-off.
+// How far apart the hull of the world vertices `block` and the triangle `corners` lie (m)
+// along the direction from `centre` to the triangle's nearest point: a lower bound of their
+// distance.
 namespace {
 
 // The unit direction from centre to the triangle's point nearest to it into u; false
@@ -123,10 +119,9 @@ void FlightBound::reset(const PlacedBlock& at, const Vec3& velocity, const Vec3&
 
 namespace {
 
-// The earliest time (s, at most `limit`) at which a point `height` (m) above a plane may
-// reach it when it approaches at `rate` (m/s) with the approach accelerating at `a`
-// (m/s²) at most: the smaller positive root of ½a·t² + rate·t = height, in its stable
-// form, or `limit` when there is none before it.
+// The earliest time (s, at most `limit`) a point `height` (m) above a plane approaching at
+// `rate` (m/s), accelerating at `a` (m/s²) at most, may reach it: the stable smaller root,
+// or `limit`.
 double reach_time(double height, double rate, double a, double limit) {
   // It cannot come that close before `limit`: no root to find.
   if (height > (std::max(0.0, rate) + 0.5 * std::max(0.0, a) * limit) * limit) return limit;
@@ -147,11 +142,9 @@ double FlightBound::plane_time(const Vec3& n, double offset, double limit) const
     // of for the whole limit needs no search of the vertex tree.
     if (box_plane_time(n, offset, limit) >= limit) return limit;
     if (!placed_->index()->climb.empty()) return climb_plane_time(n, offset, limit);
-    // Then each vertex's own time, as the scan below computes it, by branch and bound over
-    // the vertex tree (the largest −time): over a body box (centre c, half-sizes h) the
-    // height n·(centre + F·r) is at least its value at c less |Fᵀn|·h, the approach
-    // −n·(v + ω × F·r) = −n·v − (Fᵀ(n × ω))·r at most its value at c plus |Fᵀ(n × ω)|·h,
-    // and the curvature |ω|²·|F·r| at most |ω|²·(|c| + |h|) (F a rotation: the rigid path).
+    // Then each vertex's own time by branch and bound over the vertex tree: over a body box
+    // the height, approach and curvature are bounded by its centre and half-sizes (F a
+    // rotation).
     const Pose& pose = placed_->pose();
     const Model& model = placed_->model();
     const Vec3 m = pose.map.transpose() * n;
@@ -205,18 +198,9 @@ double FlightBound::box_plane_time(const Vec3& n, double offset, double limit) c
   return reach_time(height, rate, fall + spin_ * spin_ * radius_, limit);
 }
 
-// On a convex block the vertices' least gap to the plane after a time t of free flight is
-// bounded by one concave function of t, with every vertex's curvature taken at the radius
-// R (A = max(0, g·n_z + |ω|²·R)) and k = n × ω:
-//   G(t) = n·c − offset + (n·v)·t − ½A·t² − S(−(n + t·k)),
-// S(u) = max over the vertices of u·(xᵢ − c), the support (convex in u, so −S of an affine
-// direction is concave in t). When damped, the approaches count only where positive:
-// (n·v)·t becomes −max(0, −n·v)·t and S(−(n + t·k)) becomes max(S(−n), S(−(n + t·k))),
-// still concave. G(0) > 0 and G(t) > 0 give G > 0 on [0, t] (concavity), so a time at
-// which the evaluated G is positive is a proven lower bound of the first reach. It is
-// found by Newton steps from above (the tangent of a concave function lies above it, so
-// they never pass the root) and chords from below (a chord lies below it), to within a
-// thousandth of the limit. Each evaluation is one support query, warm from the last.
+// On a convex block the least gap after t is at least the concave G(t) = n·c − offset +
+// (n·v)·t − ½A·t² − S(−(n + t·k)) (docs/dda.md, The flight step): Newton from above, chords
+// from below.
 double FlightBound::climb_plane_time(const Vec3& n, double offset, double limit) const {
   const Vec3 k = n.cross(spin_vector_);
   const double base = n.dot(centre_) - offset - round_off_;

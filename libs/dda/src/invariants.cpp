@@ -115,28 +115,9 @@ std::optional<terrain::Surface::RimPoint> nearest_rim_point_anywhere(const terra
 
 }  // namespace
 
-// Whether part of the block has dropped past the terrain's rim, where the surface ends
-// with nothing beyond: a vertex with no ground under it lies lower than the rim's nearest
-// point, and deeper under the ground continued past the rim (the plane of that rim
-// point's triangle, where it faces up), by more than the penetration limit. Such a block
-// has tipped or fallen over the edge of the modelled ground: it can only fall on past
-// it, or swing under the sheet and come back inside the footprint below the ground,
-// where nothing holds it and it would overlap the terrain beyond the limit (a cube
-// tipping over the side edge of a rough bench slope did that, to 0.49 m under the
-// ground). A block that overhangs the rim while resting on or moving over the ground
-// lies on the continued plane, and one hanging over the crest of a slope that rises
-// beyond the rim lies above the rim: both go on. The test costs nothing while the
-// block's bounding sphere is clear of the rim, and near it looks only at the vertices
-// lower than the rim nearby by the penetration limit (`floor`).
-//
-// A TIN's footprint may have holes and bays (a survey's gaps): a block whose centroid is
-// over one, with its bounding sphere clear of the rim, is off the ground as a whole. The
-// same rule then holds with the nearest rim point at any distance: a block flying over a
-// gap goes on while it stays above the rim around it, and one that drops into it ends
-// once a vertex lies lower than its nearest rim point by the limit. (Before, the test
-// ended at the rim's reach: 0.1 m³ blocks rolled into an 8 m hole in a surveyed slope and
-// fell 9 m through it before the depth limit under the terrain's lowest point ended
-// them.)
+// Whether part of the block has dropped past the terrain's rim: a vertex with no ground
+// under it lower than its nearest rim point, and under the ground continued past it, by the
+// penetration limit.
 bool hangs_past_rim(const Model& model, const terrain::Surface& surf, const State& s, bool scan) {
   // The bounding sphere with room for the 12-DOF path's strains.
   const double r = 1.25 * model.radius;
@@ -153,11 +134,8 @@ bool hangs_past_rim(const Model& model, const terrain::Surface& surf, const Stat
     scan = true;
   }
   const double limit = model.penetration_limit();
-  // A vertex's rim point lies within `reach` of it in plan, so within that of the plan
-  // box, no higher than `top` (Surface::rim_top, raised by far more than the round-off of
-  // the depths below): a vertex at or above `floor` lies less than the limit below it,
-  // and is not past the rim. (A detailed block rolling off the end of the ground looked
-  // at thousands of vertices a step, most of them far above it.)
+  // A vertex at or above `floor` (the rim's top within reach less the limit) is not past
+  // the rim: near the rim only the vertices below it are looked at.
   const double floor = surf.rim_top(plan.inflated(reach)) - limit;
   const auto past = [&](const Vec3& p) {
     if (p.z() >= floor || surf.height_at(p.x(), p.y())) return false;
@@ -172,17 +150,8 @@ bool hangs_past_rim(const Model& model, const terrain::Surface& surf, const Stat
     const std::vector<Vec3> vertices = world_vertices(model, s);
     return std::any_of(vertices.begin(), vertices.end(), past);
   }
-  // A detailed block over a grid, or a TIN without walls, overhangs or folds
-  // (Surface::rim_bounds_footprint): only the vertices of the tree nodes whose plan box
-  // may meet the rim or lies off the ground are looked at. The rim of such ground is the
-  // whole border of the ground in plan, so a box it does not meet lies wholly on the
-  // ground or wholly off it, as its centre does; every vertex of a box wholly on the
-  // ground has ground under it and is passed over by the test above. (A block of 20 480
-  // faces rolling along the edge of the bench slope spent a sixth of its run on the ground
-  // under each vertex.) The boxes are widened by far more than the round-off of the
-  // grid's own test of whether a point lies on it. (On a TIN a point within round-off of
-  // an inner edge may find no ground in either triangle's test; the scan would then look
-  // for the rim there, this walk does not.)
+  // Over ground whose rim bounds its footprint, only the vertices of tree nodes that may
+  // meet the rim or lie off the ground are looked at; the others have ground under them.
   const Pose pose = pose_of(model, s);
   thread_local std::vector<Vec3> unused;
   const PlacedBlock at(model, pose, unused, false);

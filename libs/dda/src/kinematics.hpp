@@ -121,11 +121,9 @@ Vec3 point_displacement(const Vec3& r, const VecN<N>& d) {
   }
 }
 
-// The largest displacement (m) of a block vertex under the step displacement d, or `floor`
-// when none moves further: above `floor` it is the maximum a scan of the vertices finds,
-// with the same numbers. A detailed block is searched by branch and bound over its vertex
-// tree: u is affine in r, u = a + A·r, and r = F·b over a body box of centre c and
-// half-sizes h, so |u| ≤ |a + A·F·c| + Σⱼ |(A·F)ⱼ| hⱼ there.
+// The largest vertex displacement (m) under d, or `floor` if none moves further: a scan, or
+// branch and bound over the vertex tree (u = a + A·F·b is affine over a body box), the same
+// numbers.
 template <int N>
 double max_vertex_displacement_indexed(const PlacedBlock& at, const VecN<N>& d, double floor);
 

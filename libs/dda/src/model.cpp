@@ -45,10 +45,9 @@ void apply_preset(Settings& s, const std::string& preset) {
   }
 }
 
-// The range of Ω = √(k/m)·Δt of one contact spring in which contacts are well posed
-// (docs/dda.md): softer lets a fast small block sink deeper than the penetration limit in
-// one impact, stiffer leaves springs whose energy round-off exceeds the invariant
-// tolerances.
+// The range of Ω = √(k/m)·Δt in which contacts are well posed (docs/dda.md): softer lets a
+// fast small block sink past the penetration limit, stiffer leaves springs whose round-off
+// breaks the invariants.
 constexpr double kMinOmega = 3.0;
 constexpr double kMaxOmega = 300.0;
 constexpr double kInf = std::numeric_limits<double>::infinity();
@@ -172,16 +171,9 @@ RestitutionLaw parse_restitution(const std::string& text) {
                          "restitution = '" + text + "': expected scaled, normal_component or off");
 }
 
-// Checks the polyhedron is closed and consistently oriented (each directed edge once,
-// its reverse once) and returns its edges with their convexity: convex where the far
-// face lies behind the near face's plane by more than tol (only those can touch terrain
-// edge to edge). `reflex` tells whether the solid bends inwards at some edge. Between two
-// triangles that is decided exactly: an edge whose far triangle lies on the near one's
-// plane (a flat face split in two, as meshes and hulls of many points have them) or
-// behind it bends nowhere, though it is no convex edge; the block is then still convex
-// (the vertex graph's climbs and walks hold, docs/dda.md). Next to a polygon of more
-// vertices, planar only to within 1e-6 of the radius, an edge that is not convex counts
-// as reflex.
+// Checks the polyhedron is closed and consistently oriented and returns its edges with
+// their convexity (exact between two triangles; a flat split edge is neither convex nor
+// reflex).
 std::vector<BlockEdge> build_edges(const geometry::Polyhedron& poly, const std::vector<BlockFace>& faces,
                                    const std::vector<Vec3>& verts, double tol, bool& reflex) {
   std::map<std::pair<std::int32_t, std::int32_t>, std::int32_t> directed;  // edge -> face

@@ -41,13 +41,9 @@ void terrain_vertex_contact(const PlacedBlock& at, const TerrainPatch& patch, co
     best_gap = gap;
   }
   if (best < 0) {
-    // A terrain vertex that is no spike towards any face but lies inside a convex block
-    // deeper than the search distance (how far features approach in one step) has
-    // slipped past the other contacts (e.g. a ridge node under a block edge that runs
-    // along a grid line, where the edge–edge tests see parallel edges): it is held by
-    // the face it is least deep under, the shortest way out. Found deep, the contact
-    // takes that depth as its offset (carry_contacts), so it stops the vertex going
-    // further in without pushing it out with energy no force stored.
+    // A terrain vertex that is no spike but lies deeper inside a convex block than the
+    // search distance has slipped past the other contacts: held by the face it is least
+    // deep under, offset by that depth.
     if (!model.convex) return;
     if (faces != nullptr) {
       // The face it is least deep under has its polygon within that depth of it, so
@@ -81,10 +77,8 @@ void terrain_vertex_contact(const PlacedBlock& at, const TerrainPatch& patch, co
 
 namespace {
 
-// The search of a detailed block over its pairs (detect_indexed), in three parts, with
-// the world vertices each computed once per search (those `placed`; PlacedBlock::vertex
-// gives the same bits each time): a vertex is tested against the triangles around it and
-// is an end of the edges around it.
+// The search of a detailed block over its pairs (detect_indexed), in three parts; each
+// world vertex is computed once per search (the same bits as PlacedBlock::vertex).
 class IndexedSearch {
  public:
   IndexedSearch(const PlacedBlock& at, const TerrainPatch& patch, double ds, double depth,
@@ -123,14 +117,9 @@ class IndexedSearch {
   inline static thread_local std::vector<double> body_gaps_;
 };
 
-// Block vertex – terrain triangle. The vertex contacts found so far of each vertex, as
-// chains: latest[vertex] and then earlier[contact] (numbered from `first`), −1 ending
-// them; a vertex over a shared edge of two coplanar triangles is one contact, not two.
-// Between searches every entry of `latest` is −1 (those set are reset below), so it costs
-// what the contacts found cost, not what the block has. The triangle's plane over the
-// body frame: a vertex whose gap there lies outside (−depth, ds) by more than the
-// round-off of either computation fails the exact test, so it is passed over before its
-// world position is computed (the pairs were gathered for a wider distance).
+// Block vertex – terrain triangle: a vertex over two coplanar triangles is one contact
+// (chains in latest/earlier); a body-frame gap outside (−depth, ds) beyond round-off is
+// passed over first.
 void IndexedSearch::vertex_triangle() {
   // Whether any vertex is that low (the lowest vertex is the box's floor).
   const bool any_low = at_.box().lo.z() <= ceiling_;
@@ -199,13 +188,9 @@ void IndexedSearch::terrain_vertex_face(double vertex_ds) {
     const Vec3 qb = pose_.inverse_map * (tv.p - pose_.centre);
     if (pass_ != nullptr && turn < 0.5 &&
         !std::binary_search(pass_->keep_terrain->begin(), pass_->keep_terrain->end(), tv.id)) {
-      // A terrain vertex whose contact the motion filter passes over. Its contact's gap
-      // is its distance to a face it lies over, at least its distance to the block's
-      // hull, which is at least |d| − S(d/|d|) for d from the centre (S the support, an
-      // upper bound; a few round-offs less). The contact's point, its foot on that face,
-      // moves at most |v + ω × d|·h + |ω|·h·gap + ½g·h²: a gap beyond scale times that is
-      // passed over, as it is when the bound times (1 − scale·|ω|·h) exceeds scale times
-      // the rest.
+      // Its contact's gap is at least its distance to the hull, |d| − S(d/|d|), and its
+      // foot moves at most |v + ω × d|·h + |ω|·h·gap + ½g·h²: the motion filter's test on
+      // that bound.
       const Vec3 d = tv.p - pose_.centre;
       const double length = d.norm();
       if (length > 0.0) {
@@ -227,14 +212,9 @@ void IndexedSearch::terrain_vertex_face(double vertex_ds) {
   }
 }
 
-// Block edge – terrain ridge crossings, ridge by ridge and then put in the order of the
-// scan (by edge, then ridge). A crossing's gap g is along n, ⟂ both lines and oriented so
-// that n·out = n·normal_sum ≥ 0 (`out` is the ridge's normal sum with its part along the
-// ridge taken out). So g·(n·out) = (pc − qc)·out ≥ min(out·(p0 − pa), out·(p1 − pa)): an
-// edge with both ends more than ds above the ridge along `out` has its gap beyond ds, and
-// is passed over (ridge_level_limit). Tested in the body frame before the ends' world
-// positions are computed. Most gathered pairs are passed over so (edge_meets_ridge solves
-// for each crossing).
+// Block edge – terrain ridge crossings, put in the scan's order (edge, then ridge); an edge
+// with both ends more than ds above the ridge along `out` is passed over
+// (ridge_level_limit).
 void IndexedSearch::edge_ridge() {
   const std::size_t first_crossing = out_.size();
   thread_local std::vector<std::pair<std::int32_t, std::int32_t>> order;  // (edge, ridge) of each crossing

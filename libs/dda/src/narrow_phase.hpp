@@ -51,12 +51,9 @@ inline bool inside_plan(const TerrainPatch::Triangle& tri, const Vec3& p) {
   return true;
 }
 
-// Closest points of segments p0-p1 and q0-q1: parameters s (on p) and t (on q) of the
-// infinite lines, when both lie in [0, 1]; callers keep only crossings strictly inside
-// both segments. The numerators are compared with the (positive) denominator before
-// dividing: most pairs cross outside a segment, and a quotient outside [0, 1] is exactly
-// a numerator outside [0, denominator], so the divisions are spared without changing a
-// result.
+// Closest points of segments p0-p1 and q0-q1: the lines' parameters s and t when both lie
+// in [0, 1]; numerators are compared with the denominator first, sparing most divisions
+// exactly.
 inline __attribute__((always_inline)) bool line_parameters(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1, double& s, double& t) {
   const Vec3 d1 = p1 - p0, d2 = q1 - q0, r = p0 - q0;
   const double a = d1.dot(d1), e = d2.dot(d2), f = d2.dot(r), c = d1.dot(r), b = d1.dot(d2);
@@ -132,23 +129,18 @@ struct BodyPlane {
   double s0 = 0.0, tol = 0.0;
 };
 
-// An edge whose two ends both have a value s₀ + m·r of at least this along a ridge's
-// `out` (BodyPlane(pose, te.out, te.pa, 0)) cannot cross the ridge within ds (docs/dda.md,
-// "The ridge's level"; detect_indexed). The allowances cover the round-off of those values
-// (a world vertex's, per coordinate) and of the exact test's own gap, for each pose the
-// values are compared across: 1 for a step's test, 2 for the gathering that serves it.
+// An edge with both ends at least this high along a ridge's `out` cannot cross it within ds
+// (docs/dda.md, The ridge's level); round-off allowed for `poses` poses (1 a step's, 2 a
+// gathering's).
 inline double ridge_level_limit(const TerrainPatch::Ridge& te, const PlacedBlock& at, double ds, double margin, int poses) {
   return ds + poses * (2.0 * te.out_allowance + 4.0 * at.round_off()) + 1e-9 * margin;
 }
 
 // and the index of a detailed one.
 
-// Block vertex p (world) against terrain triangle `tri`: whether its gap (set in `gap`)
-// lies in (−depth, ds) and it lies inside the triangle's normal prism or, for ground that
-// faces up, above or below the triangle in plan. In a concave valley (a slope meeting a
-// steeper face) a vertex that has crossed the valley line lies under the steep face in
-// plan but outside the normal prisms of both faces: without the plan test neither holds
-// it and it sinks into the steep face unresisted.
+// Block vertex p against triangle `tri`: its gap in (−depth, ds) and inside the normal
+// prism, or (ground facing up) over or under it in plan, so a vertex past a concave valley
+// line is held.
 inline bool vertex_meets_triangle(const TerrainPatch::Triangle& tri, const Vec3& p, double ds, double depth,
                                   double& gap) {
   gap = (p - tri.p[0]).dot(tri.normal);
@@ -172,18 +164,9 @@ inline void add_vertex_contact(const TerrainPatch::Triangle& tri, std::int32_t v
   c.gap = gap;
 }
 
-// Terrain vertex tv (qb: in the body frame) – block face: a spike of rough ground piercing
-// a face between block vertices, tested in the body frame where the face polygons are
-// stored. Only a vertex that is an extreme point of the terrain towards the face can
-// touch it: every terrain edge from it must leave on the outer side of the face plane. A
-// vertex of flat or concave ground (a grid node under a sliding cube) is no spike:
-// without this test it would take a side face's horizontal normal and trip the block. A
-// vertex of ground that is flat around it is no spike either: the block's own vertices
-// on that plane carry the face, and a redundant spring inside the face only makes the
-// contact states ambiguous. `faces` (ascending) are the faces whose polygon is within the
-// margin of qb (a detailed block's index), or null for all of them; a face further away
-// fails the gap or the polygon test. The allowance `face_tol` for the fallback's least
-// depth covers the faces a scanned mesh splits one plane into (docs/dda.md, Detection).
+// Terrain vertex tv (qb, body frame) against a block face: only a spike (every terrain edge
+// from it leaves outside the face plane) can touch a face; `faces` those near qb, or null
+// for all.
 void terrain_vertex_contact(const PlacedBlock& at, const TerrainPatch& patch, const TerrainPatch::Vertex& tv,
                             const Vec3& qb, const std::vector<std::int32_t>* faces, double ds, double depth,
                             double face_tol, std::vector<Contact>& out);
@@ -217,20 +200,13 @@ inline __attribute__((always_inline)) void edge_meets_ridge(const Pose& pose, st
   const Vec3 qc = te.pa + t * (te.pb - te.pa);
   const double gap = (pc - qc).dot(n);
   if (gap >= ds || gap <= -depth) return;
-  // A crossing below the ridge (gap < 0) is inside the ground only if it lies under the
-  // planes of both triangles on a crest (pc − qc = gap·n: n·nᵢ > 0 for both), under
-  // either in a valley (n·nᵢ ≥ 0 for one of them holds always). A block edge beside a
-  // crest, over one side and under the other side's plane continued, is out of the ground:
-  // it was taken as a penetrated contact with a normal that points out of one side only.
+  // A crossing below the ridge is inside the ground only under both triangles' planes on a
+  // crest (either in a valley): an edge beside a crest, under one side's plane continued,
+  // is not.
   if (gap < 0.0 && te.convex && !(n.dot(te.normals[0]) > 0.0 && n.dot(te.normals[1]) > 0.0)) return;
-  // Near an end of the ridge (or beside a narrow triangle) the crossing's foot may lie
-  // over a third triangle, whose plane that test does not see: a crossing below the
-  // ridge is kept only where some triangle holds it as it would hold a block vertex
-  // there, within twice the depth limit: it lies within |gap| + |qc − end| ≤ 2·depth of
-  // any plane through that end. (14 of 61 532 crossings below ridges, in random poses on
-  // the roughest bench slope, lay up to 2.5 cm above the ground, all within |gap| of a
-  // ridge's end.) The crest test above stays: the index gathers a crest's deep pairs by
-  // it (gather_ridge_pairs), and it is cheaper.
+  // Near a ridge's end the crossing's foot may lie over a third triangle: a crossing below
+  // the ridge is kept only where some triangle would hold a vertex there, within twice the
+  // depth limit.
   if (gap < 0.0 && !in_ground(patch, pc, 2.0 * depth)) return;
   Contact c;
   c.kind = ContactKind::edge_edge;

@@ -59,11 +59,9 @@ PlacedBlock::PlacedBlock(const Model& model, const Pose& pose, std::vector<Vec3>
       return;
     }
   }
-  // The box's faces are the extreme vertices along each axis: on a convex block by
-  // climbing its vertex graph along the rows of F (the farthest vertex by its body-frame
-  // value, within round-off of the farthest by world coordinate, so the box is widened by
-  // twice the round-off of a world vertex); else by branch and bound over the vertex tree,
-  // the values then the vertices' own world coordinates.
+  // The box's faces are the extreme vertices along each axis: a climb of the vertex graph
+  // on a convex block (widened by twice a vertex's round-off), else branch and bound over
+  // the tree.
   if (!index_->climb.empty()) {
     const double slack = 2.0 * round_off_;
     for (int k = 0; k < 3; ++k) {

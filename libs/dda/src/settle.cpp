@@ -8,18 +8,9 @@
 
 namespace talus::dda::detail {
 
-// Contacts that stay closed through a step have no normal relative velocity in the
-// physics: a penalty spring at Ω = √(k/m)·Δt ≫ 1 keeps a barely damped vibration instead,
-// which rocks a resting block and turns its friction forces from side to side until it
-// creeps down a slope it should stick to. Outside impacts the approaching normal velocity
-// of such contacts is therefore removed by non-negative impulses at the contact points
-// (projected Gauss–Seidel on the block's mass metric): each impulse only removes kinetic
-// energy, and a contact that separates is left to separate. A contact that ends the step
-// locked (sticking) has no tangential relative velocity either, yet Shi's velocity update
-// v₁ = 2d/Δt − v₀ keeps a velocity that flips sign each step while the displacement
-// stays zero (a yaw of ±4e-4 rad/s on a resting cube): its tangential velocity is removed
-// too, by impulses each within μ·F_n·Δt/√2 per tangent (inside the Coulomb cone), so a
-// sticking contact never holds more than friction could.
+// Contacts closed through a step have no approaching normal velocity (nor, locked,
+// tangential within the Coulomb cone): a stiff penalty spring's barely damped vibration
+// would make a resting block creep.
 template <int N>
 void settle_contacts(const Model& model, State& s, const std::vector<Persistent>& persistent) {
   if (persistent.empty()) return;
@@ -55,10 +46,9 @@ void settle_contacts(const Model& model, State& s, const std::vector<Persistent>
     if (weight[i] > 0.0) root_weight[i] = std::sqrt(weight[i]);
   }
   VecN<N> v = s.velocity.template head<N>();
-  // A sweep that leaves the velocity as it found it (to 1e-9 of it in the mass metric,
-  // or 1e-12 m/s) ends the iteration too: the impulses of redundant rows, such as the
-  // four corners of a face on the ground, can keep trading among themselves while the
-  // velocity they leave, which is all this settles, no longer changes.
+  // A sweep that leaves the velocity as it found it ends the iteration too: redundant rows
+  // (a face's four corners) can trade impulses while the velocity, all this settles, no
+  // longer changes.
   const double still = 1e-18 * v.dot(m * v) + 1e-24 * model.mass;
   for (int sweep = 0; sweep < 16; ++sweep) {
     const VecN<N> v_start = v;

@@ -1,0 +1,430 @@
+#!/usr/bin/python3
+# SPDX-License-Identifier: MIT
+"""The bench-slope study against the published one (docs/reference-study.md).
+
+  paper.py table DIR [--paper CSV] [--toe X] [-o PAPER.md]
+      the paper's figures (paper-figures.csv) beside Talus's, cell by cell, from
+      DIR/run-S1.h5 ... run-S3.h5 (dda-run, blocks R1-R4 in turn), with sampling intervals
+  paper.py sensitivity --bin DIR --out DIR [--realizations N] [--jobs J] [--only NAME ...]
+                       [-o SENSITIVITY.md]
+      the study rerun with each model choice changed, the twelve toe shares against the
+      defaults' (the runs go to --out; a run file there newer than the tools and inputs it
+      is made from is reused)
+  paper.py shapes DIR [-o SHAPES.md]
+      per block and level: impacts, energy lost per impact, time, from the run files
+
+Conventions (stated in docs/reference-study.md): the toe share counts every realization
+whose final centroid is at x >= TOE (36 m), those that left the terrain past it included;
+the maximum runout is the largest final x of the blocks at rest (x from the crest, the
+frame of the toe at 36 m and of the terrain's end at 60 m; the run file's `runout` is
+measured from the release point at x = 1 m); the lateral range is over the blocks at rest;
+max speed and max jump are over every realization.
+Needs h5py and NumPy (Debian python3-h5py python3-numpy).
+"""
+import argparse
+import concurrent.futures
+import csv
+import math
+import os
+import subprocess
+import sys
+
+import h5py
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.abspath(os.path.join(HERE, "..", ".."))
+LEVELS = ["S1", "S2", "S3"]
+BLOCKS = ["R1", "R2", "R3", "R4"]
+R_INDEX = {"S1": 0.125, "S2": 0.25, "S3": 0.5}
+Z95 = 1.959963984540054
+# Order statistic bounding a repeat's maximum: the K-th largest of n (see order_bound).
+K_BOUND = 6
+REST, LEFT = 1, 2
+
+
+def fail(message):
+    print("paper.py: error: " + message, file=sys.stderr)
+    sys.exit(1)
+
+
+def text(x):
+    return x.decode() if isinstance(x, bytes) else str(x)
+
+
+def write(path, content):
+    if not path or path == "-":
+        sys.stdout.write(content)
+        return
+    tmp = path + ".tmp-paper"
+    with open(tmp, "w") as f:
+        f.write(content)
+    os.replace(tmp, path)
+
+
+# ---------------------------------------------------------------- statistics
+
+def wilson(k, n, z=Z95):
+    """Wilson score interval of a binomial share k/n."""
+    if n == 0:
+        return float("nan"), float("nan")
+    p = k / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z / (1 + z * z / n) * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def below_probability(n, m, k):
+    """P(the maximum of m new draws < the k-th largest of n) for exchangeable draws:
+    the k largest of the n + m pooled values all come from the n, C(n,k)/C(n+m,k)."""
+    p = 1.0
+    for i in range(k):
+        p *= (n - i) / (n + m - i)
+    return p
+
+
+def order_bound(values, largest=True, k=K_BOUND):
+    """The k-th largest (or smallest) value: a repeat of the study (as many draws again)
+    has its maximum (minimum) beyond it with probability 1 - C(n,k)/C(2n,k)."""
+    v = np.sort(np.asarray(values, float))
+    if len(v) < k:
+        return float("nan")
+    return float(v[-k]) if largest else float(v[k - 1])
+
+
+# ---------------------------------------------------------------- run files
+
+class Run:
+    def __init__(self, path):
+        if not os.path.exists(path):
+            fail("%s: missing (run dda-run first)" % path)
+        with h5py.File(path, "r") as f:
+            r = f["records"]
+            self.block = r["block"][:]
+            self.end = r["end_reason"][:].astype(int)
+            self.final = r["final_position"][:]
+            self.release = r["release_position"][:]
+            self.lateral = r["lateral"][:]
+            self.max_speed = r["max_speed"][:]
+            self.max_jump = r["max_jump_height"][:]
+            self.max_normal_jump = r["max_normal_jump_height"][:]
+            self.impacts = r["impacts"][:]
+            self.time = r["time"][:]
+            self.steps = r["steps"][:]
+            self.max_ke = r["max_kinetic_energy"][:]
+            self.blocks = [text(x) for x in f["run/blocks"][:]]
+
+    def sel(self, block):
+        if block not in self.blocks:
+            return np.zeros(len(self.block), bool)
+        return self.block == self.blocks.index(block)
+
+
+def load_runs(directory):
+    return {level: Run(os.path.join(directory, "run-%s.h5" % level)) for level in LEVELS}
+
+
+def toe_counts(run, block, toe):
+    s = run.sel(block)
+    return int(np.sum(run.final[s, 0] >= toe)), int(np.sum(s))
+
+
+# ---------------------------------------------------------------- table
+
+def read_paper(path):
+    values = {}
+    with open(path) as f:
+        rows = csv.DictReader(line for line in f if not line.startswith("#"))
+        for row in rows:
+            values.setdefault((row["level"], row["block"], row["quantity"]), {})[row["table"]] = float(row["value"])
+    return values
+
+
+def paper_value(paper, level, block, quantity):
+    """The paper's value; where two of its tables give one, the first listed (both are printed
+    when they differ)."""
+    entry = paper.get((level, block, quantity))
+    if not entry:
+        return None, ""
+    vals = list(entry.values())
+    other = "" if all(abs(v - vals[0]) < 1e-9 for v in vals) else " (also %s)" % "/".join("%g" % v for v in vals[1:])
+    return vals[0], other
+
+
+def f1(x, d=1):
+    return "–" if x is None or (isinstance(x, float) and math.isnan(x)) else "%.*f" % (d, x)
+
+
+def cell_figures(run, block, toe):
+    s = run.sel(block)
+    rest = s & (run.end == REST)
+    k, n = toe_counts(run, block, toe)
+    lo, hi = wilson(k, n)
+    x_rest = run.final[rest, 0]
+    lat = run.lateral[rest]
+    return {
+        "n": n, "k": k, "share": k / n if n else float("nan"), "share_lo": lo, "share_hi": hi,
+        "left": int(np.sum(s & (run.end == LEFT))),
+        "left_far": int(np.sum(s & (run.end == LEFT) & (run.final[:, 0] >= 59.0))),
+        "other_end": int(np.sum(s & (run.end != REST) & (run.end != LEFT))),
+        "n_rest": int(np.sum(rest)),
+        "max_runout": float(x_rest.max()) if len(x_rest) else float("nan"),
+        "max_runout_bound": order_bound(x_rest),
+        "lat_min": float(lat.min()) if len(lat) else float("nan"),
+        "lat_max": float(lat.max()) if len(lat) else float("nan"),
+        "lat_min_bound": order_bound(lat, largest=False),
+        "lat_max_bound": order_bound(lat),
+        "max_speed": float(run.max_speed[s].max()), "max_speed_bound": order_bound(run.max_speed[s]),
+        "max_jump": float(run.max_jump[s].max()), "max_jump_bound": order_bound(run.max_jump[s]),
+        "max_normal_jump": float(run.max_normal_jump[s].max()),
+    }
+
+
+def verdict_share(p, c):
+    if p is None:
+        return ""
+    return "in" if c["share_lo"] <= p / 100 <= c["share_hi"] else "out"
+
+
+def verdict_max(p, value, bound):
+    """'out' when the paper's maximum is below the bound (a repeat's maximum falls there with
+    probability C(n,6)/C(2n,6), about 1.5 % at n = 250); 'above' when it exceeds Talus's maximum
+    (a repeat does that with probability 1/2: not resolved); else 'in'."""
+    if p is None:
+        return ""
+    if p < bound:
+        return "out"
+    return "above" if p > value else "in"
+
+
+def cmd_table(args):
+    paper = read_paper(args.paper)
+    runs = load_runs(args.dir)
+    cells = {(l, b): cell_figures(runs[l], b, args.toe) for l in LEVELS for b in BLOCKS}
+    n = cells[("S1", "R1")]["n"]
+    out = []
+    out.append("| cell | toe share: paper | Talus [95 % Wilson] | | max runout (m): paper | Talus [≥ 6th largest] | | left the terrain (past x = 59 m) | lateral width (m): paper | Talus [≥ bound] |")
+    out.append("|---|---|---|---|---|---|---|---|---|---|")
+    for l in LEVELS:
+        for b in BLOCKS:
+            c = cells[(l, b)]
+            pt, pt_other = paper_value(paper, l, b, "toe_share")
+            pr, pr_other = paper_value(paper, l, b, "max_runout")
+            pw, pw_other = paper_value(paper, l, b, "lateral_width")
+            width = c["lat_max"] - c["lat_min"]
+            width_bound = c["lat_max_bound"] - c["lat_min_bound"]
+            out.append("| %s %s | %s | %s [%s, %s] | %s | %s | %s [≥ %s] | %s | %d (%d) | %s | %s [≥ %s] |" % (
+                l, b, f1(pt) + pt_other if pt is not None else "–",
+                f1(100 * c["share"]), f1(100 * c["share_lo"]), f1(100 * c["share_hi"]), verdict_share(pt, c),
+                f1(pr, 2) + pr_other if pr is not None else "–",
+                f1(c["max_runout"]), f1(c["max_runout_bound"]),
+                verdict_max(pr, c["max_runout"], c["max_runout_bound"]),
+                c["left"], c["left_far"],
+                f1(pw, 2) + pw_other if pw is not None else "–", f1(width), f1(width_bound)))
+    out.append("")
+    out.append("| cell | lateral range (m): paper | Talus [outer bounds] | max speed (m/s): paper | Talus [≥ bound] | | max jump (m): paper | Talus vertical [≥ bound] / normal | |")
+    out.append("|---|---|---|---|---|---|---|---|---|")
+    for l in LEVELS:
+        for b in BLOCKS:
+            c = cells[(l, b)]
+            lo, lo_other = paper_value(paper, l, b, "lateral_min")
+            if lo is None:
+                continue
+            hi, hi_other = paper_value(paper, l, b, "lateral_max")
+            ps, _ = paper_value(paper, l, b, "max_speed")
+            pj, _ = paper_value(paper, l, b, "max_jump")
+            out.append("| %s %s | [%s%s, %s] | [%s, %s] [≤ %s, ≥ %s] | %s | %s [≥ %s] | %s | %s | %s [≥ %s] / %s | %s |" % (
+                l, b, f1(lo, 2), lo_other, f1(hi, 2), f1(c["lat_min"]), f1(c["lat_max"]),
+                f1(c["lat_min_bound"]), f1(c["lat_max_bound"]),
+                f1(ps, 2), f1(c["max_speed"]), f1(c["max_speed_bound"]),
+                verdict_max(ps, c["max_speed"], c["max_speed_bound"]),
+                f1(pj, 2), f1(c["max_jump"], 2), f1(c["max_jump_bound"], 2), f1(c["max_normal_jump"], 2),
+                verdict_max(pj, c["max_jump"], c["max_jump_bound"])))
+    ins = sum(verdict_share(paper_value(paper, l, b, "toe_share")[0], cells[(l, b)]) == "in"
+              for l in LEVELS for b in BLOCKS)
+    given = sum(paper_value(paper, l, b, "toe_share")[0] is not None for l in LEVELS for b in BLOCKS)
+    out.append("")
+    out.append("%d realizations per cell (the first cell's count); toe shares: %d of the paper's %d inside "
+               "Talus's 95 %% interval. A repeat's maximum falls below the 6th largest of n with probability "
+               "C(n,6)/C(2n,6) = %.3f at n = %d." % (n, ins, given, below_probability(n, n, K_BOUND), n))
+    write(args.output, "\n".join(out) + "\n")
+
+
+# ---------------------------------------------------------------- sensitivity
+
+# Each variant: (name, what it changes, terrain-gen --set list, dda-run --set list).
+# {R} is the level's roughness index. Materials are overridden by name in the scene
+# (the terrain's material is 'slope').
+def mat(**fields):
+    return "materials=[{name: slope, %s}]" % ", ".join("%s: %s" % kv for kv in fields.items())
+
+
+VARIANTS = [
+    ("defaults", "SPEC §4 ground, σ = 0.8 R, alternating cut, rigid6", [], []),
+    ("friction 20°", "friction_angle_mean_deg 10 → 20", [], [mat(friction_angle_mean_deg=20)]),
+    ("friction 30°", "friction_angle_mean_deg 10 → 30", [], [mat(friction_angle_mean_deg=30)]),
+    ("friction sd 0", "friction_coefficient_sd 0.05 → 0", [], [mat(friction_coefficient_sd=0)]),
+    ("friction sd 0.15", "friction_coefficient_sd 0.05 → 0.15", [], [mat(friction_coefficient_sd=0.15)]),
+    ("R_v 0.85", "restitution_mean 0.95 → 0.85", [], [mat(restitution_mean=0.85)]),
+    ("R_v 0.75", "restitution_mean 0.95 → 0.75", [], [mat(restitution_mean=0.75)]),
+    ("R_v sd 0.15", "restitution_sd 0.05 → 0.15", [], [mat(restitution_sd=0.15)]),
+    ("K 6 m/s", "restitution_scale 12 → 6 m/s", [], [mat(restitution_scale=6)]),
+    ("K 24 m/s", "restitution_scale 12 → 24 m/s", [], [mat(restitution_scale=24)]),
+    ("tilt 5°", "lateral_tilt_sd_deg 0 → 5", [], [mat(lateral_tilt_sd_deg=5)]),
+    ("tilt 15°", "lateral_tilt_sd_deg 0 → 15", [], [mat(lateral_tilt_sd_deg=15)]),
+    ("σ = 0.4 R", "roughness σ halved (0.05 / 0.1 / 0.2 m)", ["roughness.sigma={half}"], []),
+    ("σ = 1.6 R", "roughness σ doubled (0.2 / 0.4 / 0.8 m)", ["roughness.sigma={double}"], []),
+    ("rest 0.05 J/kg", "rest_kinetic_energy 0.001 → 0.05 J/kg (0.32 m/s)", [], ["engine.rest_kinetic_energy=0.05"]),
+    ("rest dwell 0.1 s", "rest_dwell 0.5 → 0.1 s", [], ["engine.rest_dwell=0.1"]),
+    ("35 s limit", "max_time 132 s → 35 s (35 000 steps of 1 ms)", [], ["engine.max_time=35"]),
+    ("35 000 steps", "max_steps 0 → 35 000 accepted steps", [], ["engine.max_steps=35000"]),
+    ("full12", "dof rigid6 → full12", [], ["engine.dof=full12"]),
+    ("fixed cut", "triangulation alternating → fixed", ["triangulation=fixed"], []),
+    ("normal-component law", "restitution scaled → normal_component", [], ["engine.restitution=normal_component"]),
+    ("no normal-approach bound", "restitution_bound normal_approach → none", [], ["engine.restitution_bound=none"]),
+]
+
+
+def slug(name):
+    return "".join(c if c.isalnum() else "-" for c in name).strip("-").lower().replace("--", "-")
+
+
+def stale(path, deps):
+    """A file to (re)make: missing, or older than what it is made from."""
+    return not os.path.exists(path) or os.path.getmtime(path) < max(os.path.getmtime(d) for d in deps)
+
+
+def run_variant_level(args, variant, level):
+    name, _, tsets, dsets = variant
+    d = os.path.join(args.out, slug(name))
+    os.makedirs(d, exist_ok=True)
+    sigma = 0.8 * R_INDEX[level]
+    subs = {"R": R_INDEX[level], "half": sigma / 2, "double": sigma * 2}
+    terrain = os.path.join(d, "terrain-%s.h5" % level)
+    run = os.path.join(d, "run-%s.h5" % level)
+    nice = ["nice", "-n", str(args.nice)] if args.nice else []
+    terrain_gen, dda_run = os.path.join(args.bin, "terrain-gen"), os.path.join(args.bin, "dda-run")
+    if stale(terrain, [terrain_gen, os.path.join(HERE, "terrain.yaml")]):
+        cmd = nice + [terrain_gen, "-q", "-c", os.path.join(HERE, "terrain.yaml"),
+                      "--set", "seed=%d" % args.seed]
+        if not any(s.startswith("roughness.sigma") for s in tsets):
+            cmd += ["--set", "roughness.roughness_index=%g" % R_INDEX[level]]
+        for s in tsets:
+            cmd += ["--set", s.format(**subs)]
+        subprocess.run(cmd + ["-o", terrain], check=True)
+    if stale(run, [dda_run, terrain, args.blocks, os.path.join(HERE, "scene.yaml")]):
+        cmd = nice + [dda_run, "-q", "-c", os.path.join(HERE, "scene.yaml"),
+                      "--set", "terrain=" + terrain, "--set", "block_file=" + args.blocks,
+                      "--set", "realizations=%d" % args.realizations, "--set", "seed=%d" % args.seed,
+                      "--threads", "1"]
+        for s in dsets:
+            cmd += ["--set", s]
+        subprocess.run(cmd + ["-o", run + ".tmp.h5"], check=True, stderr=subprocess.DEVNULL)
+        os.replace(run + ".tmp.h5", run)
+    return run
+
+
+def cmd_sensitivity(args):
+    variants = [v for v in VARIANTS if not args.only or v[0] in args.only or v[0] == "defaults"]
+    os.makedirs(args.out, exist_ok=True)
+    args.blocks = os.path.join(args.out, "platonic.h5")
+    if stale(args.blocks, [os.path.join(args.bin, "block-gen"), os.path.join(ROOT, "samples", "blocks", "platonic.yaml")]):
+        subprocess.run([os.path.join(args.bin, "block-gen"), "-q", "-c",
+                        os.path.join(ROOT, "samples", "blocks", "platonic.yaml"), "-o", args.blocks], check=True)
+    jobs = [(v, l) for v in variants for l in LEVELS]
+    with concurrent.futures.ThreadPoolExecutor(max_workers=args.jobs) as pool:
+        files = dict(zip([(v[0], l) for v, l in jobs], pool.map(lambda j: run_variant_level(args, *j), jobs)))
+    shares, ends = {}, {}
+    for v in variants:
+        for l in LEVELS:
+            r = Run(files[(v[0], l)])
+            for b in BLOCKS:
+                k, n = toe_counts(r, b, args.toe)
+                shares[(v[0], l, b)] = 100.0 * k / n
+            ends[(v[0], l)] = (int(np.sum(r.end == LEFT)), int(np.sum((r.end != REST) & (r.end != LEFT))))
+    cells = [(l, b) for l in LEVELS for b in BLOCKS]
+    head = "| choice | change | " + " | ".join("%s %s" % c for c in cells) + \
+        " | mean shift (pp) | largest shift (pp) | left / other ends |"
+    out = [head, "|" + "---|" * (len(cells) + 5)]
+    rows = []
+    for v in variants:
+        sh = [shares[(v[0],) + c] for c in cells]
+        d = [s - shares[("defaults",) + c] for s, c in zip(sh, cells)]
+        left = sum(ends[(v[0], l)][0] for l in LEVELS)
+        other = sum(ends[(v[0], l)][1] for l in LEVELS)
+        rows.append((v, sh, d, left, other))
+    base = rows[0]
+    order = [base] + sorted(rows[1:], key=lambda r: -abs(np.mean(r[2])))
+    for v, sh, d, left, other in order:
+        if v[0] == "defaults":
+            cells_text = " | ".join("%.1f" % s for s in sh)
+            out.append("| **%s** | %s | %s | | | %d / %d |" % (v[0], v[1], cells_text, left, other))
+        else:
+            cells_text = " | ".join("%+.1f" % x for x in d)
+            out.append("| %s | %s | %s | %+.1f | %+.1f | %d / %d |" % (
+                v[0], v[1], cells_text, np.mean(d), max(d, key=abs), left, other))
+    out.append("")
+    out.append("Defaults row: toe shares (%%, final centroid at x ≥ %g m); other rows: the shift from it in "
+               "percentage points; %d realizations per level (%d per block), seed %d for every run; rows by |mean "
+               "shift|. Last column: realizations of the three levels that left the terrain / ended otherwise "
+               "than at rest or off the terrain (step or time limit)." % (args.toe, args.realizations,
+                                                                          args.realizations // 4, args.seed))
+    write(args.output, "\n".join(out) + "\n")
+
+
+# ---------------------------------------------------------------- shapes
+
+def cmd_shapes(args):
+    runs = load_runs(args.dir)
+    mass = 2800.0  # kg: 1 m^3 at the SPEC §4 density
+    out = ["| cell | toe share (%) | impacts: median [P25, P75] | impacts past x = 36 m of those resting there | "
+           "energy lost per impact, median (kJ) | time to rest, median (s) | max kinetic energy, median (kJ) |",
+           "|---|---|---|---|---|---|---|"]
+    for l in LEVELS:
+        for b in BLOCKS:
+            r = runs[l]
+            s = r.sel(b)
+            rest = s & (r.end == REST)
+            k, n = toe_counts(r, b, args.toe)
+            drop = mass * 9.81 * (r.release[rest, 2] - r.final[rest, 2])
+            per = drop / np.maximum(r.impacts[rest], 1) / 1000.0
+            imp = r.impacts[s]
+            toe_rest = rest & (r.final[:, 0] >= args.toe)
+            out.append("| %s %s | %.1f | %d [%d, %d] | %s | %.1f | %.1f | %.0f |" % (
+                l, b, 100.0 * k / n, np.median(imp), np.percentile(imp, 25), np.percentile(imp, 75),
+                f1(float(np.median(r.impacts[toe_rest])) if toe_rest.any() else None, 0),
+                np.median(per), np.median(r.time[rest]), np.median(r.max_ke[s]) / 1000.0))
+    write(args.output, "\n".join(out) + "\n")
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    sub = p.add_subparsers(dest="command", required=True)
+    t = sub.add_parser("table")
+    t.add_argument("dir")
+    t.add_argument("--paper", default=os.path.join(HERE, "paper-figures.csv"))
+    t.add_argument("--toe", type=float, default=36.0)
+    t.add_argument("-o", "--output", default="-")
+    t.set_defaults(func=cmd_table)
+    s = sub.add_parser("sensitivity")
+    s.add_argument("--bin", default=os.path.join(ROOT, "build", "bin"))
+    s.add_argument("--out", default=os.path.join(HERE, "out", "sensitivity"))
+    s.add_argument("--realizations", type=int, default=1000)
+    s.add_argument("--seed", type=int, default=1)
+    s.add_argument("--jobs", type=int, default=2)
+    s.add_argument("--nice", type=int, default=10)
+    s.add_argument("--toe", type=float, default=36.0)
+    s.add_argument("--only", nargs="*", default=[])
+    s.add_argument("-o", "--output", default="-")
+    s.set_defaults(func=cmd_sensitivity)
+    h = sub.add_parser("shapes")
+    h.add_argument("dir")
+    h.add_argument("--toe", type=float, default=36.0)
+    h.add_argument("-o", "--output", default="-")
+    h.set_defaults(func=cmd_shapes)
+    args = p.parse_args()
+    args.func(args)
+
+
+if __name__ == "__main__":
+    main()

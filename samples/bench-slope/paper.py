@@ -113,6 +113,7 @@ class Run:
             self.steps = r["steps"][:]
             self.max_ke = r["max_kinetic_energy"][:]
             self.blocks = [text(x) for x in f["run/blocks"][:]]
+            self.realization = r["realization"][:]
 
     def sel(self, block):
         if block not in self.blocks:
@@ -155,6 +156,10 @@ def f1(x, d=1):
     return "–" if x is None or (isinstance(x, float) and math.isnan(x)) else "%.*f" % (d, x)
 
 
+def largest(values):
+    return float(np.max(values)) if len(values) else float("nan")
+
+
 def cell_figures(run, block, toe):
     s = run.sel(block)
     rest = s & (run.end == REST)
@@ -168,33 +173,32 @@ def cell_figures(run, block, toe):
         "left_far": int(np.sum(s & (run.end == LEFT) & (run.final[:, 0] >= 59.0))),
         "other_end": int(np.sum(s & (run.end != REST) & (run.end != LEFT))),
         "n_rest": int(np.sum(rest)),
-        "max_runout": float(x_rest.max()) if len(x_rest) else float("nan"),
+        "max_runout": largest(x_rest),
         "max_runout_bound": order_bound(x_rest),
-        "lat_min": float(lat.min()) if len(lat) else float("nan"),
-        "lat_max": float(lat.max()) if len(lat) else float("nan"),
+        "lat_min": -largest(-lat), "lat_max": largest(lat),
         "lat_min_bound": order_bound(lat, largest=False),
         "lat_max_bound": order_bound(lat),
-        "max_speed": float(run.max_speed[s].max()), "max_speed_bound": order_bound(run.max_speed[s]),
-        "max_jump": float(run.max_jump[s].max()), "max_jump_bound": order_bound(run.max_jump[s]),
-        "max_normal_jump": float(run.max_normal_jump[s].max()),
+        "max_speed": largest(run.max_speed[s]), "max_speed_bound": order_bound(run.max_speed[s]),
+        "max_jump": largest(run.max_jump[s]), "max_jump_bound": order_bound(run.max_jump[s]),
+        "max_normal_jump": largest(run.max_normal_jump[s]),
     }
 
 
 def verdict_share(p, c):
     if p is None:
         return ""
-    return "in" if c["share_lo"] <= p / 100 <= c["share_hi"] else "out"
+    return "yes" if c["share_lo"] <= p / 100 <= c["share_hi"] else "no"
 
 
 def verdict_max(p, value, bound):
-    """'out' when the paper's maximum is below the bound (a repeat's maximum falls there with
+    """'no' when the paper's maximum is below the bound (a repeat's maximum falls there with
     probability C(n,6)/C(2n,6), about 1.5 % at n = 250); 'above' when it exceeds Talus's maximum
-    (a repeat does that with probability 1/2: not resolved); else 'in'."""
+    (a repeat does that with probability 1/2: not resolved); else 'yes'."""
     if p is None:
         return ""
     if p < bound:
-        return "out"
-    return "above" if p > value else "in"
+        return "no"
+    return "above" if p > value else "yes"
 
 
 def cmd_table(args):
@@ -203,8 +207,8 @@ def cmd_table(args):
     cells = {(l, b): cell_figures(runs[l], b, args.toe) for l in LEVELS for b in BLOCKS}
     n = cells[("S1", "R1")]["n"]
     out = []
-    out.append("| cell | toe share: paper | Talus [95 % Wilson] | | max runout (m): paper | Talus [≥ 6th largest] | | left the terrain (past x = 59 m) | lateral width (m): paper | Talus [≥ bound] |")
-    out.append("|---|---|---|---|---|---|---|---|---|---|")
+    out.append("| cell | toe share (%): paper | Talus [95 % Wilson] | paper inside | max runout (m): paper | Talus [bound] | paper inside | left the terrain (past x = 59 m) | lateral width (m): paper | Talus [bound] | paper inside |")
+    out.append("|---|---|---|---|---|---|---|---|---|---|---|")
     for l in LEVELS:
         for b in BLOCKS:
             c = cells[(l, b)]
@@ -213,16 +217,17 @@ def cmd_table(args):
             pw, pw_other = paper_value(paper, l, b, "lateral_width")
             width = c["lat_max"] - c["lat_min"]
             width_bound = c["lat_max_bound"] - c["lat_min_bound"]
-            out.append("| %s %s | %s | %s [%s, %s] | %s | %s | %s [≥ %s] | %s | %d (%d) | %s | %s [≥ %s] |" % (
+            out.append("| %s %s | %s | %s [%s, %s] | %s | %s | %s [≥ %s] | %s | %d (%d) | %s | %s [≥ %s] | %s |" % (
                 l, b, f1(pt) + pt_other if pt is not None else "–",
                 f1(100 * c["share"]), f1(100 * c["share_lo"]), f1(100 * c["share_hi"]), verdict_share(pt, c),
                 f1(pr, 2) + pr_other if pr is not None else "–",
                 f1(c["max_runout"]), f1(c["max_runout_bound"]),
                 verdict_max(pr, c["max_runout"], c["max_runout_bound"]),
                 c["left"], c["left_far"],
-                f1(pw, 2) + pw_other if pw is not None else "–", f1(width), f1(width_bound)))
+                f1(pw, 2) + pw_other if pw is not None else "–", f1(width), f1(width_bound),
+                verdict_max(pw, width, width_bound)))
     out.append("")
-    out.append("| cell | lateral range (m): paper | Talus [outer bounds] | max speed (m/s): paper | Talus [≥ bound] | | max jump (m): paper | Talus vertical [≥ bound] / normal | |")
+    out.append("| cell | lateral range (m): paper | Talus [bounds] | max speed (m/s): paper | Talus [bound] | paper inside | max jump (m): paper | Talus vertical [bound] / normal | paper inside |")
     out.append("|---|---|---|---|---|---|---|---|---|")
     for l in LEVELS:
         for b in BLOCKS:
@@ -246,7 +251,8 @@ def cmd_table(args):
     out.append("")
     out.append("%d realizations per cell (the first cell's count); toe shares: %d of the paper's %d inside "
                "Talus's 95 %% interval. A repeat's maximum falls below the 6th largest of n with probability "
-               "C(n,6)/C(2n,6) = %.3f at n = %d." % (n, ins, given, below_probability(n, n, K_BOUND), n))
+               "C(n,6)/C(2n,6) = %.3f at n = %d; a repeat's lateral width falls below its bound (6th largest minus "
+               "6th smallest) with probability at most twice that." % (n, ins, given, below_probability(n, n, K_BOUND), n))
     write(args.output, "\n".join(out) + "\n")
 
 
@@ -272,8 +278,9 @@ VARIANTS = [
     ("K 24 m/s", "restitution_scale 12 → 24 m/s", [], [mat(restitution_scale=24)]),
     ("tilt 5°", "lateral_tilt_sd_deg 0 → 5", [], [mat(lateral_tilt_sd_deg=5)]),
     ("tilt 15°", "lateral_tilt_sd_deg 0 → 15", [], [mat(lateral_tilt_sd_deg=15)]),
-    ("σ = 0.4 R", "roughness σ halved (0.05 / 0.1 / 0.2 m)", ["roughness.sigma={half}"], []),
-    ("σ = 1.6 R", "roughness σ doubled (0.2 / 0.4 / 0.8 m)", ["roughness.sigma={double}"], []),
+    ("σ = 0.4 R", "roughness σ halved (0.05 / 0.1 / 0.2 m)", ["roughness.roughness_index=~", "roughness.sigma={half}"], []),
+    ("σ = 1.6 R", "roughness σ doubled (0.2 / 0.4 / 0.8 m; a release in the ground lifted clear)",
+     ["roughness.roughness_index=~", "roughness.sigma={double}"], ["release.clearance=lift"]),
     ("rest 0.05 J/kg", "rest_kinetic_energy 0.001 → 0.05 J/kg (0.32 m/s)", [], ["engine.rest_kinetic_energy=0.05"]),
     ("rest dwell 0.1 s", "rest_dwell 0.5 → 0.1 s", [], ["engine.rest_dwell=0.1"]),
     ("35 s limit", "max_time 132 s → 35 s (35 000 steps of 1 ms)", [], ["engine.max_time=35"]),
@@ -286,7 +293,8 @@ VARIANTS = [
 
 
 def slug(name):
-    return "".join(c if c.isalnum() else "-" for c in name).strip("-").lower().replace("--", "-")
+    name = name.replace("σ", "sigma").replace("°", "deg")
+    return "-".join("".join(c if c.isascii() and c.isalnum() else " " for c in name).lower().split())
 
 
 def stale(path, deps):
@@ -307,7 +315,7 @@ def run_variant_level(args, variant, level):
     if stale(terrain, [terrain_gen, os.path.join(HERE, "terrain.yaml")]):
         cmd = nice + [terrain_gen, "-q", "-c", os.path.join(HERE, "terrain.yaml"),
                       "--set", "seed=%d" % args.seed]
-        if not any(s.startswith("roughness.sigma") for s in tsets):
+        if not any(s.startswith("roughness.") for s in tsets):
             cmd += ["--set", "roughness.roughness_index=%g" % R_INDEX[level]]
         for s in tsets:
             cmd += ["--set", s.format(**subs)]
@@ -319,7 +327,9 @@ def run_variant_level(args, variant, level):
                       "--threads", "1"]
         for s in dsets:
             cmd += ["--set", s]
-        subprocess.run(cmd + ["-o", run + ".tmp.h5"], check=True, stderr=subprocess.DEVNULL)
+        done = subprocess.run(cmd + ["-o", run + ".tmp.h5"], stderr=subprocess.PIPE, text=True)
+        if done.returncode != 0 or not os.path.exists(run + ".tmp.h5"):
+            fail("%s: dda-run exited %d: %s" % (run, done.returncode, done.stderr.strip()[-400:]))
         os.replace(run + ".tmp.h5", run)
     return run
 
@@ -340,7 +350,7 @@ def cmd_sensitivity(args):
             r = Run(files[(v[0], l)])
             for b in BLOCKS:
                 k, n = toe_counts(r, b, args.toe)
-                shares[(v[0], l, b)] = 100.0 * k / n
+                shares[(v[0], l, b)] = 100.0 * k / n if n else float("nan")
             ends[(v[0], l)] = (int(np.sum(r.end == LEFT)), int(np.sum((r.end != REST) & (r.end != LEFT))))
     cells = [(l, b) for l in LEVELS for b in BLOCKS]
     head = "| choice | change | " + " | ".join("%s %s" % c for c in cells) + \
@@ -374,26 +384,95 @@ def cmd_sensitivity(args):
 
 # ---------------------------------------------------------------- shapes
 
+MASS = 2800.0  # kg: 1 m^3 at the SPEC §4 density
+G = 9.81
+
+
+def trajectory_measures(path, run, toe):
+    """Per realization, from the sampled trajectory: the share of the sampled time on the slope
+    (x < toe) spent in free flight (acceleration within 1 m/s^2 of gravity between two
+    samples), and the rotational share of the kinetic energy there (samples above 1 kJ).
+    None when the run file has no trajectories."""
+    with h5py.File(path, "r") as f:
+        t = f["trajectories"]
+        if t["time"].shape[0] == 0:
+            return None
+        real, time, pos, vel, energy = (t["realization"][:], t["time"][:], t["position"][:],
+                                        t["velocity"][:], t["energy"][:])
+    flight = np.full(len(run.block), np.nan)
+    rot = np.full(len(run.block), np.nan)
+    index = {int(r): i for i, r in enumerate(run.realization)}
+    bounds = np.flatnonzero(np.diff(real)) + 1
+    for a, b in zip(np.r_[0, bounds], np.r_[bounds, len(real)]):
+        i = index.get(int(real[a]))
+        if i is None or b - a < 3:
+            continue
+        tt, x, v, e = time[a:b], pos[a:b], vel[a:b], energy[a:b]
+        dt = np.diff(tt)
+        acc = np.diff(v, axis=0) / dt[:, None]
+        acc[:, 2] += G
+        on_slope = (x[:-1, 0] < toe) & (tt[:-1] > 0.5)  # the release drop is no flight over the slope
+        free = np.linalg.norm(acc, axis=1) < 1.0
+        if on_slope.any():
+            flight[i] = float(np.sum(dt[on_slope & free]) / np.sum(dt[on_slope]))
+        ke = e - MASS * G * x[:, 2]
+        ke_trans = 0.5 * MASS * np.sum(v * v, axis=1)
+        moving = (x[:, 0] < toe) & (ke > 1000.0)
+        if moving.any():
+            rot[i] = float(np.mean(np.clip((ke[moving] - ke_trans[moving]) / ke[moving], 0, 1)))
+    return flight, rot
+
+
+def toe_crossing_energy(path, run):
+    """Kinetic energy (J) at the first crossing of the 'toe' barrier, per record (NaN: none)."""
+    out = np.full(len(run.block), np.nan)
+    with h5py.File(path, "r") as f:
+        names = [text(x) for x in f["run/barriers"][:]]
+        if "toe" not in names or f["crossings/realization"].shape[0] == 0:
+            return out
+        c = f["crossings"]
+        sel = c["barrier"][:] == names.index("toe")
+        real, ke = c["realization"][:][sel], c["kinetic_energy"][:][sel]
+    index = {int(r): i for i, r in enumerate(run.realization)}
+    for r, e in zip(real[::-1], ke[::-1]):  # reversed: the first crossing is written last
+        if int(r) in index:
+            out[index[int(r)]] = e
+    return out
+
+
+def med(x):
+    x = np.asarray(x, float)
+    x = x[np.isfinite(x)]
+    return float(np.median(x)) if len(x) else float("nan")
+
+
 def cmd_shapes(args):
-    runs = load_runs(args.dir)
-    mass = 2800.0  # kg: 1 m^3 at the SPEC §4 density
-    out = ["| cell | toe share (%) | impacts: median [P25, P75] | impacts past x = 36 m of those resting there | "
-           "energy lost per impact, median (kJ) | time to rest, median (s) | max kinetic energy, median (kJ) |",
-           "|---|---|---|---|---|---|---|"]
+    out = ["| cell | toe share (%) | bench stops (%) | impacts, median | energy lost per impact, median (kJ) | "
+           "kinetic energy at the toe, median (kJ) | run-out past the toe, median (m) | "
+           "run-out friction KE_toe/(m g d), median | flight share on the slope | rotational share of KE on the slope |",
+           "|---|---|---|---|---|---|---|---|---|---|"]
     for l in LEVELS:
+        path = os.path.join(args.dir, "run-%s.h5" % l)
+        r = Run(path)
+        traj = trajectory_measures(path, r, args.toe)
+        ke_toe = toe_crossing_energy(path, r)
         for b in BLOCKS:
-            r = runs[l]
             s = r.sel(b)
+            if not s.any():
+                continue
             rest = s & (r.end == REST)
             k, n = toe_counts(r, b, args.toe)
-            drop = mass * 9.81 * (r.release[rest, 2] - r.final[rest, 2])
+            bench = rest & (r.final[:, 0] < args.toe)
+            drop = MASS * G * (r.release[rest, 2] - r.final[rest, 2])
             per = drop / np.maximum(r.impacts[rest], 1) / 1000.0
-            imp = r.impacts[s]
-            toe_rest = rest & (r.final[:, 0] >= args.toe)
-            out.append("| %s %s | %.1f | %d [%d, %d] | %s | %.1f | %.1f | %.0f |" % (
-                l, b, 100.0 * k / n, np.median(imp), np.percentile(imp, 25), np.percentile(imp, 75),
-                f1(float(np.median(r.impacts[toe_rest])) if toe_rest.any() else None, 0),
-                np.median(per), np.median(r.time[rest]), np.median(r.max_ke[s]) / 1000.0))
+            past = rest & (r.final[:, 0] >= args.toe)
+            d = r.final[past, 0] - args.toe
+            mu = ke_toe[past] / (MASS * G * np.maximum(d, 0.1))
+            fl = f1(med(traj[0][s]), 2) if traj else "–"
+            ro = f1(med(traj[1][s]), 2) if traj else "–"
+            out.append("| %s %s | %.1f | %.1f | %s | %s | %s | %s | %s | %s | %s |" % (
+                l, b, 100.0 * k / n, 100.0 * np.sum(bench) / n, f1(med(r.impacts[s]), 0), f1(med(per)),
+                f1(med(ke_toe[s]) / 1000.0, 0), f1(med(d)), f1(med(mu), 2), fl, ro))
     write(args.output, "\n".join(out) + "\n")
 
 

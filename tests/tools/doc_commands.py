@@ -55,6 +55,10 @@ EXCLUDED = [
     (r"^make (-j2 )?-C samples/bench-slope( check)?\s*(#.*)?$",
      "the whole bench-slope study (about 35 s on two cores) and its check; the bench_slope_make test runs "
      "the check (the study at 16 realizations per level, outputs checked)"),
+    (r"^make (-j2 )?-C samples/bench-slope (paper|sensitivity|shapes)\s*(#.*)?$",
+     "the bench-slope study beside the published one, its model-choice sensitivity (66 runs of 1000 "
+     "realizations) and its shape measures (3 runs with trajectories); the table script they drive is run "
+     "here on dda-run.md's run files (samples/bench-slope/paper.py table)"),
     (r"^bench/pareto/pareto\.py\b", "run time against error: about 80 runs of 500 realizations (an hour on 2 cores)"),
     (r"^valgrind --tool=callgrind\b",
      "instruction counts: the run under valgrind takes minutes; the same run without it is the whole-run law's "

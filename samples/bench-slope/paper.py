@@ -371,14 +371,27 @@ def cmd_sensitivity(args):
             out.append("| **%s** | %s | %s | | | %d / %d |" % (v[0], v[1], cells_text, left, other))
         else:
             cells_text = " | ".join("%+.1f" % x for x in d)
-            out.append("| %s | %s | %s | %+.1f | %+.1f | %d / %d |" % (
-                v[0], v[1], cells_text, np.mean(d), max(d, key=abs), left, other))
+            # Standard error of the mean shift as if the two runs were independent samples
+            # (common random numbers make it smaller for changes that leave trajectories alone).
+            p0 = np.array([shares[("defaults",) + c] for c in cells]) / 100
+            p1 = np.array(sh) / 100
+            n_cell = args.realizations / len(BLOCKS)
+            se = math.sqrt(np.sum(p0 * (1 - p0) / n_cell + p1 * (1 - p1) / n_cell)) / len(cells) * 100
+            out.append("| %s | %s | %s | %+.1f ± %.1f | %+.1f | %d / %d |" % (
+                v[0], v[1], cells_text, np.mean(d), se, max(d, key=abs), left, other))
     out.append("")
     out.append("Defaults row: toe shares (%%, final centroid at x ≥ %g m); other rows: the shift from it in "
-               "percentage points; %d realizations per level (%d per block), seed %d for every run; rows by |mean "
+               "percentage points (mean shift ± its standard error for two independent samples per cell); %d realizations per level (%d per block), seed %d for every run; rows by |mean "
                "shift|. Last column: realizations of the three levels that left the terrain / ended otherwise "
                "than at rest or off the terrain (step or time limit)." % (args.toe, args.realizations,
                                                                           args.realizations // 4, args.seed))
+    pairs = [(v[0], l) for v in variants for l in LEVELS]
+    cube_ahead = sum(shares[(v, l, "R2")] > shares[(v, l, "R3")] for v, l in pairs)
+    ordered = sum(all(shares[(v, l, a)] < shares[(v, l, b)] for a, b in zip(BLOCKS, BLOCKS[1:])) for v, l in pairs)
+    out.append("")
+    out.append("Shape order over the %d runs (choice and level): the cube (R2) passes the toe more often than the "
+               "octahedron (R3) in %d; the toe share rises strictly from R1 to R4, the published order, in %d."
+               % (len(pairs), cube_ahead, ordered))
     write(args.output, "\n".join(out) + "\n")
 
 
@@ -473,6 +486,27 @@ def cmd_shapes(args):
             out.append("| %s %s | %.1f | %.1f | %s | %s | %s | %s | %s | %s | %s |" % (
                 l, b, 100.0 * k / n, 100.0 * np.sum(bench) / n, f1(med(r.impacts[s]), 0), f1(med(per)),
                 f1(med(ke_toe[s]) / 1000.0, 0), f1(med(d)), f1(med(mu), 2), fl, ro))
+    step_rows = []
+    for l in LEVELS:
+        files = [os.path.join(args.dir, "cube-octahedron-%s-%s.h5" % (p, l)) for p in ("design", "research")]
+        if not all(os.path.exists(f) for f in files):
+            continue
+        row = []
+        for f in files:
+            r = Run(f)
+            for b in ("R2", "R3"):
+                k, n = toe_counts(r, b, args.toe)
+                lo, hi = wilson(k, n)
+                row.append("%.1f [%.1f, %.1f]" % (100.0 * k / n, 100 * lo, 100 * hi))
+            k2, n2 = toe_counts(r, "R2", args.toe)
+            k3, n3 = toe_counts(r, "R3", args.toe)
+            p2, p3 = k2 / n2, k3 / n3
+            row.append("%+.1f ± %.1f" % (100 * (p2 - p3), 100 * math.sqrt(p2 * (1 - p2) / n2 + p3 * (1 - p3) / n3)))
+        step_rows.append("| %s | %s |" % (l, " | ".join(row)))
+    if step_rows:
+        out += ["", "| level | cube, 1 ms (%) | octahedron, 1 ms (%) | cube − octahedron, 1 ms (pp) | "
+                "cube, 0.2 ms (%) | octahedron, 0.2 ms (%) | cube − octahedron, 0.2 ms (pp) |",
+                "|---|---|---|---|---|---|---|"] + step_rows
     write(args.output, "\n".join(out) + "\n")
 
 

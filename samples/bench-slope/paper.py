@@ -10,8 +10,10 @@
       the study rerun with each model choice changed, the twelve toe shares against the
       defaults' (the runs go to --out; a run file there newer than the tools and inputs it
       is made from is reused)
-  paper.py shapes DIR [-o SHAPES.md]
-      per block and level: impacts, energy lost per impact, time, from the run files
+  paper.py shapes DIR [--also LABEL=DIR ...] [-o SHAPES.md]
+      per block and level: bench stops, impacts, energy lost per impact, energy at the toe,
+      and (with trajectories) flight and rotation shares; the cube and the octahedron at two
+      time steps (DIR/cube-octahedron-{design,research}-S*.h5) when present
 
 Conventions (stated in docs/reference-study.md): the toe share counts every realization
 whose final centroid is at x >= TOE (36 m), those that left the terrain past it included;
@@ -460,54 +462,67 @@ def med(x):
 
 
 def cmd_shapes(args):
+    out = shape_table(args.dir, args.toe)
+    for label, directory in (a.split("=", 1) for a in args.also):
+        out += ["", "With %s:" % label, ""] + shape_table(directory, args.toe)
+    out += step_table(args.dir, args.toe)
+    write(args.output, "\n".join(out) + "\n")
+
+
+def shape_table(directory, toe):
     out = ["| cell | toe share (%) | bench stops (%) | impacts, median | energy lost per impact, median (kJ) | "
            "kinetic energy at the toe, median (kJ) | run-out past the toe, median (m) | "
            "run-out friction KE_toe/(m g d), median | flight share on the slope | rotational share of KE on the slope |",
            "|---|---|---|---|---|---|---|---|---|---|"]
     for l in LEVELS:
-        path = os.path.join(args.dir, "run-%s.h5" % l)
+        path = os.path.join(directory, "run-%s.h5" % l)
         r = Run(path)
-        traj = trajectory_measures(path, r, args.toe)
+        traj = trajectory_measures(path, r, toe)
         ke_toe = toe_crossing_energy(path, r)
         for b in BLOCKS:
             s = r.sel(b)
             if not s.any():
                 continue
             rest = s & (r.end == REST)
-            k, n = toe_counts(r, b, args.toe)
-            bench = rest & (r.final[:, 0] < args.toe)
+            k, n = toe_counts(r, b, toe)
+            bench = rest & (r.final[:, 0] < toe)
             drop = MASS * G * (r.release[rest, 2] - r.final[rest, 2])
             per = drop / np.maximum(r.impacts[rest], 1) / 1000.0
-            past = rest & (r.final[:, 0] >= args.toe)
-            d = r.final[past, 0] - args.toe
+            past = rest & (r.final[:, 0] >= toe)
+            d = r.final[past, 0] - toe
             mu = ke_toe[past] / (MASS * G * np.maximum(d, 0.1))
             fl = f1(med(traj[0][s]), 2) if traj else "–"
             ro = f1(med(traj[1][s]), 2) if traj else "–"
             out.append("| %s %s | %.1f | %.1f | %s | %s | %s | %s | %s | %s | %s |" % (
                 l, b, 100.0 * k / n, 100.0 * np.sum(bench) / n, f1(med(r.impacts[s]), 0), f1(med(per)),
                 f1(med(ke_toe[s]) / 1000.0, 0), f1(med(d)), f1(med(mu), 2), fl, ro))
+    return out
+
+
+def step_table(directory, toe):
+    """Toe shares of the cube and the octahedron run alone at the 1 ms and 0.2 ms steps."""
     step_rows = []
     for l in LEVELS:
-        files = [os.path.join(args.dir, "cube-octahedron-%s-%s.h5" % (p, l)) for p in ("design", "research")]
+        files = [os.path.join(directory, "cube-octahedron-%s-%s.h5" % (p, l)) for p in ("design", "research")]
         if not all(os.path.exists(f) for f in files):
             continue
         row = []
         for f in files:
             r = Run(f)
             for b in ("R2", "R3"):
-                k, n = toe_counts(r, b, args.toe)
+                k, n = toe_counts(r, b, toe)
                 lo, hi = wilson(k, n)
                 row.append("%.1f [%.1f, %.1f]" % (100.0 * k / n, 100 * lo, 100 * hi))
-            k2, n2 = toe_counts(r, "R2", args.toe)
-            k3, n3 = toe_counts(r, "R3", args.toe)
+            k2, n2 = toe_counts(r, "R2", toe)
+            k3, n3 = toe_counts(r, "R3", toe)
             p2, p3 = k2 / n2, k3 / n3
             row.append("%+.1f ± %.1f" % (100 * (p2 - p3), 100 * math.sqrt(p2 * (1 - p2) / n2 + p3 * (1 - p3) / n3)))
         step_rows.append("| %s | %s |" % (l, " | ".join(row)))
-    if step_rows:
-        out += ["", "| level | cube, 1 ms (%) | octahedron, 1 ms (%) | cube − octahedron, 1 ms (pp) | "
-                "cube, 0.2 ms (%) | octahedron, 0.2 ms (%) | cube − octahedron, 0.2 ms (pp) |",
-                "|---|---|---|---|---|---|---|"] + step_rows
-    write(args.output, "\n".join(out) + "\n")
+    if not step_rows:
+        return []
+    return ["", "| level | cube, 1 ms (%) | octahedron, 1 ms (%) | cube − octahedron, 1 ms (pp) | "
+            "cube, 0.2 ms (%) | octahedron, 0.2 ms (%) | cube − octahedron, 0.2 ms (pp) |",
+            "|---|---|---|---|---|---|---|"] + step_rows
 
 
 def main():
@@ -533,6 +548,8 @@ def main():
     h = sub.add_parser("shapes")
     h.add_argument("dir")
     h.add_argument("--toe", type=float, default=36.0)
+    h.add_argument("--also", action="append", default=[], metavar="LABEL=DIR",
+                   help="another study's run files, tabled after the first")
     h.add_argument("-o", "--output", default="-")
     h.set_defaults(func=cmd_shapes)
     args = p.parse_args()

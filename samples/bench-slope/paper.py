@@ -79,6 +79,8 @@ def wilson(k, n, z=Z95):
 def below_probability(n, m, k):
     """P(the maximum of m new draws < the k-th largest of n) for exchangeable draws:
     the k largest of the n + m pooled values all come from the n, C(n,k)/C(n+m,k)."""
+    if n < k:
+        return float("nan")
     p = 1.0
     for i in range(k):
         p *= (n - i) / (n + m - i)
@@ -189,6 +191,8 @@ def cell_figures(run, block, toe):
 def verdict_share(p, c):
     if p is None:
         return ""
+    if math.isnan(c["share_lo"]):
+        return "–"
     return "yes" if c["share_lo"] <= p / 100 <= c["share_hi"] else "no"
 
 
@@ -198,6 +202,8 @@ def verdict_max(p, value, bound):
     (a repeat does that with probability 1/2: not resolved); else 'yes'."""
     if p is None:
         return ""
+    if math.isnan(bound):
+        return "–"
     if p < bound:
         return "no"
     return "above" if p > value else "yes"
@@ -251,7 +257,7 @@ def cmd_table(args):
               for l in LEVELS for b in BLOCKS)
     given = sum(paper_value(paper, l, b, "toe_share")[0] is not None for l in LEVELS for b in BLOCKS)
     out.append("")
-    out.append("%d realizations per cell (the first cell's count); toe shares: %d of the paper's %d inside "
+    out.append("%d realizations per cell (the first cell's); toe shares: %d of the paper's %d inside "
                "Talus's 95 %% interval. A repeat's maximum falls below the 6th largest of n with probability "
                "C(n,6)/C(2n,6) = %.3f at n = %d; a repeat's lateral width falls below its bound (6th largest minus "
                "6th smallest) with probability at most twice that." % (n, ins, given, below_probability(n, n, K_BOUND), n))

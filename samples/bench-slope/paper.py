@@ -411,8 +411,8 @@ G = 9.81
 
 def trajectory_measures(path, run, toe):
     """Per realization, from the sampled trajectory: the share of the sampled time on the slope
-    (x < toe) spent in free flight (acceleration within 1 m/s^2 of gravity between two
-    samples), and the rotational share of the kinetic energy there (samples above 1 kJ).
+    (x < toe), from the first touch on, spent in free flight (acceleration within 1 m/s^2 of
+    gravity between two samples), and the rotational share of the kinetic energy there (samples above 1 kJ).
     None when the run file has no trajectories."""
     with h5py.File(path, "r") as f:
         t = f["trajectories"]
@@ -432,8 +432,10 @@ def trajectory_measures(path, run, toe):
         dt = np.diff(tt)
         acc = np.diff(v, axis=0) / dt[:, None]
         acc[:, 2] += G
-        on_slope = (x[:-1, 0] < toe) & (tt[:-1] > 0.5)  # the release drop is no flight over the slope
         free = np.linalg.norm(acc, axis=1) < 1.0
+        # From the first touch on: the release drop is no flight over the slope.
+        touched = np.cumsum(~free) > 0
+        on_slope = (x[:-1, 0] < toe) & touched
         if on_slope.any():
             flight[i] = float(np.sum(dt[on_slope & free]) / np.sum(dt[on_slope]))
         ke = e - MASS * G * x[:, 2]

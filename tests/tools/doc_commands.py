@@ -48,13 +48,17 @@ EXCLUDED = [
      "the stress suite (minutes to hours); its CI subset is the dda_stress_quick test"),
     (r"bench/resume/kill_resume\.py\b",
      "50 kill-and-resume trials take minutes; the dda_run_kill_resume test runs the same script with 4"),
-    (r"^bench/dda/threshold_sensitivity\.sh\b", "36 runs of 1000 realizations"),
+    (r"^bench/dda/threshold_sensitivity\.sh\b", "45 runs of 1000 realizations"),
     (r"^bench/dda/compare_runs\.py compare\b", "compares with run files of an earlier revision (BEFORE-S1.h5)"),
     (r"^bench/dda/equality\.sh\b",
      "record equality of two builds: 170 runs with each (about 70 s on two cores), one of them another build"),
     (r"^make (-j2 )?-C samples/bench-slope( check)?\s*(#.*)?$",
      "the whole bench-slope study (about 35 s on two cores) and its check; the bench_slope_make test runs "
      "the check (the study at 16 realizations per level, outputs checked)"),
+    (r"^make (-j2 )?-C samples/bench-slope (paper|sensitivity|shapes)\s*(#.*)?$",
+     "the bench-slope study beside the published one, its model-choice sensitivity (66 runs of 1000 "
+     "realizations) and its shape measures (12 runs, 6 with trajectories); the table script they drive is run "
+     "here on dda-run.md's run files (samples/bench-slope/paper.py table)"),
     (r"^bench/pareto/pareto\.py\b", "run time against error: about 80 runs of 500 realizations (an hour on 2 cores)"),
     (r"^valgrind --tool=callgrind\b",
      "instruction counts: the run under valgrind takes minutes; the same run without it is the whole-run law's "

@@ -26,6 +26,7 @@
 #include "talus/io/raster.hpp"
 #include "talus/io/run_file.hpp"
 #include "talus/io/terrain_file.hpp"
+#include "talus/stats/sample.hpp"
 
 namespace talus {
 namespace {
@@ -303,7 +304,6 @@ TEST_F(Stats, EndReasonsAreReportedAndUnstoppedBlocksCensored) {
   const std::string table = read_text(dir_ / "out-ends" / "table.csv");
   EXPECT_NE(table.find("\nrunout,n,,8,5,3\n"), std::string::npos) << table;
   EXPECT_NE(table.find("\nrunout,censored,,3,1,2\n"), std::string::npos) << table;
-  EXPECT_NE(table.find("\nend:rest,fraction,-,0.6667,0.8333,0.5\n"), std::string::npos) << table;
   // summary.h5: the count as an attribute, and stop points of the 8 resting blocks only.
   const io::h5::File h5 = io::h5::File::open((dir_ / "out-ends" / "summary.h5").string());
   const io::h5::Group all = h5.root().open_group("series").open_group("0");
@@ -324,21 +324,21 @@ TEST_F(Stats, HazardRastersInTerrainCoordinates) {
   EXPECT_EQ(reach.z[16], 4.0 / 12.0); // realizations 0–3 visit cell 16 = (1, 1)
   EXPECT_EQ(reach.z[2], 0.0);
   const terrain::DemGrid e99 = io::read_geotiff((dir_ / "out-hazard/hazard/whole-energy_p99.tif").string());
-  // Sketch quantiles are within α = 1 % of the order statistic: cell 0 energies 100(i+1),
-  // P99 rank ⌊0.99·11⌋ = 10 → 1100 J; cell 16 heights 1…4 m, P95 rank 2 → 3 m.
-  EXPECT_NEAR(e99.z[0], 1100.0, 11.0);
+  // Exact quantiles at these counts (type 7, h = p(n − 1)): cell 0 energies 100(i+1), P99
+  // at h = 10.89 → 1100 + 0.89·100 = 1189 J; cell 16 heights 1…4 m, P95 at h = 2.85 → 3.85 m.
+  EXPECT_NEAR(e99.z[0], 1189.0, 1e-9);
   EXPECT_TRUE(std::isnan(e99.z[2]));
   const terrain::DemGrid h95 = io::read_esri_ascii((dir_ / "out-hazard/hazard/whole-height_p95.asc").string());
-  EXPECT_NEAR(h95.z[16], 3.0, 0.03);
+  EXPECT_NEAR(h95.z[16], 3.85, 1e-12);
   // Passages: the realizations that reached the cell; the mean of cell 0's energies
-  // 100 … 1200 J is 650 J (within the sketch's α = 1 %).
+  // 100 … 1200 J is 650 J (exact).
   const terrain::DemGrid passages = io::read_geotiff((dir_ / "out-hazard/hazard/whole-passage_count.tif").string());
   EXPECT_EQ(passages.z[0], 12.0);
   EXPECT_EQ(passages.z[16], 4.0);
   EXPECT_EQ(passages.z[2], 0.0);
   const terrain::DemGrid e_mean = io::read_geotiff((dir_ / "out-hazard/hazard/whole-energy_mean.tif").string());
-  EXPECT_NEAR(e_mean.z[0], 650.0, 6.5);
-  EXPECT_NEAR(e_mean.z[16], 125.0, 1.25);  // 50, 100, 150, 200 J
+  EXPECT_DOUBLE_EQ(e_mean.z[0], 650.0);
+  EXPECT_DOUBLE_EQ(e_mean.z[16], 125.0);  // 50, 100, 150, 200 J
   EXPECT_TRUE(std::isnan(e_mean.z[2]));
   // The largest speed and passing height of any passage: exact, not sketched.
   const terrain::DemGrid v_max = io::read_geotiff((dir_ / "out-hazard/hazard/whole-speed_max.tif").string());
@@ -365,7 +365,8 @@ TEST_F(Stats, HazardRastersInTerrainCoordinates) {
   const std::vector<std::pair<std::string, std::string>> layers = {
       {"reach_probability", "1"}, {"passage_count", "count"}, {"deposition_count", "count"}, {"energy_mean", "J"},
       {"energy_p95", "J"}, {"energy_p99", "J"}, {"height_p95", "m"}, {"height_p99", "m"},
-      {"height_max", "m"}, {"speed_max", "m/s"}};
+      {"height_max", "m"}, {"speed_max", "m/s"}, {"energy_max", "J"}, {"height_mean", "m"},
+      {"speed_mean", "m/s"}, {"speed_p95", "m/s"}, {"speed_p99", "m/s"}};
   for (const auto& [layer, unit] : layers) {
     const fs::path base = dir_ / "out-hazard/hazard" / ("whole-" + layer);
     for (const char* ext : {".tif", ".asc"}) {
@@ -379,10 +380,65 @@ TEST_F(Stats, HazardRastersInTerrainCoordinates) {
   }
 }
 
+// Every cell's statistics, in every raster asked for, equal a direct computation from the
+// realizations' per-cell values (exact at these counts: type-7 quantiles, means, maxima);
+// cells with fewer passages than hazard_min_passages are no data in the statistic rasters
+// but keep their counts, stored as Int32.
+TEST_F(Stats, CellStatisticsEqualADirectComputation) {
+  const Outcome o = run_fast({"whole.h5", "-o", "out-cells", "--set", "hazard_statistics=[mean,median,max]",
+                              "--set", "hazard_quantiles=[0.5,0.9,0.95,0.99]", "--set", "hazard_min_passages=5",
+                              "--set", "raster_formats=[tif]"});
+  ASSERT_EQ(o.code, 0) << o.err;
+  std::map<std::int64_t, std::vector<mc::CellVisit>> visits;
+  for (std::uint32_t i = 0; i < kRealizations; ++i)
+    for (const mc::CellVisit& v : realization(i).cells) visits[v.cell].push_back(v);
+  const fs::path dir = dir_ / "out-cells/hazard";
+  const std::vector<std::pair<std::string, double>> statistics = {
+      {"mean", -1.0}, {"median", 0.5}, {"p50", 0.5}, {"p90", 0.9}, {"p95", 0.95}, {"p99", 0.99}, {"max", 1.0}};
+  for (const char* variable : {"energy", "height", "speed"})
+    for (const auto& [statistic, p] : statistics) {
+      const std::string path = (dir / ("whole-" + std::string(variable) + "_" + statistic + ".tif")).string();
+      ASSERT_TRUE(fs::exists(path)) << path;
+      const terrain::DemGrid grid = io::read_geotiff(path);
+      for (std::size_t k = 0; k < grid.z.size(); ++k) {
+        const auto found = visits.find(static_cast<std::int64_t>(k));
+        if (found == visits.end() || found->second.size() < 5) {
+          EXPECT_TRUE(std::isnan(grid.z[k])) << path << " cell " << k;
+          continue;
+        }
+        std::vector<double> x;
+        for (const mc::CellVisit& v : found->second)
+          x.push_back(std::string(variable) == "energy" ? v.energy : std::string(variable) == "height" ? v.height : v.speed);
+        const stats::Sample direct(x);
+        const double expected = p < 0.0 ? direct.mean() : direct.quantile(p);
+        EXPECT_DOUBLE_EQ(grid.z[k], expected) << path << " cell " << k;
+      }
+    }
+  // Cell 16 has 4 passages: masked in the statistics, counted in passage_count (Int32).
+  const std::string count_path = (dir / "whole-passage_count.tif").string();
+  EXPECT_EQ(io::read_geotiff(count_path).z[16], 4.0);
+  GDALAllRegister();
+  GDALDatasetH ds = GDALOpen(count_path.c_str(), GA_ReadOnly);
+  ASSERT_NE(ds, nullptr);
+  EXPECT_EQ(GDALGetRasterDataType(GDALGetRasterBand(ds, 1)), GDT_Int32);
+  GDALClose(ds);
+  ds = GDALOpen((dir / "whole-energy_mean.tif").string().c_str(), GA_ReadOnly);
+  ASSERT_NE(ds, nullptr);
+  EXPECT_EQ(GDALGetRasterDataType(GDALGetRasterBand(ds, 1)), GDT_Float64);
+  GDALClose(ds);
+  // A statistic or variable that does not exist is refused in one line.
+  const Outcome bad = run_fast({"whole.h5", "-o", "out-bad-stat", "--set", "hazard_statistics=[mode]"});
+  EXPECT_NE(bad.code, 0);
+  EXPECT_NE(bad.err.find("hazard_statistics: 'mode' is not one of: mean, median, max"), std::string::npos) << bad.err;
+  const Outcome zero = run_fast({"whole.h5", "-o", "out-bad-min", "--set", "hazard_min_passages=0"});
+  EXPECT_NE(zero.code, 0);
+  EXPECT_NE(zero.err.find("hazard_min_passages"), std::string::npos) << zero.err;
+}
+
 TEST_F(Stats, EnergyRastersInKilojoulesOnRequest) {
   ASSERT_EQ(run_fast({"whole.h5", "-o", "out-kj", "--set", "energy_unit=kJ"}).code, 0);
   const std::string path = (dir_ / "out-kj/hazard/whole-energy_p99.tif").string();
-  EXPECT_NEAR(io::read_geotiff(path).z[0], 1.1, 0.011);  // 1100 J
+  EXPECT_NEAR(io::read_geotiff(path).z[0], 1.189, 1e-12);  // 1189 J
   EXPECT_EQ(io::read_band_info(path).unit, "kJ");
   EXPECT_EQ(io::read_band_info((dir_ / "out-kj/hazard/whole-height_p99.tif").string()).unit, "m");
   const Outcome bad = run_fast({"whole.h5", "-o", "out-bad-unit", "--set", "energy_unit=MJ"});

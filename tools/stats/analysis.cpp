@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <map>
 #include <set>
@@ -413,7 +414,7 @@ RunResult run_result(const Run& run, const Settings& settings) {
                                               (settings.terrain.empty() ? " named by the run" : "") +
                                               " is missing: give it with --set terrain=FILE (or " + without + ")");
   }
-  if (settings.hazard_maps && grid) out.hazard = hazard_maps(run.file, out.origin_shift, settings.energy_unit);
+  if (settings.hazard_maps && grid) out.hazard = hazard_maps(run.file, out.origin_shift, settings);
   const auto& shift = out.origin_shift;
   PlanView& plan = out.plan;
   // The plan view's terrain: the whole mesh up to two million points; a grid of more
@@ -470,47 +471,88 @@ const HazardLayer& HazardMaps::layer(const std::string& name) const {
   throw std::out_of_range("no hazard layer " + name);
 }
 
-HazardMaps hazard_maps(const io::RunFile& run, const std::array<double, 3>& origin_shift,
-                       const std::string& energy_unit) {
+HazardMaps hazard_maps(const io::RunFile& run, const std::array<double, 3>& origin_shift, const Settings& settings) {
   const mc::HazardGridSpec& g = run.info.hazard;
+  const std::string& energy_unit = settings.energy_unit;
   const double to_unit = energy_unit == "kJ" ? 1e-3 : 1.0;
   HazardMaps maps;
-  const auto add = [&](const char* name, const std::string& description, const std::string& unit, double fill) {
-    maps.layers.push_back({name, {description, unit}, raster_like(g, origin_shift, fill)});
-    return &maps.layers.back().grid.z;
+  const auto add = [&](std::string name, std::string title, const std::string& description, const std::string& unit,
+                       double fill, bool integer = false) {
+    maps.layers.push_back({std::move(name), std::move(title), {description, unit, integer},
+                           raster_like(g, origin_shift, fill)});
   };
-  maps.layers.reserve(10);
-  auto& reach = *add("reach_probability", "reach probability: realizations whose path reached the cell / realizations",
-                     "1", 0.0);
-  auto& passages = *add("passage_count", "passage count: realizations whose path reached the cell", "count", 0.0);
-  auto& deposits = *add("deposition_count", "deposition count: realizations that came to rest with the centroid in the cell",
-                        "count", 0.0);
-  auto& e_mean = *add("energy_mean", "mean over the passages of the largest kinetic energy in the cell", energy_unit, kNaN);
-  auto& e95 = *add("energy_p95", "P95 over the passages of the largest kinetic energy in the cell", energy_unit, kNaN);
-  auto& e99 = *add("energy_p99", "P99 over the passages of the largest kinetic energy in the cell", energy_unit, kNaN);
-  auto& h95 = *add("height_p95", "P95 over the passages of the largest passing height in the cell", "m", kNaN);
-  auto& h99 = *add("height_p99", "P99 over the passages of the largest passing height in the cell", "m", kNaN);
-  auto& h_max = *add("height_max", "largest passing height of any passage in the cell", "m", kNaN);
-  auto& v_max = *add("speed_max", "largest centroid speed of any passage in the cell", "m/s", kNaN);
+  add("reach_probability", "reach probability",
+      "reach probability: realizations whose path reached the cell / realizations", "1", 0.0);
+  add("passage_count", "passages", "passage count: realizations whose path reached the cell", "count", 0.0, true);
+  add("deposition_count", "deposits", "deposition count: realizations that came to rest with the centroid in the cell",
+      "count", 0.0, true);
+  // The statistic layers: each variable, then its statistics in the order mean, median,
+  // quantiles, max.
+  struct Statistic {
+    std::string name, title;
+    std::function<double(const mc::HazardAccumulator::Cell&, mc::HazardVariable)> of;
+  };
+  std::vector<Statistic> statistics;
+  const auto wanted = [&](const char* s) {
+    return std::find(settings.hazard_statistics.begin(), settings.hazard_statistics.end(), s) !=
+           settings.hazard_statistics.end();
+  };
+  if (wanted("mean")) statistics.push_back({"mean", "mean", [](const auto& c, auto v) { return c.mean(v); }});
+  if (wanted("median"))
+    statistics.push_back({"median", "median", [](const auto& c, auto v) { return c.quantile(v, 0.5); }});
+  for (double p : settings.hazard_quantiles) {
+    std::string q = stats::Statistic{stats::Statistic::Kind::quantile, p}.name();
+    std::string lower = q;
+    lower[0] = 'p';
+    statistics.push_back({lower, q, [p](const auto& c, auto v) { return c.quantile(v, p); }});
+  }
+  if (wanted("max")) statistics.push_back({"max", "largest", [](const auto& c, auto v) { return c.max(v); }});
+  struct Variable {
+    mc::HazardVariable id;
+    const char* name;
+    const char* title;
+    const char* description;
+    std::string unit;
+    double scale;
+  };
+  const std::vector<Variable> all = {
+      {mc::HazardVariable::energy, "energy", "kinetic energy", "largest kinetic energy", energy_unit, to_unit},
+      {mc::HazardVariable::height, "height", "passing height", "largest passing height", "m", 1.0},
+      {mc::HazardVariable::speed, "speed", "speed", "largest centroid speed", "m/s", 1.0}};
+  struct Mapped {
+    std::size_t layer;
+    mc::HazardVariable variable;
+    double scale;
+    const Statistic* statistic;
+  };
+  std::vector<Mapped> mapped;
+  for (const Variable& v : all) {
+    if (std::find(settings.hazard_variables.begin(), settings.hazard_variables.end(), v.name) ==
+        settings.hazard_variables.end())
+      continue;
+    for (const Statistic& st : statistics) {
+      mapped.push_back({maps.layers.size(), v.id, v.scale, &st});
+      add(std::string(v.name) + "_" + st.name, st.title + " " + v.title,
+          st.title + " over the passages (at least " + std::to_string(settings.hazard_min_passages) + ") of the " +
+              v.description + " in the cell",
+          v.unit, kNaN);
+    }
+  }
+  auto& reach = maps.layers[0].grid.z;
+  auto& passages = maps.layers[1].grid.z;
+  auto& deposits = maps.layers[2].grid.z;
   const double n = static_cast<double>(run.data.records.size());
+  const auto min_passages = static_cast<std::uint64_t>(settings.hazard_min_passages);
   for (const auto& [id, cell] : run.data.hazard.cells()) {
     if (id < 0 || static_cast<std::size_t>(id) >= reach.size())
       throw core::InputError("hazard", "cell " + std::to_string(id) + " outside the hazard grid");
     const auto k = static_cast<std::size_t>(id);
     reach[k] = static_cast<double>(cell.reach) / n;
     passages[k] = static_cast<double>(cell.reach);
-    if (!cell.energy.empty()) {
-      e_mean[k] = to_unit * cell.energy.mean();
-      e95[k] = to_unit * cell.energy.quantile(0.95);
-      e99[k] = to_unit * cell.energy.quantile(0.99);
-    }
-    if (!cell.height.empty()) {
-      h95[k] = cell.height.quantile(0.95);
-      h99[k] = cell.height.quantile(0.99);
-    }
-    // Unknown (NaN, no data) for run files written before the maxima were kept.
-    h_max[k] = cell.max_height;
-    v_max[k] = cell.max_speed;
+    // Too few passages for a statistic that means something: no data (NaN).
+    if (cell.reach < min_passages) continue;
+    // Unknown values (NaN) stay no data: maxima and speed sketches of earlier run files.
+    for (const Mapped& m : mapped) maps.layers[m.layer].grid.z[k] = m.scale * m.statistic->of(cell, m.variable);
   }
   // Stop points of the realizations that ended at rest (the run's local frame, as the grid).
   for (const auto& rec : run.data.records) {

@@ -86,18 +86,20 @@ struct Comparison {
   double p_value = 1.0;
 };
 
-/// Hazard rasters of a run in terrain coordinates (grid points = cell centres).
-/// One hazard raster: its file-name part, GDAL band description and unit, and values on
-/// the run's hazard grid (grid points = cell centres in terrain coordinates).
+/// One hazard raster: its file-name part, the figure's panel title, GDAL band
+/// description, unit and storage (integer counts), and values on the run's hazard grid
+/// (grid points = cell centres in terrain coordinates).
 struct HazardLayer {
   std::string name;
+  std::string title;
   io::BandInfo band;
   terrain::DemGrid grid;
 };
 
 /// The hazard rasters of a run, in this order: reach_probability, passage_count,
-/// deposition_count, energy_mean, energy_p95, energy_p99, height_p95, height_p99,
-/// height_max, speed_max.
+/// deposition_count, then for each of Settings::hazard_variables its statistics
+/// (VARIABLE_mean, VARIABLE_median, VARIABLE_pXX for each hazard quantile, VARIABLE_max,
+/// those asked for).
 struct HazardMaps {
   std::vector<HazardLayer> layers;
   /// The layer of that name (throws std::out_of_range when there is none).
@@ -157,11 +159,10 @@ Analysis analyze(const std::vector<Run>& runs, const Settings& settings);
 /// The summary of one variable's values (NaN = missing), exposed for tests.
 VariableSummary summarize(std::string name, std::string unit, std::vector<double> values, const Settings& settings);
 
-/// The hazard rasters of a run: reach probability and P95/P99 of the per-cell sketches,
-/// cell centres shifted by `origin_shift` (x, y). Exposed for tests.
-/// The hazard rasters of a run; energies in `energy_unit` ("J" or "kJ").
-HazardMaps hazard_maps(const io::RunFile& run, const std::array<double, 3>& origin_shift,
-                       const std::string& energy_unit = "J");
+/// The hazard rasters of a run (HazardMaps), cell centres shifted by `origin_shift` (x,
+/// y), energies in Settings::energy_unit, statistic layers no data below
+/// Settings::hazard_min_passages. Exposed for tests.
+HazardMaps hazard_maps(const io::RunFile& run, const std::array<double, 3>& origin_shift, const Settings& settings);
 
 /// The comparison with the observed stop points of Settings::observed (none when its file
 /// is empty): runout and lateral offset of the observed points and of the series' stop

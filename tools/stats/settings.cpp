@@ -53,6 +53,16 @@ void Settings::visit(core::SettingsVisitor& v) {
   v.field("hazard_maps", hazard_maps, "write hazard rasters from the per-cell accumulators");
   v.field("raster_formats", raster_formats, "raster formats: asc (ESRI ASCII grid), tif (GeoTIFF)");
   v.choice("energy_unit", energy_unit, {"J", "kJ"}, "unit of the energy rasters: J or kJ");
+  v.field("hazard_variables", hazard_variables,
+          "per-cell variables mapped, each realization's largest value in the cell: energy (kinetic, J), height "
+          "(passing, m), speed (centroid, m/s)");
+  v.field("hazard_statistics", hazard_statistics,
+          "per-cell statistics mapped for each variable over the passages: mean, median, max");
+  v.field("hazard_quantiles", hazard_quantiles, "-",
+          "probabilities of the per-cell quantiles mapped for each variable (exact order statistics, type 7, up to "
+          "100 passages; sketched above)");
+  v.bounded("hazard_min_passages", hazard_min_passages, "",
+            "passages a cell needs for its statistic rasters; cells with fewer are no data", core::Range{1.0, kInf});
   v.choice("vector_format", vector_format, {"gpkg", "geojson", "none"},
            "vector layers of each run (stop points, first barrier crossings, trajectories; m, m/s, J, s): "
            "gpkg = one GeoPackage per run, geojson = one GeoJSON file per layer, none");
@@ -100,7 +110,9 @@ void Settings::validate() const {
       throw core::InputError("settings", "observed.main_direction_deg must be finite");
   }
   require_subset(raster_formats, {"asc", "tif"}, "raster_formats");
-  require_subset(plot_formats, {"png", "svg"}, "plot_formats");
+  require_subset(hazard_variables, {"energy", "height", "speed"}, "hazard_variables");
+  require_subset(hazard_statistics, {"mean", "median", "max"}, "hazard_statistics");
+  require_probabilities(hazard_quantiles, "hazard_quantiles");
 }
 
 }  // namespace talus::stats_tool

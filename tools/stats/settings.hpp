@@ -64,6 +64,17 @@ struct Settings {
   /// Raster formats among "asc" (ESRI ASCII grid) and "tif" (GeoTIFF).
   std::vector<std::string> raster_formats = {"asc", "tif"};
   std::string energy_unit = "J";  ///< unit of the energy rasters: J or kJ
+  /// Per-cell variables mapped: "energy" (kinetic, J), "height" (passing, m), "speed"
+  /// (centroid, m/s); each realization's largest value in the cell.
+  std::vector<std::string> hazard_variables = {"energy", "height", "speed"};
+  /// Per-cell statistics mapped for each variable, among "mean", "median", "max".
+  std::vector<std::string> hazard_statistics = {"mean", "max"};
+  /// Probabilities of the per-cell quantiles mapped for each variable (-), each in (0, 1).
+  std::vector<double> hazard_quantiles = {0.95, 0.99};
+  /// Cells with fewer passages than this get no data in the statistic rasters (the
+  /// counts and the reach probability are kept).
+  std::int64_t hazard_min_passages = 1;
+
   /// Vector layers of each run (stop points, first barrier crossings, trajectories):
   /// "gpkg" (one GeoPackage per run), "geojson" (one GeoJSON file per layer) or "none".
   std::string vector_format = "gpkg";

@@ -304,10 +304,20 @@ TEST_F(Stats, EndReasonsAreReportedAndUnstoppedBlocksCensored) {
   const std::string table = read_text(dir_ / "out-ends" / "table.csv");
   EXPECT_NE(table.find("\nrunout,n,,8,5,3\n"), std::string::npos) << table;
   EXPECT_NE(table.find("\nrunout,censored,,3,1,2\n"), std::string::npos) << table;
+  // The censored share next to them: 3 of 11, 1 of 6, 2 of 5 (failures are in neither).
+  EXPECT_NE(table.find("\nrunout,censored_share,-,0.2727,0.1667,0.4\n"), std::string::npos) << table;
+  EXPECT_EQ(csv_value(read_text(dir_ / "out-ends" / "summary.csv"), "whole,all,runout,censored_share"), 3.0 / 11.0);
+  EXPECT_EQ(csv_value(read_text(dir_ / "out-ends" / "summary.csv"), "whole,octahedron,lateral,censored_share"), 0.4);
+  // Over 10 %: one warning line for the run (not one per block), and the exit code stays 0.
+  const std::string warning = "stats: warning: whole: 27 % of the realizations (3 of 11) did not stop on the terrain";
+  EXPECT_NE(o.err.find(warning), std::string::npos) << o.err;
+  EXPECT_EQ(o.err.find(warning), o.err.rfind("stats: warning: whole:")) << o.err;
+  EXPECT_NE(table.find("\nend:rest,fraction,-,0.6667,0.8333,0.5\n"), std::string::npos) << table;
   // summary.h5: the count as an attribute, and stop points of the 8 resting blocks only.
   const io::h5::File h5 = io::h5::File::open((dir_ / "out-ends" / "summary.h5").string());
   const io::h5::Group all = h5.root().open_group("series").open_group("0");
   EXPECT_EQ(all.open_group("variable").open_group("runout").attr_int("censored"), 3);
+  EXPECT_EQ(all.open_group("variable").open_group("runout").attr_double("censored_share"), 3.0 / 11.0);
   EXPECT_FALSE(all.open_group("variable").open_group("max_speed").has_attr("censored"));
   EXPECT_EQ(all.read_doubles("stop_points").size(), 16u);
 }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -27,6 +28,8 @@ namespace talus::stats_tool {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// Above this censored share stats warns that the stop-position quantiles are biased.
+constexpr double kCensoredWarning = 0.10;
 
 // A shard's name without its shard number ("run-2" → "run"), for a joined run.
 std::string run_name_of_shards(const std::string& path) {
@@ -465,6 +468,12 @@ RunResult run_result(const Run& run, const Settings& settings) {
 
 }  // namespace
 
+std::optional<double> VariableSummary::censored_share() const {
+  if (!censored) return std::nullopt;
+  const std::size_t total = values.size() + *censored;
+  return total == 0 ? 0.0 : static_cast<double>(*censored) / static_cast<double>(total);
+}
+
 const HazardLayer& HazardMaps::layer(const std::string& name) const {
   for (const auto& l : layers)
     if (l.name == name) return l;
@@ -586,6 +595,20 @@ Analysis analyze(const std::vector<Run>& runs, const Settings& settings) {
       a.series.push_back(make_series(run, r, run.file.info.blocks[static_cast<std::size_t>(b)], rows, shift, settings, plans));
     }
   }
+  // Stop-position quantiles of a run most of whose blocks never stopped describe the few
+  // that did: say so where the numbers are read, once per run.
+  for (const Series& s : a.series) {
+    if (s.block != "all") continue;
+    for (const VariableSummary& v : s.variables) {
+      if (v.name != "runout" || !v.censored_share() || *v.censored_share() <= kCensoredWarning) continue;
+      char share[16];
+      std::snprintf(share, sizeof share, "%.0f %%", 100.0 * *v.censored_share());
+      a.warnings.push_back(s.run + ": " + share + " of the realizations (" + std::to_string(*v.censored) + " of " +
+                     std::to_string(v.values.size() + *v.censored) +
+                     ") did not stop on the terrain (left it or reached the step limit): the runout and lateral "
+                     "quantiles are of the stopped blocks only (a larger terrain or engine.max_time)");
+    }
+  }
   for (std::size_t i = 0; i < a.series.size(); ++i)
     for (std::size_t j = i + 1; j < a.series.size(); ++j) {
       if (!comparable(a.series[i], a.series[j])) continue;
@@ -661,6 +684,8 @@ std::optional<Validation> validate_against_observed(const Analysis& a, const Set
     const stats::Sample sim(project(series->stop_points, along), "simulated stop points");
     var.observed = obs.sorted();
     var.simulated = sim.sorted();
+    for (const VariableSummary& summary : series->variables)
+      if (summary.name == var.name && summary.censored_share()) var.censored_share = *summary.censored_share();
     var.ks_distance = stats::ks_distance(obs, sim);
     var.ks_p_value = stats::ks_p_value(var.ks_distance, obs.size(), sim.size());
     const double eps = stats::dkw_epsilon(sim.size(), alpha);

@@ -52,6 +52,9 @@ struct VariableSummary {
   /// Realizations left out because they did not stop (step limit, left the terrain): their
   /// value is only a lower bound. Set for the stop-position variables (runout, lateral).
   std::optional<std::size_t> censored;
+  /// censored / (values + censored): the share of the realizations with trustworthy values
+  /// (no numerical failure) that the distribution left out; absent unless `censored` is set.
+  std::optional<double> censored_share() const;
   std::vector<double> quantiles;          ///< at Settings::quantiles
   std::vector<stats::Interval> intervals; ///< bootstrap intervals of the quantiles (may be empty)
   double dkw_epsilon = 1.0;               ///< half-width of the CDF band at Settings::confidence
@@ -137,6 +140,7 @@ struct ValidationVariable {
   /// quantile band [Q(p − ε), Q(p + ε)] from the DKW band ε of the simulated CDF.
   std::vector<double> observed_quantiles, simulated_quantiles, band_low, band_high;
   double inside_p5_p95 = 0.0;  ///< share of observed values within the simulated [P5, P95] (-)
+  double censored_share = 0.0;  ///< of the series' realizations, left out of `simulated` (VariableSummary)
 };
 
 /// A series against observed stop points (Settings::observed).
@@ -151,6 +155,8 @@ struct Analysis {
   std::optional<Validation> validation;
   std::vector<Comparison> comparisons;
   std::vector<RunResult> runs;  ///< parallel to the runs
+  /// One line each, printed once every output is written (so an error stays one line).
+  std::vector<std::string> warnings;
 };
 
 /// Every statistic of docs/stats.md for the runs.

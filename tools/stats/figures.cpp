@@ -121,7 +121,13 @@ bool ecdf_with_band(Axes& ax, const VariableSummary& v, const std::string& label
     lo.push_back(std::clamp(fi - v.dkw_epsilon, 0.0, 1.0)), hi.push_back(std::clamp(fi + v.dkw_epsilon, 0.0, 1.0));
   }
   std::string text = label + " (n=" + std::to_string(x.size());
-  text += v.censored && *v.censored ? ", " + std::to_string(*v.censored) + " censored)" : ")";
+  if (v.censored && *v.censored) {
+    char share[16];
+    std::snprintf(share, sizeof share, "%.0f %%", 100.0 * *v.censored_share());
+    text += ", " + std::to_string(*v.censored) + " censored, " + share + ")";
+  } else {
+    text += ")";
+  }
   ax.step_band(xs, lo, hi, color.with_alpha(0.15));
   ax.step(xs, f, {color, 1.3, plot::Dash::solid}, text);
   return true;

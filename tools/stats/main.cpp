@@ -148,6 +148,7 @@ int main(int argc, char** argv) {
     if (!layers.empty()) core::log_info("wrote " + std::to_string(layers.size()) + " vector files");
     if (figures.valid()) core::log_info("wrote " + std::to_string(figures.get().size()) + " plot files");
     remove_stale_outputs(earlier);
+    for (const std::string& warning : analysis.warnings) core::log_warn(warning);
     if (print_table) std::fputs(stats_tool::side_by_side_text(analysis).c_str(), stdout);
     core::log_info("wrote " + inv.output + ": " + std::to_string(analysis.series.size()) + " series of " +
                    std::to_string(runs.size()) + " runs");

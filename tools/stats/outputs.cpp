@@ -60,7 +60,10 @@ struct Cell {
 std::vector<Cell> cells_of(const VariableSummary& v, const Settings& settings) {
   std::vector<Cell> out = {{"n", static_cast<double>(v.values.size()), ""},
                            {"missing", static_cast<double>(v.missing), ""}};
-  if (v.censored) out.push_back({"censored", static_cast<double>(*v.censored), ""});
+  if (v.censored) {
+    out.push_back({"censored", static_cast<double>(*v.censored), ""});
+    out.push_back({"censored_share", *v.censored_share(), "-"});
+  }
   if (!v.sample) return out;
   const stats::Sample& s = *v.sample;
   out.insert(out.end(), {{"mean", s.mean(), v.unit}, {"sd", s.sd(), v.unit}, {"min", s.min(), v.unit},
@@ -92,6 +95,7 @@ std::string validation_csv(const Validation& v, const Settings& settings) {
     };
     put("n_observed", static_cast<double>(var.observed.size()), "");
     put("n_simulated", static_cast<double>(var.simulated.size()), "");
+    put("censored_share", var.censored_share, "-");
     put("ks_distance", var.ks_distance, "-");
     put("ks_p_value", var.ks_p_value, "-");
     put("inside_P5_P95", var.inside_p5_p95, "-");
@@ -177,6 +181,7 @@ std::vector<WideRow> wide_rows(const Analysis& a) {
       if (v.censored) {
         find_row(v.name, "n", "").values[k] = std::to_string(v.values.size());
         find_row(v.name, "censored", "").values[k] = std::to_string(*v.censored);
+        find_row(v.name, "censored_share", "-").values[k] = shown(*v.censored_share());
       }
       if (!v.sample) continue;
       find_row(v.name, "mean", v.unit).values[k] = shown(v.sample->mean());
@@ -249,7 +254,10 @@ void write_variable(const Group& parent, const VariableSummary& v, const Setting
   g.set_attr("unit", v.unit);
   g.set_attr("n", static_cast<std::int64_t>(v.values.size()));
   g.set_attr("missing", static_cast<std::int64_t>(v.missing));
-  if (v.censored) g.set_attr("censored", static_cast<std::int64_t>(*v.censored));
+  if (v.censored) {
+    g.set_attr("censored", static_cast<std::int64_t>(*v.censored));
+    g.set_attr("censored_share", *v.censored_share());
+  }
   if (!v.sample) return;
   const stats::Sample& s = *v.sample;
   g.set_attr("mean", s.mean());

@@ -445,6 +445,46 @@ TEST_F(Stats, CellStatisticsEqualADirectComputation) {
   EXPECT_NE(zero.err.find("hazard_min_passages"), std::string::npos) << zero.err;
 }
 
+// Intensity and hazard classes from the fixture's per-cell energies (cell 0: 100 … 1200 J
+// in 12 of 12 realizations; cell 16: 50 … 200 J in 4), with thresholds 300 J and 1000 J,
+// return periods 1, 10, 100 years and a zone releasing 0.5 events per year.
+TEST_F(Stats, IntensityFrequencyAndHazardClasses) {
+  const Outcome o = run_fast({"whole.h5", "-o", "out-classes", "--set", "intensity_thresholds=[300,1000]", "--set",
+                              "return_periods=[1,10,100]", "--set", "release_frequencies=[0.5]", "--set",
+                              "raster_formats=[tif]"});
+  ASSERT_EQ(o.code, 0) << o.err;
+  const fs::path dir = dir_ / "out-classes/hazard";
+  const auto layer = [&](const char* name) { return io::read_geotiff((dir / ("whole-" + std::string(name) + ".tif")).string()).z; };
+  // Exceedance frequency = 0.5/yr × passages at or above the bound / 12 realizations.
+  EXPECT_DOUBLE_EQ(layer("frequency_low")[0], 0.5);
+  EXPECT_DOUBLE_EQ(layer("frequency_medium")[0], 0.5 * 10 / 12);  // 300 … 1200 J
+  EXPECT_DOUBLE_EQ(layer("frequency_high")[0], 0.5 * 3 / 12);     // 1000, 1100, 1200 J
+  EXPECT_DOUBLE_EQ(layer("frequency_low")[16], 0.5 * 4 / 12);
+  EXPECT_EQ(layer("frequency_medium")[16], 0.0);
+  EXPECT_EQ(layer("frequency_low")[2], 0.0);
+  // The T-year energy is the k-th largest passage, k = ⌈12 / (0.5 T)⌉: T = 1 needs 24
+  // passages (none: class 0); T = 10, k = 3 → 1000 J (high) and 100 J (low); T = 100, k = 1.
+  EXPECT_EQ(layer("intensity_T1")[0], 0.0);
+  EXPECT_EQ(layer("intensity_T10")[0], 3.0);
+  EXPECT_EQ(layer("intensity_T10")[16], 1.0);
+  EXPECT_EQ(layer("intensity_T100")[0], 3.0);
+  EXPECT_EQ(layer("intensity_T100")[16], 1.0);
+  // Every frequency above is medium (1/10 ≤ f < 1): cell 0 reaches high intensity at a
+  // medium frequency (red, 4); cell 16 only low intensity at a medium frequency (yellow, 2).
+  EXPECT_EQ(layer("hazard_class")[0], 4.0);
+  EXPECT_EQ(layer("hazard_class")[16], 2.0);
+  EXPECT_EQ(layer("hazard_class")[2], 0.0);
+  EXPECT_EQ(io::read_band_info((dir / "whole-frequency_low.tif").string()).unit, "1/yr");
+  // One frequency per run; thresholds must increase.
+  const Outcome two = run_fast({"whole.h5", "-o", "out-bad-f", "--set", "release_frequencies=[0.5,1]"});
+  EXPECT_NE(two.code, 0);
+  EXPECT_NE(two.err.find("release_frequencies: 2 frequencies for 1 runs"), std::string::npos) << two.err;
+  const Outcome order = run_fast({"whole.h5", "-o", "out-bad-e", "--set", "intensity_thresholds=[300,30]"});
+  EXPECT_NE(order.code, 0);
+  EXPECT_NE(order.err.find("intensity_thresholds must be 2 increasing positive values (J)"), std::string::npos)
+      << order.err;
+}
+
 TEST_F(Stats, EnergyRastersInKilojoulesOnRequest) {
   ASSERT_EQ(run_fast({"whole.h5", "-o", "out-kj", "--set", "energy_unit=kJ"}).code, 0);
   const std::string path = (dir_ / "out-kj/hazard/whole-energy_p99.tif").string();

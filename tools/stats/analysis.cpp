@@ -99,6 +99,10 @@ std::vector<Run> load_runs(const std::vector<std::string>& paths, const Settings
                                              std::to_string(runs.size()) + " runs");
     for (std::size_t r = 0; r < runs.size(); ++r) runs[r].name = settings.names[r];
   }
+  if (!settings.release_frequencies.empty() && settings.release_frequencies.size() != runs.size())
+    throw core::InputError("settings", "release_frequencies: " + std::to_string(settings.release_frequencies.size()) +
+                                           " frequencies for " + std::to_string(runs.size()) +
+                                           " runs (one per run after shards are joined)");
   std::set<std::string> seen;
   for (const auto& run : runs) {
     if (unusable_run_name(run.name))
@@ -377,7 +381,7 @@ std::string terrain_path_of(const Run& run, const Settings& settings) {
   return named;
 }
 
-RunResult run_result(const Run& run, const Settings& settings) {
+RunResult run_result(const Run& run, const Settings& settings, std::optional<double> release_frequency) {
   RunResult out;
   const auto& info = run.file.info;
   const bool grid = info.hazard.size > 0.0 && info.hazard.nx > 0 && info.hazard.ny > 0;
@@ -417,7 +421,7 @@ RunResult run_result(const Run& run, const Settings& settings) {
                                               (settings.terrain.empty() ? " named by the run" : "") +
                                               " is missing: give it with --set terrain=FILE (or " + without + ")");
   }
-  if (settings.hazard_maps && grid) out.hazard = hazard_maps(run.file, out.origin_shift, settings);
+  if (settings.hazard_maps && grid) out.hazard = hazard_maps(run.file, out.origin_shift, settings, release_frequency);
   const auto& shift = out.origin_shift;
   PlanView& plan = out.plan;
   // The plan view's terrain: the whole mesh up to two million points; a grid of more
@@ -480,7 +484,84 @@ const HazardLayer& HazardMaps::layer(const std::string& name) const {
   throw std::out_of_range("no hazard layer " + name);
 }
 
-HazardMaps hazard_maps(const io::RunFile& run, const std::array<double, 3>& origin_shift, const Settings& settings) {
+namespace {
+
+// The frequency class of an exceedance frequency f (1/yr) against the return periods
+// T1 < T2 < T3: 3 high (f ≥ 1/T1), 2 medium (≥ 1/T2), 1 low (≥ 1/T3), 0 very low.
+int frequency_class(double f, const std::vector<double>& periods) {
+  if (f * periods[0] >= 1.0) return 3;
+  if (f * periods[1] >= 1.0) return 2;
+  if (f * periods[2] >= 1.0) return 1;
+  return 0;
+}
+
+// The intensity–frequency diagram of FOEN 2016 (rows: intensity low, medium, high;
+// columns: frequency very low, low, medium, high): 0 none, 1 residual, 2 low (yellow),
+// 3 medium (blue), 4 high (red).
+constexpr int kHazardMatrix[3][4] = {{0, 2, 2, 3}, {1, 3, 3, 4}, {1, 4, 4, 4}};
+
+}  // namespace
+
+void add_intensity_layers(HazardMaps& maps, const io::RunFile& run, const std::array<double, 3>& origin_shift,
+                          const Settings& settings, double release_frequency) {
+  const mc::HazardGridSpec& g = run.info.hazard;
+  const auto n = static_cast<double>(run.data.records.size());
+  const auto& e = settings.intensity_thresholds;
+  const auto& t = settings.return_periods;
+  const std::string e1 = core::format_number(e[0] * 1e-3) + " kJ", e2 = core::format_number(e[1] * 1e-3) + " kJ";
+  const auto add = [&](std::string name, std::string title, std::string description, std::string unit, bool integer) {
+    maps.layers.push_back({std::move(name), std::move(title), {std::move(description), std::move(unit), integer},
+                           raster_like(g, origin_shift, 0.0)});
+    return maps.layers.size() - 1;
+  };
+  // Exceedance frequency of each intensity class's lower bound: any passage, E ≥ e1, E ≥ e2.
+  const std::array<double, 3> bounds = {0.0, e[0], e[1]};
+  const std::array<std::size_t, 3> frequency = {
+      add("frequency_low", "frequency of a passage (1/yr)",
+          "exceedance frequency of a passage of any energy: release frequency × passages / realizations", "1/yr", false),
+      add("frequency_medium", "frequency of E ≥ " + e1 + " (1/yr)",
+          "exceedance frequency of a passage with kinetic energy ≥ " + e1, "1/yr", false),
+      add("frequency_high", "frequency of E ≥ " + e2 + " (1/yr)",
+          "exceedance frequency of a passage with kinetic energy ≥ " + e2, "1/yr", false)};
+  std::vector<std::size_t> intensity;
+  for (double period : t) {
+    const std::string years = core::format_number(period);
+    intensity.push_back(add("intensity_T" + years, "intensity class, " + years + "-year event",
+                            "intensity class (0 none, 1 low < " + e1 + " ≤ 2 medium < " + e2 +
+                                " ≤ 3 high) of the kinetic energy exceeded once in " + years + " years",
+                            "class", true));
+  }
+  const std::size_t hazard =
+      add("hazard_class", "hazard class (intensity–frequency)",
+          "intensity-frequency class (FOEN 2016): 0 none, 1 residual, 2 low, 3 medium, 4 high", "class", true);
+  for (const auto& [id, cell] : run.data.hazard.cells()) {
+    const auto k = static_cast<std::size_t>(id);
+    int worst = 0;
+    for (std::size_t level = 0; level < 3; ++level) {
+      // Passages of any energy count for the low class (the bound 0 takes them all).
+      const double count = level == 0 ? static_cast<double>(cell.reach)
+                                      : cell.count_at_least(mc::HazardVariable::energy, bounds[level]);
+      const double f = release_frequency * count / n;
+      maps.layers[frequency[level]].grid.z[k] = f;
+      if (std::isnan(f) || count == 0.0) continue;
+      worst = std::max(worst, kHazardMatrix[level][frequency_class(f, t)]);
+    }
+    maps.layers[hazard].grid.z[k] = worst;
+    for (std::size_t s = 0; s < t.size(); ++s) {
+      // The energy exceeded with frequency 1/T: the k-th largest passage energy, k = N/(λT)
+      // passages of the N realizations (none when fewer passages reached the cell).
+      const double passages = n / (release_frequency * t[s]);
+      const auto rank = static_cast<std::uint64_t>(std::ceil(passages - 1e-9));
+      double& z = maps.layers[intensity[s]].grid.z[k];
+      if (rank == 0 || rank > cell.reach) continue;
+      const double energy = cell.kth_largest(mc::HazardVariable::energy, rank);
+      z = std::isnan(energy) ? kNaN : energy >= e[1] ? 3.0 : energy >= e[0] ? 2.0 : 1.0;
+    }
+  }
+}
+
+HazardMaps hazard_maps(const io::RunFile& run, const std::array<double, 3>& origin_shift, const Settings& settings,
+                       std::optional<double> release_frequency) {
   const mc::HazardGridSpec& g = run.info.hazard;
   const std::string& energy_unit = settings.energy_unit;
   const double to_unit = energy_unit == "kJ" ? 1e-3 : 1.0;
@@ -569,6 +650,7 @@ HazardMaps hazard_maps(const io::RunFile& run, const std::array<double, 3>& orig
     const std::int64_t id = g.cell(rec.final_position.x(), rec.final_position.y());
     if (id >= 0 && static_cast<std::size_t>(id) < deposits.size()) deposits[static_cast<std::size_t>(id)] += 1.0;
   }
+  if (release_frequency) add_intensity_layers(maps, run, origin_shift, settings, *release_frequency);
   return maps;
 }
 
@@ -577,7 +659,8 @@ Analysis analyze(const std::vector<Run>& runs, const Settings& settings) {
   BootstrapPlans plans(settings);
   for (std::size_t r = 0; r < runs.size(); ++r) {
     const Run& run = runs[r];
-    a.runs.push_back(run_result(run, settings));
+    const auto& f = settings.release_frequencies;
+    a.runs.push_back(run_result(run, settings, r < f.size() ? std::optional<double>(f[r]) : std::nullopt));
     const auto& shift = a.runs.back().origin_shift;
     const auto& records = run.file.data.records;
     std::vector<std::size_t> all(records.size());

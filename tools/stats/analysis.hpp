@@ -168,7 +168,17 @@ VariableSummary summarize(std::string name, std::string unit, std::vector<double
 /// The hazard rasters of a run (HazardMaps), cell centres shifted by `origin_shift` (x,
 /// y), energies in Settings::energy_unit, statistic layers no data below
 /// Settings::hazard_min_passages. Exposed for tests.
-HazardMaps hazard_maps(const io::RunFile& run, const std::array<double, 3>& origin_shift, const Settings& settings);
+/// With a release frequency (events per year) the frequency, intensity and hazard-class
+/// layers follow (add_intensity_layers).
+HazardMaps hazard_maps(const io::RunFile& run, const std::array<double, 3>& origin_shift, const Settings& settings,
+                       std::optional<double> release_frequency = std::nullopt);
+
+/// Appends to `maps` the layers of Settings::intensity_thresholds and return_periods for a
+/// run whose zone releases `release_frequency` events per year (docs/stats.md,
+/// "Intensity and hazard classes"): frequency_low, frequency_medium, frequency_high
+/// (1/yr), intensity_TXX for each return period and hazard_class (class codes, Int32).
+void add_intensity_layers(HazardMaps& maps, const io::RunFile& run, const std::array<double, 3>& origin_shift,
+                          const Settings& settings, double release_frequency);
 
 /// The comparison with the observed stop points of Settings::observed (none when its file
 /// is empty): runout and lateral offset of the observed points and of the series' stop

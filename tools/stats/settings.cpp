@@ -63,6 +63,14 @@ void Settings::visit(core::SettingsVisitor& v) {
           "100 passages; sketched above)");
   v.bounded("hazard_min_passages", hazard_min_passages, "",
             "passages a cell needs for its statistic rasters; cells with fewer are no data", core::Range{1.0, kInf});
+  v.field("intensity_thresholds", intensity_thresholds, "J",
+          "kinetic energies separating the intensity classes low | medium | high (FOEN 2016: 30 kJ, 300 kJ)");
+  v.field("return_periods", return_periods, "yr",
+          "return periods separating the frequency classes high | medium | low | very low (FOEN 2016: 30, 100, 300 "
+          "years)");
+  v.field("release_frequencies", release_frequencies, "1/yr",
+          "release frequency of each run's zone (events per year), one per run after shards are joined; empty = no "
+          "frequency, intensity or hazard-class rasters");
   v.choice("vector_format", vector_format, {"gpkg", "geojson", "none"},
            "vector layers of each run (stop points, first barrier crossings, trajectories; m, m/s, J, s): "
            "gpkg = one GeoPackage per run, geojson = one GeoJSON file per layer, none");
@@ -113,6 +121,20 @@ void Settings::validate() const {
   require_subset(hazard_variables, {"energy", "height", "speed"}, "hazard_variables");
   require_subset(hazard_statistics, {"mean", "median", "max"}, "hazard_statistics");
   require_probabilities(hazard_quantiles, "hazard_quantiles");
+  const auto increasing = [](const std::vector<double>& v, std::size_t n, const char* key, const char* unit) {
+    bool ok = v.size() == n;
+    for (std::size_t k = 0; ok && k < n; ++k) ok = std::isfinite(v[k]) && v[k] > 0.0 && (k == 0 || v[k] > v[k - 1]);
+    if (!ok)
+      throw core::InputError("settings", std::string(key) + " must be " + std::to_string(n) +
+                                             " increasing positive values (" + unit + ")");
+  };
+  increasing(intensity_thresholds, 2, "intensity_thresholds", "J");
+  increasing(return_periods, 3, "return_periods", "yr");
+  for (double f : release_frequencies)
+    if (!(f > 0.0) || !std::isfinite(f))
+      throw core::InputError("settings", "release_frequencies: " + core::format_number(f) +
+                                             " is not a positive frequency (events per year)");
+  require_subset(plot_formats, {"png", "svg"}, "plot_formats");
 }
 
 }  // namespace talus::stats_tool

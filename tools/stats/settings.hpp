@@ -74,7 +74,15 @@ struct Settings {
   /// Cells with fewer passages than this get no data in the statistic rasters (the
   /// counts and the reach probability are kept).
   std::int64_t hazard_min_passages = 1;
-
+  /// Kinetic energies separating the intensity classes low | medium | high (J), two
+  /// increasing values: FOEN 2016 (Swiss practice) 30 kJ and 300 kJ.
+  std::vector<double> intensity_thresholds = {30e3, 300e3};
+  /// Return periods separating the frequency classes high | medium | low | very low (yr),
+  /// three increasing values: FOEN 2016 30, 100 and 300 years.
+  std::vector<double> return_periods = {30.0, 100.0, 300.0};
+  /// Release frequency of each run's zone (events per year), one per run after shards are
+  /// joined; empty = no frequency, intensity or hazard-class rasters.
+  std::vector<double> release_frequencies;
   /// Vector layers of each run (stop points, first barrier crossings, trajectories):
   /// "gpkg" (one GeoPackage per run), "geojson" (one GeoJSON file per layer) or "none".
   std::string vector_format = "gpkg";

@@ -129,6 +129,30 @@ double HazardAccumulator::Cell::mean(HazardVariable v) const {
   return reach > 0 && s.count() == reach ? s.mean() : kUnknown;
 }
 
+double HazardAccumulator::Cell::count_at_least(HazardVariable v, double x) const {
+  if (exact()) {
+    const std::vector<double>& values = this->values(v);
+    return static_cast<double>(values.end() - std::lower_bound(values.begin(), values.end(), x));
+  }
+  const stats::QuantileSketch& s = sketch(v);
+  if (reach == 0 || s.count() != reach) return kUnknown;
+  // The sorted representatives: count those ≥ x from the top.
+  std::uint64_t above = 0;
+  for (auto it = s.buckets().rbegin(); it != s.buckets().rend(); ++it) {
+    if (s.value_at_rank(s.count() - 1 - above) < x) break;
+    above += it->second;
+  }
+  if (above == s.count() - s.zero_count() && x <= 0.0) above += s.zero_count();
+  return static_cast<double>(above);
+}
+
+double HazardAccumulator::Cell::kth_largest(HazardVariable v, std::uint64_t k) const {
+  if (k == 0 || k > reach) return k == 0 ? kUnknown : 0.0;
+  if (exact()) return values(v)[reach - k];
+  const stats::QuantileSketch& s = sketch(v);
+  return s.count() == reach ? s.value_at_rank(reach - k) : kUnknown;
+}
+
 double HazardAccumulator::Cell::max(HazardVariable v) const {
   if (reach == 0) return kUnknown;
   return v == HazardVariable::energy ? max_energy : v == HazardVariable::height ? max_height : max_speed;

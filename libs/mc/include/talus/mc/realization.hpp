@@ -181,6 +181,13 @@ class HazardAccumulator {
     double mean(HazardVariable v) const;
     /// The largest value of any passage (exact); NaN when unknown.
     double max(HazardVariable v) const;
+    /// How many passages had a value ≥ x: exact when exact(), else counted by bucket
+    /// representative (a threshold within the sketch's relative accuracy of a value may
+    /// count it either way). NaN when unknown.
+    double count_at_least(HazardVariable v, double x) const;
+    /// The k-th largest value over the passages (k ≥ 1; 0 when k > reach): exact when
+    /// exact(), else its bucket's representative. NaN when unknown.
+    double kth_largest(HazardVariable v, std::uint64_t k) const;
     /// The exact values of the variable (empty unless exact()).
     const std::vector<double>& values(HazardVariable v) const;
     /// The sketch of the variable.

@@ -17,6 +17,7 @@
 #include <iterator>
 #include <map>
 #include <numeric>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -483,6 +484,40 @@ TEST_F(Stats, IntensityFrequencyAndHazardClasses) {
   EXPECT_NE(order.code, 0);
   EXPECT_NE(order.err.find("intensity_thresholds must be 2 increasing positive values (J)"), std::string::npos)
       << order.err;
+}
+
+// The barrier design sheet: the fixture's toe line (20 m) is crossed at 10 m by the even
+// realizations (500(i+1) J, 0.2(i+1) m; 0 … 10): with 10 m segments all six fall in the
+// second; Q95 and Q99 are type 7 (h = 4.75 and 4.95 of 6 values), in the unit asked for.
+TEST_F(Stats, BarrierSheetBySegmentInTheUnitAskedFor) {
+  const Outcome o = run_fast({"whole.h5", "-o", "out-sheet", "--set", "energy_unit=kJ"});
+  ASSERT_EQ(o.code, 0) << o.err;
+  const std::string sheet = read_text(dir_ / "out-sheet" / "barrier-sheet.csv");
+  EXPECT_EQ(sheet.substr(0, sheet.find('\n')),
+            "run,barrier,segment,from_m,to_m,crossings,energy_Q95_kJ,energy_Q95_low_kJ,energy_Q95_high_kJ,"
+            "energy_Q99_kJ,energy_Q99_low_kJ,energy_Q99_high_kJ,height_Q95_m,height_Q95_low_m,height_Q95_high_m,"
+            "height_Q99_m,height_Q99_low_m,height_Q99_high_m,ead_class_Q99,ead_class_Q99_high");
+  EXPECT_NE(sheet.find("\nwhole,toe,1,0,10,0,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,,\n"), std::string::npos)
+      << sheet;
+  std::vector<std::string> rows;
+  for (std::size_t at = 0, next; (next = sheet.find('\n', at)) != std::string::npos; at = next + 1)
+    rows.push_back(sheet.substr(at, next - at));
+  ASSERT_EQ(rows.size(), 4u) << sheet;  // header, segments 1 and 2, the whole line
+  for (const std::size_t k : {2u, 3u}) {
+    std::vector<std::string> f;
+    std::stringstream line(rows[k]);
+    for (std::string cell; std::getline(line, cell, ',');) f.push_back(cell);
+    ASSERT_EQ(f.size(), 20u) << rows[k];
+    EXPECT_EQ(f[2], k == 2 ? "2" : "all");
+    EXPECT_EQ(f[5], "6");
+    EXPECT_NEAR(std::stod(f[6]), 5.25, 1e-12);
+    EXPECT_NEAR(std::stod(f[9]), 5.45, 1e-12);
+    EXPECT_NEAR(std::stod(f[12]), 2.1, 1e-12);
+    EXPECT_NEAR(std::stod(f[15]), 2.18, 1e-12);
+    EXPECT_LE(std::stod(f[7]), std::stod(f[6]));  // the interval holds the estimate
+    EXPECT_GE(std::stod(f[8]), std::stod(f[6]));
+    EXPECT_EQ(f[18], "0");  // 5.45 kJ: the smallest EAD class (MEL 100 kJ)
+  }
 }
 
 TEST_F(Stats, EnergyRastersInKilojoulesOnRequest) {

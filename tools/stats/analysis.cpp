@@ -1,6 +1,7 @@
 #include "analysis.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -654,6 +655,75 @@ HazardMaps hazard_maps(const io::RunFile& run, const std::array<double, 3>& orig
   return maps;
 }
 
+int ead_energy_class(double energy) {
+  if (std::isnan(energy)) return -1;
+  static constexpr std::array<double, 7> kMel = {100e3, 250e3, 500e3, 1000e3, 2000e3, 3000e3, 4500e3};
+  for (std::size_t k = 0; k < kMel.size(); ++k)
+    if (energy <= kMel[k]) return static_cast<int>(k);
+  return 7;
+}
+
+namespace {
+
+// The design sheet of each barrier of a run: first crossings by segment of
+// barrier_segment_length along the line, then the whole line.
+std::vector<BarrierSegment> barrier_sheet(const Run& run, const Settings& settings) {
+  const auto& info = run.file.info;
+  std::set<std::uint32_t> failed;
+  for (const auto& r : run.file.data.records)
+    if (dda::is_failure(r.end)) failed.insert(r.realization);
+  std::vector<BarrierSegment> out;
+  const double alpha = 1.0 - settings.confidence;
+  const auto resamples = static_cast<std::size_t>(settings.bootstrap_resamples);
+  const auto quantiles = [&](std::vector<double> values, std::array<double, 2>& q,
+                             std::array<stats::Interval, 2>& ci) {
+    const double nan = kNaN;
+    q = {nan, nan};
+    ci = {stats::Interval{nan, nan}, stats::Interval{nan, nan}};
+    if (values.empty()) return;
+    const stats::Sample sample(std::move(values), "barrier crossings");
+    q = {sample.quantile(0.95), sample.quantile(0.99)};
+    if (sample.size() < 2 || resamples == 0) return;
+    const auto intervals = stats::bootstrap_quantile_intervals(sample, {0.95, 0.99}, alpha, resamples, settings.seed);
+    ci = {intervals[0], intervals[1]};
+  };
+  for (std::size_t b = 0; b < info.barriers.size() && b < info.barrier_lines.size(); ++b) {
+    double length = 0.0;
+    const auto& line = info.barrier_lines[b];
+    for (std::size_t k = 1; k < line.size(); ++k)
+      length += std::hypot(line[k][0] - line[k - 1][0], line[k][1] - line[k - 1][1]);
+    const double step = settings.barrier_segment_length;
+    const auto segments = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(length / step - 1e-9)));
+    std::vector<std::vector<double>> energy(segments + 1), height(segments + 1);
+    std::vector<std::size_t> count(segments + 1, 0);
+    std::set<std::uint32_t> seen;
+    for (const auto& c : run.file.data.crossings) {
+      if (c.barrier != static_cast<std::int32_t>(b) || failed.count(c.realization) || !seen.insert(c.realization).second)
+        continue;  // the first crossing of each realization (rows in time order)
+      const auto k = std::min(segments - 1, static_cast<std::size_t>(std::max(0.0, std::floor(c.position / step))));
+      for (const std::size_t at : {k, segments}) {
+        ++count[at];
+        energy[at].push_back(c.kinetic_energy);
+        if (!std::isnan(c.height)) height[at].push_back(c.height);
+      }
+    }
+    for (std::size_t k = 0; k <= segments; ++k) {
+      BarrierSegment s;
+      s.barrier = info.barriers[b];
+      s.segment = k < segments ? std::to_string(k + 1) : "all";
+      s.from = k < segments ? static_cast<double>(k) * step : 0.0;
+      s.to = k < segments ? std::min(length, static_cast<double>(k + 1) * step) : length;
+      s.crossings = count[k];
+      quantiles(energy[k], s.energy, s.energy_ci);
+      quantiles(height[k], s.height, s.height_ci);
+      out.push_back(std::move(s));
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
 Analysis analyze(const std::vector<Run>& runs, const Settings& settings) {
   Analysis a;
   BootstrapPlans plans(settings);
@@ -661,6 +731,7 @@ Analysis analyze(const std::vector<Run>& runs, const Settings& settings) {
     const Run& run = runs[r];
     const auto& f = settings.release_frequencies;
     a.runs.push_back(run_result(run, settings, r < f.size() ? std::optional<double>(f[r]) : std::nullopt));
+    a.runs.back().barrier_sheet = barrier_sheet(run, settings);
     const auto& shift = a.runs.back().origin_shift;
     const auto& records = run.file.data.records;
     std::vector<std::size_t> all(records.size());

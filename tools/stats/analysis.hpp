@@ -119,8 +119,22 @@ struct PlanView {
   std::vector<std::string> barrier_names;
 };
 
+/// One segment of a barrier line (or the whole line) in the design sheet: the first
+/// crossings of the realizations without numerical failure whose crossing point lies in
+/// it, and the Q95 and Q99 of their kinetic energy (J) and passing height (m), each with
+/// its percentile-bootstrap interval (NaN when undefined: no value, or one).
+struct BarrierSegment {
+  std::string barrier;
+  std::string segment;      ///< "1", "2", … from the line's first vertex, or "all"
+  double from = 0.0, to = 0.0;  ///< m along the line from its first vertex
+  std::size_t crossings = 0;
+  std::array<double, 2> energy{}, height{};  ///< at 0.95, 0.99
+  std::array<stats::Interval, 2> energy_ci{}, height_ci{};
+};
+
 struct RunResult {
   std::optional<HazardMaps> hazard;
+  std::vector<BarrierSegment> barrier_sheet;  ///< per barrier: its segments, then "all"
   PlanView plan;
   std::array<double, 3> origin_shift = {0.0, 0.0, 0.0};  ///< m, added to the run's local coordinates
   std::string terrain_file;  ///< the terrain used for the shift ("" if none)
@@ -179,6 +193,11 @@ HazardMaps hazard_maps(const io::RunFile& run, const std::array<double, 3>& orig
 /// (1/yr), intensity_TXX for each return period and hazard_class (class codes, Int32).
 void add_intensity_layers(HazardMaps& maps, const io::RunFile& run, const std::array<double, 3>& origin_shift,
                           const Settings& settings, double release_frequency);
+
+/// The EAD 340059-00-0106 (formerly ETAG 027) energy class a net needs to hold `energy`
+/// (J) at its maximum energy level: the smallest class whose MEL is at least `energy`
+/// (0: 100 kJ, 1: 250, 2: 500, 3: 1000, 4: 2000, 5: 3000, 6: 4500 kJ; 7 above). −1 for NaN.
+int ead_energy_class(double energy);
 
 /// The comparison with the observed stop points of Settings::observed (none when its file
 /// is empty): runout and lateral offset of the observed points and of the series' stop

@@ -136,6 +136,7 @@ int main(int argc, char** argv) {
     io::write_text_file((dir / "convergence.csv").string(), stats_tool::convergence_csv(analysis));
     io::write_text_file((dir / "comparison.csv").string(), stats_tool::comparison_csv(analysis));
     io::write_text_file((dir / "table.csv").string(), stats_tool::side_by_side_csv(analysis));
+    io::write_text_file((dir / "barrier-sheet.csv").string(), stats_tool::barrier_sheet_csv(runs, analysis, settings));
     if (analysis.validation)
       io::write_text_file((dir / "validation.csv").string(), stats_tool::validation_csv(*analysis.validation, settings));
     const std::string summary = (dir / "summary.h5").string();

@@ -87,6 +87,30 @@ std::vector<Cell> cells_of(const VariableSummary& v, const Settings& settings) {
 
 }  // namespace
 
+std::string barrier_sheet_csv(const std::vector<Run>& runs, const Analysis& a, const Settings& settings) {
+  const std::string& u = settings.energy_unit;
+  const double scale = u == "kJ" ? 1e-3 : 1.0;
+  std::string out = row({"run", "barrier", "segment", "from_m", "to_m", "crossings", "energy_Q95_" + u,
+                         "energy_Q95_low_" + u, "energy_Q95_high_" + u, "energy_Q99_" + u, "energy_Q99_low_" + u,
+                         "energy_Q99_high_" + u, "height_Q95_m", "height_Q95_low_m", "height_Q95_high_m",
+                         "height_Q99_m", "height_Q99_low_m", "height_Q99_high_m", "ead_class_Q99",
+                         "ead_class_Q99_high"});
+  for (std::size_t r = 0; r < runs.size() && r < a.runs.size(); ++r)
+    for (const BarrierSegment& s : a.runs[r].barrier_sheet) {
+      const auto e = [&](double x) { return number(scale * x); };
+      const auto cls = [](double x) {
+        const int c = ead_energy_class(x);
+        return c < 0 ? std::string() : std::to_string(c);
+      };
+      out += row({runs[r].name, s.barrier, s.segment, number(s.from), number(s.to), std::to_string(s.crossings),
+                  e(s.energy[0]), e(s.energy_ci[0].lo), e(s.energy_ci[0].hi), e(s.energy[1]), e(s.energy_ci[1].lo),
+                  e(s.energy_ci[1].hi), number(s.height[0]), number(s.height_ci[0].lo), number(s.height_ci[0].hi),
+                  number(s.height[1]), number(s.height_ci[1].lo), number(s.height_ci[1].hi), cls(s.energy[1]),
+                  cls(s.energy_ci[1].hi)});
+    }
+  return out;
+}
+
 std::string validation_csv(const Validation& v, const Settings& settings) {
   std::string out = row({"series", "observed", "variable", "statistic", "value", "unit"});
   for (const auto& var : v.variables) {

@@ -52,7 +52,7 @@ void Settings::visit(core::SettingsVisitor& v) {
   v.field("terrain", terrain, "terrain file (origin shift, plan view); empty = the one the run names");
   v.field("hazard_maps", hazard_maps, "write hazard rasters from the per-cell accumulators");
   v.field("raster_formats", raster_formats, "raster formats: asc (ESRI ASCII grid), tif (GeoTIFF)");
-  v.choice("energy_unit", energy_unit, {"J", "kJ"}, "unit of the energy rasters: J or kJ");
+  v.choice("energy_unit", energy_unit, {"J", "kJ"}, "unit of the energy rasters and of the barrier design sheet: J or kJ");
   v.field("hazard_variables", hazard_variables,
           "per-cell variables mapped, each realization's largest value in the cell: energy (kinetic, J), height "
           "(passing, m), speed (centroid, m/s)");
@@ -71,6 +71,9 @@ void Settings::visit(core::SettingsVisitor& v) {
   v.field("release_frequencies", release_frequencies, "1/yr",
           "release frequency of each run's zone (events per year), one per run after shards are joined; empty = no "
           "frequency, intensity or hazard-class rasters");
+  v.bounded("barrier_segment_length", barrier_segment_length, "m",
+            "length of the segments of each barrier line in the design sheet (barrier-sheet.csv)",
+            core::Range{0.0, kInf, true, false});
   v.choice("vector_format", vector_format, {"gpkg", "geojson", "none"},
            "vector layers of each run (stop points, first barrier crossings, trajectories; m, m/s, J, s): "
            "gpkg = one GeoPackage per run, geojson = one GeoJSON file per layer, none");

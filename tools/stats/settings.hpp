@@ -83,6 +83,8 @@ struct Settings {
   /// Release frequency of each run's zone (events per year), one per run after shards are
   /// joined; empty = no frequency, intensity or hazard-class rasters.
   std::vector<double> release_frequencies;
+  /// Length of the segments of a barrier line in the design sheet (m).
+  double barrier_segment_length = 10.0;
   /// Vector layers of each run (stop points, first barrier crossings, trajectories):
   /// "gpkg" (one GeoPackage per run), "geojson" (one GeoJSON file per layer) or "none".
   std::string vector_format = "gpkg";

@@ -48,6 +48,15 @@ inline void expect_same_run(const RunData& a, const RunData& b) {
   EXPECT_EQ(ta.height_cell, tb.height_cell);
   EXPECT_EQ(ta.height_index, tb.height_index);
   EXPECT_EQ(ta.height_count, tb.height_count);
+  EXPECT_EQ(ta.energy_max, tb.energy_max);
+  EXPECT_EQ(ta.speed_zero, tb.speed_zero);
+  EXPECT_EQ(ta.speed_cell, tb.speed_cell);
+  EXPECT_EQ(ta.speed_index, tb.speed_index);
+  EXPECT_EQ(ta.speed_count, tb.speed_count);
+  EXPECT_EQ(ta.exact_cell, tb.exact_cell);
+  EXPECT_EQ(ta.exact_energy, tb.exact_energy);
+  EXPECT_EQ(ta.exact_height, tb.exact_height);
+  EXPECT_EQ(ta.exact_speed, tb.exact_speed);
 }
 
 }  // namespace talus::mc::testing

@@ -8,6 +8,7 @@
 #include "talus/core/error.hpp"
 #include "talus/mc/realization.hpp"
 #include "talus/mc/runner.hpp"
+#include "talus/stats/sample.hpp"
 
 namespace talus::mc {
 namespace {
@@ -138,6 +139,83 @@ TEST_F(BenchRun, HazardMaximaOfOlderFilesAreUnknown) {
     EXPECT_TRUE(std::isnan(cell.max_height)) << id;
     EXPECT_EQ(cell.reach, 2 * single_->hazard.cells().at(id).reach) << id;
   }
+}
+
+// Every cell's statistics agree with a direct computation from the realizations' own
+// per-cell values (the maxima of each path in the cell): at these low counts the
+// accumulator keeps every value, so quantiles (type 7), means and maxima are exact.
+TEST_F(BenchRun, CellStatisticsEqualADirectComputationFromThePaths) {
+  std::map<std::int64_t, std::vector<CellVisit>> visits;
+  for (std::uint32_t i = 0; i < 4; ++i)
+    for (const CellVisit& v : run_realization(*scene_, i).cells) visits[v.cell].push_back(v);
+  ASSERT_EQ(visits.size(), single_->hazard.cells().size());
+  std::size_t multi = 0;
+  for (const auto& [id, list] : visits) {
+    const HazardAccumulator::Cell& cell = single_->hazard.cells().at(id);
+    ASSERT_EQ(cell.reach, list.size()) << id;
+    ASSERT_TRUE(cell.exact()) << id;
+    multi += list.size() > 1;
+    for (const HazardVariable variable : {HazardVariable::energy, HazardVariable::height, HazardVariable::speed}) {
+      std::vector<double> x;
+      for (const CellVisit& v : list)
+        x.push_back(std::max(variable == HazardVariable::energy   ? v.energy
+                             : variable == HazardVariable::height ? v.height
+                                                                  : v.speed,
+                             0.0));
+      const stats::Sample direct(x);
+      for (double p : {0.0, 0.1, 0.5, 0.9, 0.95, 0.99, 1.0})
+        EXPECT_DOUBLE_EQ(cell.quantile(variable, p), direct.quantile(p)) << id << " p " << p;
+      EXPECT_DOUBLE_EQ(cell.mean(variable), direct.mean()) << id;
+      EXPECT_EQ(cell.max(variable), direct.max()) << id;
+      // With two or more passages a high quantile never lies below the mean.
+      if (x.size() > 1) {
+        EXPECT_GE(cell.quantile(variable, 0.95), cell.mean(variable)) << id;
+      }
+    }
+  }
+  EXPECT_GT(multi, 0u);  // some cells were crossed by several realizations
+}
+
+// Exact values are kept up to kExactLimit passages and give way to the sketch above it;
+// merging shards whose total exceeds the limit drops them, whatever the order.
+TEST(HazardExactValues, KeptUpToTheLimitThenSketched) {
+  const HazardGridSpec grid{0.0, 0.0, 1.0, 2, 1};
+  HazardAccumulator a(grid, 0.01), b(grid, 0.01), whole(grid, 0.01);
+  const auto limit = HazardAccumulator::kExactLimit;
+  for (std::uint64_t k = 0; k < limit + 1; ++k) {
+    const double x = static_cast<double>(k + 1);
+    const std::vector<CellVisit> v = {{0, 10.0 * x, 0.1 * x, x}};
+    (k % 2 ? a : b).add(v);
+    whole.add(v);
+    if (k + 1 == limit) {
+      ASSERT_TRUE(whole.cells().at(0).exact());
+      EXPECT_DOUBLE_EQ(whole.cells().at(0).quantile(HazardVariable::energy, 0.5), 5.0 * static_cast<double>(limit + 1));
+    }
+  }
+  EXPECT_FALSE(whole.cells().at(0).exact());
+  EXPECT_TRUE(whole.cells().at(0).exact_energy.empty());
+  // Sketched: within α of the type-7 median 510 J of 10, 20, …, 1010 J.
+  EXPECT_NEAR(whole.cells().at(0).quantile(HazardVariable::energy, 0.5), 510.0, 5.1);
+  EXPECT_EQ(whole.cells().at(0).max(HazardVariable::energy), 10.0 * static_cast<double>(limit + 1));
+  HazardAccumulator ab(grid, 0.01), ba(grid, 0.01);
+  ab.merge(a);
+  ab.merge(b);
+  ba.merge(b.table(), "table");
+  ba.merge(a.table(), "table");
+  EXPECT_FALSE(ab.cells().at(0).exact());
+  RunData x, y;
+  x.hazard = ab;
+  y.hazard = ba;
+  testing::expect_same_run(x, y);
+  // Two halves within the limit merge to the exact values of the whole, in order.
+  HazardAccumulator c(grid, 0.01), d(grid, 0.01), cd(grid, 0.01);
+  c.add({{1, 3.0, 0.3, 3.0}});
+  d.add({{1, 1.0, 0.1, 1.0}});
+  d.add({{1, 2.0, 0.2, 2.0}});
+  cd.merge(c.table(), "table");
+  cd.merge(d);
+  ASSERT_TRUE(cd.cells().at(1).exact());
+  EXPECT_EQ(cd.cells().at(1).exact_energy, (std::vector<double>{1.0, 2.0, 3.0}));
 }
 
 TEST(Barrier, CrossingOfAFreeFlightMatchesTheParabola) {

@@ -32,6 +32,27 @@ TEST(QuantileSketch, RelativeErrorBoundHoldsAgainstExactOrderStatistics) {
   EXPECT_EQ(sketch.count(), values.size());
 }
 
+// The interpolated quantile is within α of the type-7 quantile (a convex combination of
+// two representatives, each within α of its order statistic), at low counts too: with two
+// values P95 lies between them, near the larger.
+TEST(QuantileSketch, InterpolatedQuantileWithinAlphaOfTypeSeven) {
+  for (std::size_t n : {2u, 3u, 7u, 40u, 20000u}) {
+    const auto values = lognormal_values(n, 11 + n);
+    QuantileSketch sketch(0.01);
+    for (double v : values) sketch.add(v);
+    const Sample exact(values);
+    for (double p : {0.0, 0.1, 0.5, 0.9, 0.95, 0.99, 1.0}) {
+      const double truth = exact.quantile(p);
+      EXPECT_LE(std::abs(sketch.interpolated_quantile(p) - truth), 0.01 * truth * (1 + 1e-12)) << n << " " << p;
+    }
+  }
+  QuantileSketch two(0.01);
+  two.add(100.0);
+  two.add(200.0);
+  EXPECT_NEAR(two.interpolated_quantile(0.95), 195.0, 1.95);
+  EXPECT_NEAR(two.quantile(0.95), 100.0, 1.0);  // the rank-⌊p(n−1)⌋ value: the smaller one
+}
+
 // The mean of the bucket representatives is within α of the exact mean (every value is
 // within α of its representative); zeros count as 0.
 TEST(QuantileSketch, MeanWithinRelativeAccuracy) {

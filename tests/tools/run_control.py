@@ -113,7 +113,11 @@ def main():
         check(r.returncode == 0 and not os.path.exists(stale) and "gone-reach_probability.asc" in r.stderr,
               "stats removes and names a stale output", r.stderr)
         r = run(st)
-        check(r.returncode == 0 and r.stderr == "", "stats rerun removes nothing of its own", r.stderr)
+        # The scene's blocks all leave the small terrain: the one line stats prints is the
+        # censored-share warning (docs/stats.md), nothing else.
+        check(r.returncode == 0 and r.stderr.count("\n") == 1 and
+              r.stderr.startswith("stats: warning: small: 100 % of the realizations (20 of 20) did not stop"),
+              "stats rerun removes nothing of its own", r.stderr)
 
         # The reference for the interrupted runs. They must still be running when the
         # signal comes (a journal, 0.3 s, a refused second writer): with fewer

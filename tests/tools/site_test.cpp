@@ -119,7 +119,13 @@ outputs:
   ASSERT_EQ(ok(run("terrain-gen", {"dem.tif", "-o", "terrain.h5"})), "");
   ASSERT_EQ(ok(run("block-gen", {"-c", "blocks.yaml", "-o", "blocks.h5"})), "");
   ASSERT_EQ(ok(run("dda-run", {"-c", "scene.yaml", "-o", "run.h5"})), "");
-  ASSERT_EQ(ok(run("stats", {"run.h5", "-o", "out", "--set", "plots=false"})), "");
+  // With a release frequency the frequency, intensity and hazard-class rasters join the
+  // others, on the same grid.
+  ASSERT_EQ(ok(run("stats", {"run.h5", "-o", "out", "--set", "plots=false", "--set", "release_frequencies=[0.1]"})), "");
+  for (const char* layer : {"frequency_low", "frequency_medium", "frequency_high", "intensity_T30", "intensity_T100",
+                            "intensity_T300", "hazard_class"})
+    for (const char* ext : {".tif", ".asc"})
+      EXPECT_TRUE(fs::exists(dir_ / "out" / "hazard" / ("run-" + std::string(layer) + ext))) << layer << ext;
   ASSERT_EQ(ok(run("stats", {"run.h5", "-o", "out-geojson", "--set", "plots=false", "--set", "hazard_maps=false",
                              "--set", "vector_format=geojson"})),
             "");

@@ -17,6 +17,7 @@
 #include <iterator>
 #include <map>
 #include <numeric>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -26,6 +27,7 @@
 #include "talus/io/raster.hpp"
 #include "talus/io/run_file.hpp"
 #include "talus/io/terrain_file.hpp"
+#include "talus/stats/sample.hpp"
 
 namespace talus {
 namespace {
@@ -303,11 +305,20 @@ TEST_F(Stats, EndReasonsAreReportedAndUnstoppedBlocksCensored) {
   const std::string table = read_text(dir_ / "out-ends" / "table.csv");
   EXPECT_NE(table.find("\nrunout,n,,8,5,3\n"), std::string::npos) << table;
   EXPECT_NE(table.find("\nrunout,censored,,3,1,2\n"), std::string::npos) << table;
+  // The censored share next to them: 3 of 11, 1 of 6, 2 of 5 (failures are in neither).
+  EXPECT_NE(table.find("\nrunout,censored_share,-,0.2727,0.1667,0.4\n"), std::string::npos) << table;
+  EXPECT_EQ(csv_value(read_text(dir_ / "out-ends" / "summary.csv"), "whole,all,runout,censored_share"), 3.0 / 11.0);
+  EXPECT_EQ(csv_value(read_text(dir_ / "out-ends" / "summary.csv"), "whole,octahedron,lateral,censored_share"), 0.4);
+  // Over 10 %: one warning line for the run (not one per block), and the exit code stays 0.
+  const std::string warning = "stats: warning: whole: 27 % of the realizations (3 of 11) did not stop on the terrain";
+  EXPECT_NE(o.err.find(warning), std::string::npos) << o.err;
+  EXPECT_EQ(o.err.find(warning), o.err.rfind("stats: warning: whole:")) << o.err;
   EXPECT_NE(table.find("\nend:rest,fraction,-,0.6667,0.8333,0.5\n"), std::string::npos) << table;
   // summary.h5: the count as an attribute, and stop points of the 8 resting blocks only.
   const io::h5::File h5 = io::h5::File::open((dir_ / "out-ends" / "summary.h5").string());
   const io::h5::Group all = h5.root().open_group("series").open_group("0");
   EXPECT_EQ(all.open_group("variable").open_group("runout").attr_int("censored"), 3);
+  EXPECT_EQ(all.open_group("variable").open_group("runout").attr_double("censored_share"), 3.0 / 11.0);
   EXPECT_FALSE(all.open_group("variable").open_group("max_speed").has_attr("censored"));
   EXPECT_EQ(all.read_doubles("stop_points").size(), 16u);
 }
@@ -324,21 +335,21 @@ TEST_F(Stats, HazardRastersInTerrainCoordinates) {
   EXPECT_EQ(reach.z[16], 4.0 / 12.0); // realizations 0–3 visit cell 16 = (1, 1)
   EXPECT_EQ(reach.z[2], 0.0);
   const terrain::DemGrid e99 = io::read_geotiff((dir_ / "out-hazard/hazard/whole-energy_p99.tif").string());
-  // Sketch quantiles are within α = 1 % of the order statistic: cell 0 energies 100(i+1),
-  // P99 rank ⌊0.99·11⌋ = 10 → 1100 J; cell 16 heights 1…4 m, P95 rank 2 → 3 m.
-  EXPECT_NEAR(e99.z[0], 1100.0, 11.0);
+  // Exact quantiles at these counts (type 7, h = p(n − 1)): cell 0 energies 100(i+1), P99
+  // at h = 10.89 → 1100 + 0.89·100 = 1189 J; cell 16 heights 1…4 m, P95 at h = 2.85 → 3.85 m.
+  EXPECT_NEAR(e99.z[0], 1189.0, 1e-9);
   EXPECT_TRUE(std::isnan(e99.z[2]));
   const terrain::DemGrid h95 = io::read_esri_ascii((dir_ / "out-hazard/hazard/whole-height_p95.asc").string());
-  EXPECT_NEAR(h95.z[16], 3.0, 0.03);
+  EXPECT_NEAR(h95.z[16], 3.85, 1e-12);
   // Passages: the realizations that reached the cell; the mean of cell 0's energies
-  // 100 … 1200 J is 650 J (within the sketch's α = 1 %).
+  // 100 … 1200 J is 650 J (exact).
   const terrain::DemGrid passages = io::read_geotiff((dir_ / "out-hazard/hazard/whole-passage_count.tif").string());
   EXPECT_EQ(passages.z[0], 12.0);
   EXPECT_EQ(passages.z[16], 4.0);
   EXPECT_EQ(passages.z[2], 0.0);
   const terrain::DemGrid e_mean = io::read_geotiff((dir_ / "out-hazard/hazard/whole-energy_mean.tif").string());
-  EXPECT_NEAR(e_mean.z[0], 650.0, 6.5);
-  EXPECT_NEAR(e_mean.z[16], 125.0, 1.25);  // 50, 100, 150, 200 J
+  EXPECT_DOUBLE_EQ(e_mean.z[0], 650.0);
+  EXPECT_DOUBLE_EQ(e_mean.z[16], 125.0);  // 50, 100, 150, 200 J
   EXPECT_TRUE(std::isnan(e_mean.z[2]));
   // The largest speed and passing height of any passage: exact, not sketched.
   const terrain::DemGrid v_max = io::read_geotiff((dir_ / "out-hazard/hazard/whole-speed_max.tif").string());
@@ -365,7 +376,8 @@ TEST_F(Stats, HazardRastersInTerrainCoordinates) {
   const std::vector<std::pair<std::string, std::string>> layers = {
       {"reach_probability", "1"}, {"passage_count", "count"}, {"deposition_count", "count"}, {"energy_mean", "J"},
       {"energy_p95", "J"}, {"energy_p99", "J"}, {"height_p95", "m"}, {"height_p99", "m"},
-      {"height_max", "m"}, {"speed_max", "m/s"}};
+      {"height_max", "m"}, {"speed_max", "m/s"}, {"energy_max", "J"}, {"height_mean", "m"},
+      {"speed_mean", "m/s"}, {"speed_p95", "m/s"}, {"speed_p99", "m/s"}};
   for (const auto& [layer, unit] : layers) {
     const fs::path base = dir_ / "out-hazard/hazard" / ("whole-" + layer);
     for (const char* ext : {".tif", ".asc"}) {
@@ -379,10 +391,139 @@ TEST_F(Stats, HazardRastersInTerrainCoordinates) {
   }
 }
 
+// Every cell's statistics, in every raster asked for, equal a direct computation from the
+// realizations' per-cell values (exact at these counts: type-7 quantiles, means, maxima);
+// cells with fewer passages than hazard_min_passages are no data in the statistic rasters
+// but keep their counts, stored as Int32.
+TEST_F(Stats, CellStatisticsEqualADirectComputation) {
+  const Outcome o = run_fast({"whole.h5", "-o", "out-cells", "--set", "hazard_statistics=[mean,median,max]",
+                              "--set", "hazard_quantiles=[0.5,0.9,0.95,0.99]", "--set", "hazard_min_passages=5",
+                              "--set", "raster_formats=[tif]"});
+  ASSERT_EQ(o.code, 0) << o.err;
+  std::map<std::int64_t, std::vector<mc::CellVisit>> visits;
+  for (std::uint32_t i = 0; i < kRealizations; ++i)
+    for (const mc::CellVisit& v : realization(i).cells) visits[v.cell].push_back(v);
+  const fs::path dir = dir_ / "out-cells/hazard";
+  const std::vector<std::pair<std::string, double>> statistics = {
+      {"mean", -1.0}, {"median", 0.5}, {"p50", 0.5}, {"p90", 0.9}, {"p95", 0.95}, {"p99", 0.99}, {"max", 1.0}};
+  for (const char* variable : {"energy", "height", "speed"})
+    for (const auto& [statistic, p] : statistics) {
+      const std::string path = (dir / ("whole-" + std::string(variable) + "_" + statistic + ".tif")).string();
+      ASSERT_TRUE(fs::exists(path)) << path;
+      const terrain::DemGrid grid = io::read_geotiff(path);
+      for (std::size_t k = 0; k < grid.z.size(); ++k) {
+        const auto found = visits.find(static_cast<std::int64_t>(k));
+        if (found == visits.end() || found->second.size() < 5) {
+          EXPECT_TRUE(std::isnan(grid.z[k])) << path << " cell " << k;
+          continue;
+        }
+        std::vector<double> x;
+        for (const mc::CellVisit& v : found->second)
+          x.push_back(std::string(variable) == "energy" ? v.energy : std::string(variable) == "height" ? v.height : v.speed);
+        const stats::Sample direct(x);
+        const double expected = p < 0.0 ? direct.mean() : direct.quantile(p);
+        EXPECT_DOUBLE_EQ(grid.z[k], expected) << path << " cell " << k;
+      }
+    }
+  // Cell 16 has 4 passages: masked in the statistics, counted in passage_count (Int32).
+  const std::string count_path = (dir / "whole-passage_count.tif").string();
+  EXPECT_EQ(io::read_geotiff(count_path).z[16], 4.0);
+  GDALAllRegister();
+  GDALDatasetH ds = GDALOpen(count_path.c_str(), GA_ReadOnly);
+  ASSERT_NE(ds, nullptr);
+  EXPECT_EQ(GDALGetRasterDataType(GDALGetRasterBand(ds, 1)), GDT_Int32);
+  GDALClose(ds);
+  ds = GDALOpen((dir / "whole-energy_mean.tif").string().c_str(), GA_ReadOnly);
+  ASSERT_NE(ds, nullptr);
+  EXPECT_EQ(GDALGetRasterDataType(GDALGetRasterBand(ds, 1)), GDT_Float64);
+  GDALClose(ds);
+  // A statistic or variable that does not exist is refused in one line.
+  const Outcome bad = run_fast({"whole.h5", "-o", "out-bad-stat", "--set", "hazard_statistics=[mode]"});
+  EXPECT_NE(bad.code, 0);
+  EXPECT_NE(bad.err.find("hazard_statistics: 'mode' is not one of: mean, median, max"), std::string::npos) << bad.err;
+  const Outcome zero = run_fast({"whole.h5", "-o", "out-bad-min", "--set", "hazard_min_passages=0"});
+  EXPECT_NE(zero.code, 0);
+  EXPECT_NE(zero.err.find("hazard_min_passages"), std::string::npos) << zero.err;
+}
+
+// Intensity and hazard classes from the fixture's per-cell energies (cell 0: 100 … 1200 J
+// in 12 of 12 realizations; cell 16: 50 … 200 J in 4), with thresholds 300 J and 1000 J,
+// return periods 1, 10, 100 years and a zone releasing 0.5 events per year.
+TEST_F(Stats, IntensityFrequencyAndHazardClasses) {
+  const Outcome o = run_fast({"whole.h5", "-o", "out-classes", "--set", "intensity_thresholds=[300,1000]", "--set",
+                              "return_periods=[1,10,100]", "--set", "release_frequencies=[0.5]", "--set",
+                              "raster_formats=[tif]"});
+  ASSERT_EQ(o.code, 0) << o.err;
+  const fs::path dir = dir_ / "out-classes/hazard";
+  const auto layer = [&](const char* name) { return io::read_geotiff((dir / ("whole-" + std::string(name) + ".tif")).string()).z; };
+  // Exceedance frequency = 0.5/yr × passages at or above the bound / 12 realizations.
+  EXPECT_DOUBLE_EQ(layer("frequency_low")[0], 0.5);
+  EXPECT_DOUBLE_EQ(layer("frequency_medium")[0], 0.5 * 10 / 12);  // 300 … 1200 J
+  EXPECT_DOUBLE_EQ(layer("frequency_high")[0], 0.5 * 3 / 12);     // 1000, 1100, 1200 J
+  EXPECT_DOUBLE_EQ(layer("frequency_low")[16], 0.5 * 4 / 12);
+  EXPECT_EQ(layer("frequency_medium")[16], 0.0);
+  EXPECT_EQ(layer("frequency_low")[2], 0.0);
+  // The T-year energy is the k-th largest passage, k = ⌈12 / (0.5 T)⌉: T = 1 needs 24
+  // passages (none: class 0); T = 10, k = 3 → 1000 J (high) and 100 J (low); T = 100, k = 1.
+  EXPECT_EQ(layer("intensity_T1")[0], 0.0);
+  EXPECT_EQ(layer("intensity_T10")[0], 3.0);
+  EXPECT_EQ(layer("intensity_T10")[16], 1.0);
+  EXPECT_EQ(layer("intensity_T100")[0], 3.0);
+  EXPECT_EQ(layer("intensity_T100")[16], 1.0);
+  // Every frequency above is medium (1/10 ≤ f < 1): cell 0 reaches high intensity at a
+  // medium frequency (red, 4); cell 16 only low intensity at a medium frequency (yellow, 2).
+  EXPECT_EQ(layer("hazard_class")[0], 4.0);
+  EXPECT_EQ(layer("hazard_class")[16], 2.0);
+  EXPECT_EQ(layer("hazard_class")[2], 0.0);
+  EXPECT_EQ(io::read_band_info((dir / "whole-frequency_low.tif").string()).unit, "1/yr");
+  // One frequency per run; thresholds must increase.
+  const Outcome two = run_fast({"whole.h5", "-o", "out-bad-f", "--set", "release_frequencies=[0.5,1]"});
+  EXPECT_NE(two.code, 0);
+  EXPECT_NE(two.err.find("release_frequencies: 2 frequencies for 1 runs"), std::string::npos) << two.err;
+  const Outcome order = run_fast({"whole.h5", "-o", "out-bad-e", "--set", "intensity_thresholds=[300,30]"});
+  EXPECT_NE(order.code, 0);
+  EXPECT_NE(order.err.find("intensity_thresholds must be 2 increasing positive values (J)"), std::string::npos)
+      << order.err;
+}
+
+// The barrier design sheet: the fixture's toe line (20 m) is crossed at 10 m by the even
+// realizations (500(i+1) J, 0.2(i+1) m; 0 … 10): with 10 m segments all six fall in the
+// second; Q95 and Q99 are type 7 (h = 4.75 and 4.95 of 6 values), in the unit asked for.
+TEST_F(Stats, BarrierSheetBySegmentInTheUnitAskedFor) {
+  const Outcome o = run_fast({"whole.h5", "-o", "out-sheet", "--set", "energy_unit=kJ"});
+  ASSERT_EQ(o.code, 0) << o.err;
+  const std::string sheet = read_text(dir_ / "out-sheet" / "barrier-sheet.csv");
+  EXPECT_EQ(sheet.substr(0, sheet.find('\n')),
+            "run,barrier,segment,from_m,to_m,crossings,energy_Q95_kJ,energy_Q95_low_kJ,energy_Q95_high_kJ,"
+            "energy_Q99_kJ,energy_Q99_low_kJ,energy_Q99_high_kJ,height_Q95_m,height_Q95_low_m,height_Q95_high_m,"
+            "height_Q99_m,height_Q99_low_m,height_Q99_high_m,ead_class_Q99,ead_class_Q99_high");
+  EXPECT_NE(sheet.find("\nwhole,toe,1,0,10,0,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,,\n"), std::string::npos)
+      << sheet;
+  std::vector<std::string> rows;
+  for (std::size_t at = 0, next; (next = sheet.find('\n', at)) != std::string::npos; at = next + 1)
+    rows.push_back(sheet.substr(at, next - at));
+  ASSERT_EQ(rows.size(), 4u) << sheet;  // header, segments 1 and 2, the whole line
+  for (const std::size_t k : {2u, 3u}) {
+    std::vector<std::string> f;
+    std::stringstream line(rows[k]);
+    for (std::string cell; std::getline(line, cell, ',');) f.push_back(cell);
+    ASSERT_EQ(f.size(), 20u) << rows[k];
+    EXPECT_EQ(f[2], k == 2 ? "2" : "all");
+    EXPECT_EQ(f[5], "6");
+    EXPECT_NEAR(std::stod(f[6]), 5.25, 1e-12);
+    EXPECT_NEAR(std::stod(f[9]), 5.45, 1e-12);
+    EXPECT_NEAR(std::stod(f[12]), 2.1, 1e-12);
+    EXPECT_NEAR(std::stod(f[15]), 2.18, 1e-12);
+    EXPECT_LE(std::stod(f[7]), std::stod(f[6]));  // the interval holds the estimate
+    EXPECT_GE(std::stod(f[8]), std::stod(f[6]));
+    EXPECT_EQ(f[18], "0");  // 5.45 kJ: the smallest EAD class (MEL 100 kJ)
+  }
+}
+
 TEST_F(Stats, EnergyRastersInKilojoulesOnRequest) {
   ASSERT_EQ(run_fast({"whole.h5", "-o", "out-kj", "--set", "energy_unit=kJ"}).code, 0);
   const std::string path = (dir_ / "out-kj/hazard/whole-energy_p99.tif").string();
-  EXPECT_NEAR(io::read_geotiff(path).z[0], 1.1, 0.011);  // 1100 J
+  EXPECT_NEAR(io::read_geotiff(path).z[0], 1.189, 1e-12);  // 1189 J
   EXPECT_EQ(io::read_band_info(path).unit, "kJ");
   EXPECT_EQ(io::read_band_info((dir_ / "out-kj/hazard/whole-height_p99.tif").string()).unit, "m");
   const Outcome bad = run_fast({"whole.h5", "-o", "out-bad-unit", "--set", "energy_unit=MJ"});

@@ -1,11 +1,14 @@
 #include "analysis.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <map>
 #include <set>
@@ -26,6 +29,8 @@ namespace talus::stats_tool {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// Above this censored share stats warns that the stop-position quantiles are biased.
+constexpr double kCensoredWarning = 0.10;
 
 // A shard's name without its shard number ("run-2" → "run"), for a joined run.
 std::string run_name_of_shards(const std::string& path) {
@@ -95,6 +100,10 @@ std::vector<Run> load_runs(const std::vector<std::string>& paths, const Settings
                                              std::to_string(runs.size()) + " runs");
     for (std::size_t r = 0; r < runs.size(); ++r) runs[r].name = settings.names[r];
   }
+  if (!settings.release_frequencies.empty() && settings.release_frequencies.size() != runs.size())
+    throw core::InputError("settings", "release_frequencies: " + std::to_string(settings.release_frequencies.size()) +
+                                           " frequencies for " + std::to_string(runs.size()) +
+                                           " runs (one per run after shards are joined)");
   std::set<std::string> seen;
   for (const auto& run : runs) {
     if (unusable_run_name(run.name))
@@ -373,7 +382,7 @@ std::string terrain_path_of(const Run& run, const Settings& settings) {
   return named;
 }
 
-RunResult run_result(const Run& run, const Settings& settings) {
+RunResult run_result(const Run& run, const Settings& settings, std::optional<double> release_frequency) {
   RunResult out;
   const auto& info = run.file.info;
   const bool grid = info.hazard.size > 0.0 && info.hazard.nx > 0 && info.hazard.ny > 0;
@@ -413,7 +422,7 @@ RunResult run_result(const Run& run, const Settings& settings) {
                                               (settings.terrain.empty() ? " named by the run" : "") +
                                               " is missing: give it with --set terrain=FILE (or " + without + ")");
   }
-  if (settings.hazard_maps && grid) out.hazard = hazard_maps(run.file, out.origin_shift, settings.energy_unit);
+  if (settings.hazard_maps && grid) out.hazard = hazard_maps(run.file, out.origin_shift, settings, release_frequency);
   const auto& shift = out.origin_shift;
   PlanView& plan = out.plan;
   // The plan view's terrain: the whole mesh up to two million points; a grid of more
@@ -464,53 +473,177 @@ RunResult run_result(const Run& run, const Settings& settings) {
 
 }  // namespace
 
+std::optional<double> VariableSummary::censored_share() const {
+  if (!censored) return std::nullopt;
+  const std::size_t total = values.size() + *censored;
+  return total == 0 ? 0.0 : static_cast<double>(*censored) / static_cast<double>(total);
+}
+
 const HazardLayer& HazardMaps::layer(const std::string& name) const {
   for (const auto& l : layers)
     if (l.name == name) return l;
   throw std::out_of_range("no hazard layer " + name);
 }
 
-HazardMaps hazard_maps(const io::RunFile& run, const std::array<double, 3>& origin_shift,
-                       const std::string& energy_unit) {
+namespace {
+
+// The frequency class of an exceedance frequency f (1/yr) against the return periods
+// T1 < T2 < T3: 3 high (f ≥ 1/T1), 2 medium (≥ 1/T2), 1 low (≥ 1/T3), 0 very low.
+int frequency_class(double f, const std::vector<double>& periods) {
+  if (f * periods[0] >= 1.0) return 3;
+  if (f * periods[1] >= 1.0) return 2;
+  if (f * periods[2] >= 1.0) return 1;
+  return 0;
+}
+
+// The intensity–frequency diagram of FOEN 2016 (rows: intensity low, medium, high;
+// columns: frequency very low, low, medium, high): 0 none, 1 residual, 2 low (yellow),
+// 3 medium (blue), 4 high (red).
+constexpr int kHazardMatrix[3][4] = {{0, 2, 2, 3}, {1, 3, 3, 4}, {1, 4, 4, 4}};
+
+}  // namespace
+
+void add_intensity_layers(HazardMaps& maps, const io::RunFile& run, const std::array<double, 3>& origin_shift,
+                          const Settings& settings, double release_frequency) {
   const mc::HazardGridSpec& g = run.info.hazard;
+  const auto n = static_cast<double>(run.data.records.size());
+  const auto& e = settings.intensity_thresholds;
+  const auto& t = settings.return_periods;
+  const std::string e1 = core::format_number(e[0] * 1e-3) + " kJ", e2 = core::format_number(e[1] * 1e-3) + " kJ";
+  const auto add = [&](std::string name, std::string title, std::string description, std::string unit, bool integer) {
+    maps.layers.push_back({std::move(name), std::move(title), {std::move(description), std::move(unit), integer},
+                           raster_like(g, origin_shift, 0.0)});
+    return maps.layers.size() - 1;
+  };
+  // Exceedance frequency of each intensity class's lower bound: any passage, E ≥ e1, E ≥ e2.
+  const std::array<double, 3> bounds = {0.0, e[0], e[1]};
+  const std::array<std::size_t, 3> frequency = {
+      add("frequency_low", "frequency of a passage (1/yr)",
+          "exceedance frequency of a passage of any energy: release frequency × passages / realizations", "1/yr", false),
+      add("frequency_medium", "frequency of E ≥ " + e1 + " (1/yr)",
+          "exceedance frequency of a passage with kinetic energy ≥ " + e1, "1/yr", false),
+      add("frequency_high", "frequency of E ≥ " + e2 + " (1/yr)",
+          "exceedance frequency of a passage with kinetic energy ≥ " + e2, "1/yr", false)};
+  std::vector<std::size_t> intensity;
+  for (double period : t) {
+    const std::string years = core::format_number(period);
+    intensity.push_back(add("intensity_T" + years, "intensity class, " + years + "-year event",
+                            "intensity class (0 none, 1 low < " + e1 + " ≤ 2 medium < " + e2 +
+                                " ≤ 3 high) of the kinetic energy exceeded once in " + years + " years",
+                            "class", true));
+  }
+  const std::size_t hazard =
+      add("hazard_class", "hazard class (intensity–frequency)",
+          "intensity-frequency class (FOEN 2016): 0 none, 1 residual, 2 low, 3 medium, 4 high", "class", true);
+  for (const auto& [id, cell] : run.data.hazard.cells()) {
+    const auto k = static_cast<std::size_t>(id);
+    int worst = 0;
+    for (std::size_t level = 0; level < 3; ++level) {
+      // Passages of any energy count for the low class (the bound 0 takes them all).
+      const double count = level == 0 ? static_cast<double>(cell.reach)
+                                      : cell.count_at_least(mc::HazardVariable::energy, bounds[level]);
+      const double f = release_frequency * count / n;
+      maps.layers[frequency[level]].grid.z[k] = f;
+      if (std::isnan(f) || count == 0.0) continue;
+      worst = std::max(worst, kHazardMatrix[level][frequency_class(f, t)]);
+    }
+    maps.layers[hazard].grid.z[k] = worst;
+    for (std::size_t s = 0; s < t.size(); ++s) {
+      // The energy exceeded with frequency 1/T: the k-th largest passage energy, k = N/(λT)
+      // passages of the N realizations (none when fewer passages reached the cell).
+      const double passages = n / (release_frequency * t[s]);
+      const auto rank = static_cast<std::uint64_t>(std::ceil(passages - 1e-9));
+      double& z = maps.layers[intensity[s]].grid.z[k];
+      if (rank == 0 || rank > cell.reach) continue;
+      const double energy = cell.kth_largest(mc::HazardVariable::energy, rank);
+      z = std::isnan(energy) ? kNaN : energy >= e[1] ? 3.0 : energy >= e[0] ? 2.0 : 1.0;
+    }
+  }
+}
+
+HazardMaps hazard_maps(const io::RunFile& run, const std::array<double, 3>& origin_shift, const Settings& settings,
+                       std::optional<double> release_frequency) {
+  const mc::HazardGridSpec& g = run.info.hazard;
+  const std::string& energy_unit = settings.energy_unit;
   const double to_unit = energy_unit == "kJ" ? 1e-3 : 1.0;
   HazardMaps maps;
-  const auto add = [&](const char* name, const std::string& description, const std::string& unit, double fill) {
-    maps.layers.push_back({name, {description, unit}, raster_like(g, origin_shift, fill)});
-    return &maps.layers.back().grid.z;
+  const auto add = [&](std::string name, std::string title, const std::string& description, const std::string& unit,
+                       double fill, bool integer = false) {
+    maps.layers.push_back({std::move(name), std::move(title), {description, unit, integer},
+                           raster_like(g, origin_shift, fill)});
   };
-  maps.layers.reserve(10);
-  auto& reach = *add("reach_probability", "reach probability: realizations whose path reached the cell / realizations",
-                     "1", 0.0);
-  auto& passages = *add("passage_count", "passage count: realizations whose path reached the cell", "count", 0.0);
-  auto& deposits = *add("deposition_count", "deposition count: realizations that came to rest with the centroid in the cell",
-                        "count", 0.0);
-  auto& e_mean = *add("energy_mean", "mean over the passages of the largest kinetic energy in the cell", energy_unit, kNaN);
-  auto& e95 = *add("energy_p95", "P95 over the passages of the largest kinetic energy in the cell", energy_unit, kNaN);
-  auto& e99 = *add("energy_p99", "P99 over the passages of the largest kinetic energy in the cell", energy_unit, kNaN);
-  auto& h95 = *add("height_p95", "P95 over the passages of the largest passing height in the cell", "m", kNaN);
-  auto& h99 = *add("height_p99", "P99 over the passages of the largest passing height in the cell", "m", kNaN);
-  auto& h_max = *add("height_max", "largest passing height of any passage in the cell", "m", kNaN);
-  auto& v_max = *add("speed_max", "largest centroid speed of any passage in the cell", "m/s", kNaN);
+  add("reach_probability", "reach probability",
+      "reach probability: realizations whose path reached the cell / realizations", "1", 0.0);
+  add("passage_count", "passages", "passage count: realizations whose path reached the cell", "count", 0.0, true);
+  add("deposition_count", "deposits", "deposition count: realizations that came to rest with the centroid in the cell",
+      "count", 0.0, true);
+  // The statistic layers: each variable, then its statistics in the order mean, median,
+  // quantiles, max.
+  struct Statistic {
+    std::string name, title;
+    std::function<double(const mc::HazardAccumulator::Cell&, mc::HazardVariable)> of;
+  };
+  std::vector<Statistic> statistics;
+  const auto wanted = [&](const char* s) {
+    return std::find(settings.hazard_statistics.begin(), settings.hazard_statistics.end(), s) !=
+           settings.hazard_statistics.end();
+  };
+  if (wanted("mean")) statistics.push_back({"mean", "mean", [](const auto& c, auto v) { return c.mean(v); }});
+  if (wanted("median"))
+    statistics.push_back({"median", "median", [](const auto& c, auto v) { return c.quantile(v, 0.5); }});
+  for (double p : settings.hazard_quantiles) {
+    std::string q = stats::Statistic{stats::Statistic::Kind::quantile, p}.name();
+    std::string lower = q;
+    lower[0] = 'p';
+    statistics.push_back({lower, q, [p](const auto& c, auto v) { return c.quantile(v, p); }});
+  }
+  if (wanted("max")) statistics.push_back({"max", "largest", [](const auto& c, auto v) { return c.max(v); }});
+  struct Variable {
+    mc::HazardVariable id;
+    const char* name;
+    const char* title;
+    const char* description;
+    std::string unit;
+    double scale;
+  };
+  const std::vector<Variable> all = {
+      {mc::HazardVariable::energy, "energy", "kinetic energy", "largest kinetic energy", energy_unit, to_unit},
+      {mc::HazardVariable::height, "height", "passing height", "largest passing height", "m", 1.0},
+      {mc::HazardVariable::speed, "speed", "speed", "largest centroid speed", "m/s", 1.0}};
+  struct Mapped {
+    std::size_t layer;
+    mc::HazardVariable variable;
+    double scale;
+    const Statistic* statistic;
+  };
+  std::vector<Mapped> mapped;
+  for (const Variable& v : all) {
+    if (std::find(settings.hazard_variables.begin(), settings.hazard_variables.end(), v.name) ==
+        settings.hazard_variables.end())
+      continue;
+    for (const Statistic& st : statistics) {
+      mapped.push_back({maps.layers.size(), v.id, v.scale, &st});
+      add(std::string(v.name) + "_" + st.name, st.title + " " + v.title,
+          st.title + " over the passages (at least " + std::to_string(settings.hazard_min_passages) + ") of the " +
+              v.description + " in the cell",
+          v.unit, kNaN);
+    }
+  }
+  auto& reach = maps.layers[0].grid.z;
+  auto& passages = maps.layers[1].grid.z;
+  auto& deposits = maps.layers[2].grid.z;
   const double n = static_cast<double>(run.data.records.size());
+  const auto min_passages = static_cast<std::uint64_t>(settings.hazard_min_passages);
   for (const auto& [id, cell] : run.data.hazard.cells()) {
     if (id < 0 || static_cast<std::size_t>(id) >= reach.size())
       throw core::InputError("hazard", "cell " + std::to_string(id) + " outside the hazard grid");
     const auto k = static_cast<std::size_t>(id);
     reach[k] = static_cast<double>(cell.reach) / n;
     passages[k] = static_cast<double>(cell.reach);
-    if (!cell.energy.empty()) {
-      e_mean[k] = to_unit * cell.energy.mean();
-      e95[k] = to_unit * cell.energy.quantile(0.95);
-      e99[k] = to_unit * cell.energy.quantile(0.99);
-    }
-    if (!cell.height.empty()) {
-      h95[k] = cell.height.quantile(0.95);
-      h99[k] = cell.height.quantile(0.99);
-    }
-    // Unknown (NaN, no data) for run files written before the maxima were kept.
-    h_max[k] = cell.max_height;
-    v_max[k] = cell.max_speed;
+    // Too few passages for a statistic that means something: no data (NaN).
+    if (cell.reach < min_passages) continue;
+    // Unknown values (NaN) stay no data: maxima and speed sketches of earlier run files.
+    for (const Mapped& m : mapped) maps.layers[m.layer].grid.z[k] = m.scale * m.statistic->of(cell, m.variable);
   }
   // Stop points of the realizations that ended at rest (the run's local frame, as the grid).
   for (const auto& rec : run.data.records) {
@@ -518,15 +651,87 @@ HazardMaps hazard_maps(const io::RunFile& run, const std::array<double, 3>& orig
     const std::int64_t id = g.cell(rec.final_position.x(), rec.final_position.y());
     if (id >= 0 && static_cast<std::size_t>(id) < deposits.size()) deposits[static_cast<std::size_t>(id)] += 1.0;
   }
+  if (release_frequency) add_intensity_layers(maps, run, origin_shift, settings, *release_frequency);
   return maps;
 }
+
+int ead_energy_class(double energy) {
+  if (std::isnan(energy)) return -1;
+  static constexpr std::array<double, 7> kMel = {100e3, 250e3, 500e3, 1000e3, 2000e3, 3000e3, 4500e3};
+  for (std::size_t k = 0; k < kMel.size(); ++k)
+    if (energy <= kMel[k]) return static_cast<int>(k);
+  return 7;
+}
+
+namespace {
+
+// The design sheet of each barrier of a run: first crossings by segment of
+// barrier_segment_length along the line, then the whole line.
+std::vector<BarrierSegment> barrier_sheet(const Run& run, const Settings& settings) {
+  const auto& info = run.file.info;
+  std::set<std::uint32_t> failed;
+  for (const auto& r : run.file.data.records)
+    if (dda::is_failure(r.end)) failed.insert(r.realization);
+  std::vector<BarrierSegment> out;
+  const double alpha = 1.0 - settings.confidence;
+  const auto resamples = static_cast<std::size_t>(settings.bootstrap_resamples);
+  const auto quantiles = [&](std::vector<double> values, std::array<double, 2>& q,
+                             std::array<stats::Interval, 2>& ci) {
+    const double nan = kNaN;
+    q = {nan, nan};
+    ci = {stats::Interval{nan, nan}, stats::Interval{nan, nan}};
+    if (values.empty()) return;
+    const stats::Sample sample(std::move(values), "barrier crossings");
+    q = {sample.quantile(0.95), sample.quantile(0.99)};
+    if (sample.size() < 2 || resamples == 0) return;
+    const auto intervals = stats::bootstrap_quantile_intervals(sample, {0.95, 0.99}, alpha, resamples, settings.seed);
+    ci = {intervals[0], intervals[1]};
+  };
+  for (std::size_t b = 0; b < info.barriers.size() && b < info.barrier_lines.size(); ++b) {
+    double length = 0.0;
+    const auto& line = info.barrier_lines[b];
+    for (std::size_t k = 1; k < line.size(); ++k)
+      length += std::hypot(line[k][0] - line[k - 1][0], line[k][1] - line[k - 1][1]);
+    const double step = settings.barrier_segment_length;
+    const auto segments = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(length / step - 1e-9)));
+    std::vector<std::vector<double>> energy(segments + 1), height(segments + 1);
+    std::vector<std::size_t> count(segments + 1, 0);
+    std::set<std::uint32_t> seen;
+    for (const auto& c : run.file.data.crossings) {
+      if (c.barrier != static_cast<std::int32_t>(b) || failed.count(c.realization) || !seen.insert(c.realization).second)
+        continue;  // the first crossing of each realization (rows in time order)
+      const auto k = std::min(segments - 1, static_cast<std::size_t>(std::max(0.0, std::floor(c.position / step))));
+      for (const std::size_t at : {k, segments}) {
+        ++count[at];
+        energy[at].push_back(c.kinetic_energy);
+        if (!std::isnan(c.height)) height[at].push_back(c.height);
+      }
+    }
+    for (std::size_t k = 0; k <= segments; ++k) {
+      BarrierSegment s;
+      s.barrier = info.barriers[b];
+      s.segment = k < segments ? std::to_string(k + 1) : "all";
+      s.from = k < segments ? static_cast<double>(k) * step : 0.0;
+      s.to = k < segments ? std::min(length, static_cast<double>(k + 1) * step) : length;
+      s.crossings = count[k];
+      quantiles(energy[k], s.energy, s.energy_ci);
+      quantiles(height[k], s.height, s.height_ci);
+      out.push_back(std::move(s));
+    }
+  }
+  return out;
+}
+
+}  // namespace
 
 Analysis analyze(const std::vector<Run>& runs, const Settings& settings) {
   Analysis a;
   BootstrapPlans plans(settings);
   for (std::size_t r = 0; r < runs.size(); ++r) {
     const Run& run = runs[r];
-    a.runs.push_back(run_result(run, settings));
+    const auto& f = settings.release_frequencies;
+    a.runs.push_back(run_result(run, settings, r < f.size() ? std::optional<double>(f[r]) : std::nullopt));
+    a.runs.back().barrier_sheet = barrier_sheet(run, settings);
     const auto& shift = a.runs.back().origin_shift;
     const auto& records = run.file.data.records;
     std::vector<std::size_t> all(records.size());
@@ -542,6 +747,20 @@ Analysis analyze(const std::vector<Run>& runs, const Settings& settings) {
       for (std::size_t k = 0; k < records.size(); ++k)
         if (records[k].block == b) rows.push_back(k);
       a.series.push_back(make_series(run, r, run.file.info.blocks[static_cast<std::size_t>(b)], rows, shift, settings, plans));
+    }
+  }
+  // Stop-position quantiles of a run most of whose blocks never stopped describe the few
+  // that did: say so where the numbers are read, once per run.
+  for (const Series& s : a.series) {
+    if (s.block != "all") continue;
+    for (const VariableSummary& v : s.variables) {
+      if (v.name != "runout" || !v.censored_share() || *v.censored_share() <= kCensoredWarning) continue;
+      char share[16];
+      std::snprintf(share, sizeof share, "%.0f %%", 100.0 * *v.censored_share());
+      a.warnings.push_back(s.run + ": " + share + " of the realizations (" + std::to_string(*v.censored) + " of " +
+                     std::to_string(v.values.size() + *v.censored) +
+                     ") did not stop on the terrain (left it or reached the step limit): the runout and lateral "
+                     "quantiles are of the stopped blocks only (a larger terrain or engine.max_time)");
     }
   }
   for (std::size_t i = 0; i < a.series.size(); ++i)
@@ -619,6 +838,8 @@ std::optional<Validation> validate_against_observed(const Analysis& a, const Set
     const stats::Sample sim(project(series->stop_points, along), "simulated stop points");
     var.observed = obs.sorted();
     var.simulated = sim.sorted();
+    for (const VariableSummary& summary : series->variables)
+      if (summary.name == var.name && summary.censored_share()) var.censored_share = *summary.censored_share();
     var.ks_distance = stats::ks_distance(obs, sim);
     var.ks_p_value = stats::ks_p_value(var.ks_distance, obs.size(), sim.size());
     const double eps = stats::dkw_epsilon(sim.size(), alpha);

@@ -52,6 +52,9 @@ struct VariableSummary {
   /// Realizations left out because they did not stop (step limit, left the terrain): their
   /// value is only a lower bound. Set for the stop-position variables (runout, lateral).
   std::optional<std::size_t> censored;
+  /// censored / (values + censored): the share of the realizations with trustworthy values
+  /// (no numerical failure) that the distribution left out; absent unless `censored` is set.
+  std::optional<double> censored_share() const;
   std::vector<double> quantiles;          ///< at Settings::quantiles
   std::vector<stats::Interval> intervals; ///< bootstrap intervals of the quantiles (may be empty)
   double dkw_epsilon = 1.0;               ///< half-width of the CDF band at Settings::confidence
@@ -86,18 +89,20 @@ struct Comparison {
   double p_value = 1.0;
 };
 
-/// Hazard rasters of a run in terrain coordinates (grid points = cell centres).
-/// One hazard raster: its file-name part, GDAL band description and unit, and values on
-/// the run's hazard grid (grid points = cell centres in terrain coordinates).
+/// One hazard raster: its file-name part, the figure's panel title, GDAL band
+/// description, unit and storage (integer counts), and values on the run's hazard grid
+/// (grid points = cell centres in terrain coordinates).
 struct HazardLayer {
   std::string name;
+  std::string title;
   io::BandInfo band;
   terrain::DemGrid grid;
 };
 
 /// The hazard rasters of a run, in this order: reach_probability, passage_count,
-/// deposition_count, energy_mean, energy_p95, energy_p99, height_p95, height_p99,
-/// height_max, speed_max.
+/// deposition_count, then for each of Settings::hazard_variables its statistics
+/// (VARIABLE_mean, VARIABLE_median, VARIABLE_pXX for each hazard quantile, VARIABLE_max,
+/// those asked for).
 struct HazardMaps {
   std::vector<HazardLayer> layers;
   /// The layer of that name (throws std::out_of_range when there is none).
@@ -114,8 +119,22 @@ struct PlanView {
   std::vector<std::string> barrier_names;
 };
 
+/// One segment of a barrier line (or the whole line) in the design sheet: the first
+/// crossings of the realizations without numerical failure whose crossing point lies in
+/// it, and the Q95 and Q99 of their kinetic energy (J) and passing height (m), each with
+/// its percentile-bootstrap interval (NaN when undefined: no value, or one).
+struct BarrierSegment {
+  std::string barrier;
+  std::string segment;      ///< "1", "2", … from the line's first vertex, or "all"
+  double from = 0.0, to = 0.0;  ///< m along the line from its first vertex
+  std::size_t crossings = 0;
+  std::array<double, 2> energy{}, height{};  ///< at 0.95, 0.99
+  std::array<stats::Interval, 2> energy_ci{}, height_ci{};
+};
+
 struct RunResult {
   std::optional<HazardMaps> hazard;
+  std::vector<BarrierSegment> barrier_sheet;  ///< per barrier: its segments, then "all"
   PlanView plan;
   std::array<double, 3> origin_shift = {0.0, 0.0, 0.0};  ///< m, added to the run's local coordinates
   std::string terrain_file;  ///< the terrain used for the shift ("" if none)
@@ -135,6 +154,7 @@ struct ValidationVariable {
   /// quantile band [Q(p − ε), Q(p + ε)] from the DKW band ε of the simulated CDF.
   std::vector<double> observed_quantiles, simulated_quantiles, band_low, band_high;
   double inside_p5_p95 = 0.0;  ///< share of observed values within the simulated [P5, P95] (-)
+  double censored_share = 0.0;  ///< of the series' realizations, left out of `simulated` (VariableSummary)
 };
 
 /// A series against observed stop points (Settings::observed).
@@ -149,6 +169,8 @@ struct Analysis {
   std::optional<Validation> validation;
   std::vector<Comparison> comparisons;
   std::vector<RunResult> runs;  ///< parallel to the runs
+  /// One line each, printed once every output is written (so an error stays one line).
+  std::vector<std::string> warnings;
 };
 
 /// Every statistic of docs/stats.md for the runs.
@@ -157,11 +179,25 @@ Analysis analyze(const std::vector<Run>& runs, const Settings& settings);
 /// The summary of one variable's values (NaN = missing), exposed for tests.
 VariableSummary summarize(std::string name, std::string unit, std::vector<double> values, const Settings& settings);
 
-/// The hazard rasters of a run: reach probability and P95/P99 of the per-cell sketches,
-/// cell centres shifted by `origin_shift` (x, y). Exposed for tests.
-/// The hazard rasters of a run; energies in `energy_unit` ("J" or "kJ").
-HazardMaps hazard_maps(const io::RunFile& run, const std::array<double, 3>& origin_shift,
-                       const std::string& energy_unit = "J");
+/// The hazard rasters of a run (HazardMaps), cell centres shifted by `origin_shift` (x,
+/// y), energies in Settings::energy_unit, statistic layers no data below
+/// Settings::hazard_min_passages. Exposed for tests.
+/// With a release frequency (events per year) the frequency, intensity and hazard-class
+/// layers follow (add_intensity_layers).
+HazardMaps hazard_maps(const io::RunFile& run, const std::array<double, 3>& origin_shift, const Settings& settings,
+                       std::optional<double> release_frequency = std::nullopt);
+
+/// Appends to `maps` the layers of Settings::intensity_thresholds and return_periods for a
+/// run whose zone releases `release_frequency` events per year (docs/stats.md,
+/// "Intensity and hazard classes"): frequency_low, frequency_medium, frequency_high
+/// (1/yr), intensity_TXX for each return period and hazard_class (class codes, Int32).
+void add_intensity_layers(HazardMaps& maps, const io::RunFile& run, const std::array<double, 3>& origin_shift,
+                          const Settings& settings, double release_frequency);
+
+/// The EAD 340059-00-0106 (formerly ETAG 027) energy class a net needs to hold `energy`
+/// (J) at its maximum energy level: the smallest class whose MEL is at least `energy`
+/// (0: 100 kJ, 1: 250, 2: 500, 3: 1000, 4: 2000, 5: 3000, 6: 4500 kJ; 7 above). −1 for NaN.
+int ead_energy_class(double energy);
 
 /// The comparison with the observed stop points of Settings::observed (none when its file
 /// is empty): runout and lateral offset of the observed points and of the series' stop

@@ -121,7 +121,13 @@ bool ecdf_with_band(Axes& ax, const VariableSummary& v, const std::string& label
     lo.push_back(std::clamp(fi - v.dkw_epsilon, 0.0, 1.0)), hi.push_back(std::clamp(fi + v.dkw_epsilon, 0.0, 1.0));
   }
   std::string text = label + " (n=" + std::to_string(x.size());
-  text += v.censored && *v.censored ? ", " + std::to_string(*v.censored) + " censored)" : ")";
+  if (v.censored && *v.censored) {
+    char share[16];
+    std::snprintf(share, sizeof share, "%.0f %%", 100.0 * *v.censored_share());
+    text += ", " + std::to_string(*v.censored) + " censored, " + share + ")";
+  } else {
+    text += ")";
+  }
   ax.step_band(xs, lo, hi, color.with_alpha(0.15));
   ax.step(xs, f, {color, 1.3, plot::Dash::solid}, text);
   return true;
@@ -281,19 +287,17 @@ std::optional<Figure> plan_figure(const Analysis& a, const std::string& run_name
 }
 
 std::optional<Figure> hazard_figure(const Analysis& a, const std::string& run_name, std::size_t r) {
-  static const std::map<std::string, std::pair<std::string, std::string>> kTitles = {
-      {"reach_probability", {"reach probability", "viridis"}}, {"passage_count", {"passages", "viridis"}},
-      {"deposition_count", {"deposits", "viridis"}},          {"energy_mean", {"mean kinetic energy", "magma"}},
-      {"energy_p95", {"P95 kinetic energy", "magma"}},        {"energy_p99", {"P99 kinetic energy", "magma"}},
-      {"height_p95", {"P95 passing height", "cividis"}},      {"height_p99", {"P99 passing height", "cividis"}},
-      {"height_max", {"largest passing height", "cividis"}},  {"speed_max", {"largest speed", "plasma"}}};
   const auto& layers = a.runs[r].hazard->layers;
   auto [fig, axes] = panel_figure(layers.size(), 0.5);
   for (std::size_t k = 0; k < layers.size(); ++k) {
     const HazardLayer& layer = layers[k];
-    const auto found = kTitles.find(layer.name);
-    std::string title = found != kTitles.end() ? found->second.first : layer.name;
-    const auto& map = plot::Colormap::named(found != kTitles.end() ? found->second.second : "viridis");
+    std::string title = layer.title;
+    // Viridis for reach and counts, magma for energies, cividis for heights, plasma for speeds.
+    const auto starts = [&](const char* prefix) { return layer.name.rfind(prefix, 0) == 0; };
+    const auto& map = plot::Colormap::named(starts("energy_")   ? "magma"
+                                            : starts("height_") ? "cividis"
+                                            : starts("speed_")  ? "plasma"
+                                                                : "viridis");
     const std::string& u = layer.band.unit;
     const std::string unit = u == "1" ? "-" : u == "count" ? "" : u;
     if (!unit.empty()) title += " (" + unit + ")";

@@ -136,6 +136,7 @@ int main(int argc, char** argv) {
     io::write_text_file((dir / "convergence.csv").string(), stats_tool::convergence_csv(analysis));
     io::write_text_file((dir / "comparison.csv").string(), stats_tool::comparison_csv(analysis));
     io::write_text_file((dir / "table.csv").string(), stats_tool::side_by_side_csv(analysis));
+    io::write_text_file((dir / "barrier-sheet.csv").string(), stats_tool::barrier_sheet_csv(runs, analysis, settings));
     if (analysis.validation)
       io::write_text_file((dir / "validation.csv").string(), stats_tool::validation_csv(*analysis.validation, settings));
     const std::string summary = (dir / "summary.h5").string();
@@ -148,6 +149,7 @@ int main(int argc, char** argv) {
     if (!layers.empty()) core::log_info("wrote " + std::to_string(layers.size()) + " vector files");
     if (figures.valid()) core::log_info("wrote " + std::to_string(figures.get().size()) + " plot files");
     remove_stale_outputs(earlier);
+    for (const std::string& warning : analysis.warnings) core::log_warn(warning);
     if (print_table) std::fputs(stats_tool::side_by_side_text(analysis).c_str(), stdout);
     core::log_info("wrote " + inv.output + ": " + std::to_string(analysis.series.size()) + " series of " +
                    std::to_string(runs.size()) + " runs");

@@ -60,7 +60,10 @@ struct Cell {
 std::vector<Cell> cells_of(const VariableSummary& v, const Settings& settings) {
   std::vector<Cell> out = {{"n", static_cast<double>(v.values.size()), ""},
                            {"missing", static_cast<double>(v.missing), ""}};
-  if (v.censored) out.push_back({"censored", static_cast<double>(*v.censored), ""});
+  if (v.censored) {
+    out.push_back({"censored", static_cast<double>(*v.censored), ""});
+    out.push_back({"censored_share", *v.censored_share(), "-"});
+  }
   if (!v.sample) return out;
   const stats::Sample& s = *v.sample;
   out.insert(out.end(), {{"mean", s.mean(), v.unit}, {"sd", s.sd(), v.unit}, {"min", s.min(), v.unit},
@@ -84,6 +87,30 @@ std::vector<Cell> cells_of(const VariableSummary& v, const Settings& settings) {
 
 }  // namespace
 
+std::string barrier_sheet_csv(const std::vector<Run>& runs, const Analysis& a, const Settings& settings) {
+  const std::string& u = settings.energy_unit;
+  const double scale = u == "kJ" ? 1e-3 : 1.0;
+  std::string out = row({"run", "barrier", "segment", "from_m", "to_m", "crossings", "energy_Q95_" + u,
+                         "energy_Q95_low_" + u, "energy_Q95_high_" + u, "energy_Q99_" + u, "energy_Q99_low_" + u,
+                         "energy_Q99_high_" + u, "height_Q95_m", "height_Q95_low_m", "height_Q95_high_m",
+                         "height_Q99_m", "height_Q99_low_m", "height_Q99_high_m", "ead_class_Q99",
+                         "ead_class_Q99_high"});
+  for (std::size_t r = 0; r < runs.size() && r < a.runs.size(); ++r)
+    for (const BarrierSegment& s : a.runs[r].barrier_sheet) {
+      const auto e = [&](double x) { return number(scale * x); };
+      const auto cls = [](double x) {
+        const int c = ead_energy_class(x);
+        return c < 0 ? std::string() : std::to_string(c);
+      };
+      out += row({runs[r].name, s.barrier, s.segment, number(s.from), number(s.to), std::to_string(s.crossings),
+                  e(s.energy[0]), e(s.energy_ci[0].lo), e(s.energy_ci[0].hi), e(s.energy[1]), e(s.energy_ci[1].lo),
+                  e(s.energy_ci[1].hi), number(s.height[0]), number(s.height_ci[0].lo), number(s.height_ci[0].hi),
+                  number(s.height[1]), number(s.height_ci[1].lo), number(s.height_ci[1].hi), cls(s.energy[1]),
+                  cls(s.energy_ci[1].hi)});
+    }
+  return out;
+}
+
 std::string validation_csv(const Validation& v, const Settings& settings) {
   std::string out = row({"series", "observed", "variable", "statistic", "value", "unit"});
   for (const auto& var : v.variables) {
@@ -92,6 +119,7 @@ std::string validation_csv(const Validation& v, const Settings& settings) {
     };
     put("n_observed", static_cast<double>(var.observed.size()), "");
     put("n_simulated", static_cast<double>(var.simulated.size()), "");
+    put("censored_share", var.censored_share, "-");
     put("ks_distance", var.ks_distance, "-");
     put("ks_p_value", var.ks_p_value, "-");
     put("inside_P5_P95", var.inside_p5_p95, "-");
@@ -177,6 +205,7 @@ std::vector<WideRow> wide_rows(const Analysis& a) {
       if (v.censored) {
         find_row(v.name, "n", "").values[k] = std::to_string(v.values.size());
         find_row(v.name, "censored", "").values[k] = std::to_string(*v.censored);
+        find_row(v.name, "censored_share", "-").values[k] = shown(*v.censored_share());
       }
       if (!v.sample) continue;
       find_row(v.name, "mean", v.unit).values[k] = shown(v.sample->mean());
@@ -249,7 +278,10 @@ void write_variable(const Group& parent, const VariableSummary& v, const Setting
   g.set_attr("unit", v.unit);
   g.set_attr("n", static_cast<std::int64_t>(v.values.size()));
   g.set_attr("missing", static_cast<std::int64_t>(v.missing));
-  if (v.censored) g.set_attr("censored", static_cast<std::int64_t>(*v.censored));
+  if (v.censored) {
+    g.set_attr("censored", static_cast<std::int64_t>(*v.censored));
+    g.set_attr("censored_share", *v.censored_share());
+  }
   if (!v.sample) return;
   const stats::Sample& s = *v.sample;
   g.set_attr("mean", s.mean());

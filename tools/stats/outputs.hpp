@@ -25,6 +25,10 @@ std::string side_by_side_text(const Analysis& analysis);
 /// observed and simulated value, the simulated band and whether the observed one is in it).
 std::string validation_csv(const Validation& validation, const Settings& settings);
 
+/// The barrier design sheet: one row per run × barrier × segment (then the whole line),
+/// energies in Settings::energy_unit (docs/stats.md, "Barrier design sheet").
+std::string barrier_sheet_csv(const std::vector<Run>& runs, const Analysis& analysis, const Settings& settings);
+
 /// Writes the HDF5 summary (docs/formats.md, "Stats summary file") atomically.
 void write_summary_file(const std::string& path, const std::vector<Run>& runs, const Analysis& analysis,
                         const Settings& settings, const io::Provenance& provenance);

@@ -52,7 +52,28 @@ void Settings::visit(core::SettingsVisitor& v) {
   v.field("terrain", terrain, "terrain file (origin shift, plan view); empty = the one the run names");
   v.field("hazard_maps", hazard_maps, "write hazard rasters from the per-cell accumulators");
   v.field("raster_formats", raster_formats, "raster formats: asc (ESRI ASCII grid), tif (GeoTIFF)");
-  v.choice("energy_unit", energy_unit, {"J", "kJ"}, "unit of the energy rasters: J or kJ");
+  v.choice("energy_unit", energy_unit, {"J", "kJ"}, "unit of the energy rasters and of the barrier design sheet: J or kJ");
+  v.field("hazard_variables", hazard_variables,
+          "per-cell variables mapped, each realization's largest value in the cell: energy (kinetic, J), height "
+          "(passing, m), speed (centroid, m/s)");
+  v.field("hazard_statistics", hazard_statistics,
+          "per-cell statistics mapped for each variable over the passages: mean, median, max");
+  v.field("hazard_quantiles", hazard_quantiles, "-",
+          "probabilities of the per-cell quantiles mapped for each variable (exact order statistics, type 7, up to "
+          "100 passages; sketched above)");
+  v.bounded("hazard_min_passages", hazard_min_passages, "",
+            "passages a cell needs for its statistic rasters; cells with fewer are no data", core::Range{1.0, kInf});
+  v.field("intensity_thresholds", intensity_thresholds, "J",
+          "kinetic energies separating the intensity classes low | medium | high (FOEN 2016: 30 kJ, 300 kJ)");
+  v.field("return_periods", return_periods, "yr",
+          "return periods separating the frequency classes high | medium | low | very low (FOEN 2016: 30, 100, 300 "
+          "years)");
+  v.field("release_frequencies", release_frequencies, "1/yr",
+          "release frequency of each run's zone (events per year), one per run after shards are joined; empty = no "
+          "frequency, intensity or hazard-class rasters");
+  v.bounded("barrier_segment_length", barrier_segment_length, "m",
+            "length of the segments of each barrier line in the design sheet (barrier-sheet.csv)",
+            core::Range{0.0, kInf, true, false});
   v.choice("vector_format", vector_format, {"gpkg", "geojson", "none"},
            "vector layers of each run (stop points, first barrier crossings, trajectories; m, m/s, J, s): "
            "gpkg = one GeoPackage per run, geojson = one GeoJSON file per layer, none");
@@ -100,6 +121,22 @@ void Settings::validate() const {
       throw core::InputError("settings", "observed.main_direction_deg must be finite");
   }
   require_subset(raster_formats, {"asc", "tif"}, "raster_formats");
+  require_subset(hazard_variables, {"energy", "height", "speed"}, "hazard_variables");
+  require_subset(hazard_statistics, {"mean", "median", "max"}, "hazard_statistics");
+  require_probabilities(hazard_quantiles, "hazard_quantiles");
+  const auto increasing = [](const std::vector<double>& v, std::size_t n, const char* key, const char* unit) {
+    bool ok = v.size() == n;
+    for (std::size_t k = 0; ok && k < n; ++k) ok = std::isfinite(v[k]) && v[k] > 0.0 && (k == 0 || v[k] > v[k - 1]);
+    if (!ok)
+      throw core::InputError("settings", std::string(key) + " must be " + std::to_string(n) +
+                                             " increasing positive values (" + unit + ")");
+  };
+  increasing(intensity_thresholds, 2, "intensity_thresholds", "J");
+  increasing(return_periods, 3, "return_periods", "yr");
+  for (double f : release_frequencies)
+    if (!(f > 0.0) || !std::isfinite(f))
+      throw core::InputError("settings", "release_frequencies: " + core::format_number(f) +
+                                             " is not a positive frequency (events per year)");
   require_subset(plot_formats, {"png", "svg"}, "plot_formats");
 }
 

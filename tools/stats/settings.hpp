@@ -64,6 +64,27 @@ struct Settings {
   /// Raster formats among "asc" (ESRI ASCII grid) and "tif" (GeoTIFF).
   std::vector<std::string> raster_formats = {"asc", "tif"};
   std::string energy_unit = "J";  ///< unit of the energy rasters: J or kJ
+  /// Per-cell variables mapped: "energy" (kinetic, J), "height" (passing, m), "speed"
+  /// (centroid, m/s); each realization's largest value in the cell.
+  std::vector<std::string> hazard_variables = {"energy", "height", "speed"};
+  /// Per-cell statistics mapped for each variable, among "mean", "median", "max".
+  std::vector<std::string> hazard_statistics = {"mean", "max"};
+  /// Probabilities of the per-cell quantiles mapped for each variable (-), each in (0, 1).
+  std::vector<double> hazard_quantiles = {0.95, 0.99};
+  /// Cells with fewer passages than this get no data in the statistic rasters (the
+  /// counts and the reach probability are kept).
+  std::int64_t hazard_min_passages = 1;
+  /// Kinetic energies separating the intensity classes low | medium | high (J), two
+  /// increasing values: FOEN 2016 (Swiss practice) 30 kJ and 300 kJ.
+  std::vector<double> intensity_thresholds = {30e3, 300e3};
+  /// Return periods separating the frequency classes high | medium | low | very low (yr),
+  /// three increasing values: FOEN 2016 30, 100 and 300 years.
+  std::vector<double> return_periods = {30.0, 100.0, 300.0};
+  /// Release frequency of each run's zone (events per year), one per run after shards are
+  /// joined; empty = no frequency, intensity or hazard-class rasters.
+  std::vector<double> release_frequencies;
+  /// Length of the segments of a barrier line in the design sheet (m).
+  double barrier_segment_length = 10.0;
   /// Vector layers of each run (stop points, first barrier crossings, trajectories):
   /// "gpkg" (one GeoPackage per run), "geojson" (one GeoJSON file per layer) or "none".
   std::string vector_format = "gpkg";

@@ -460,8 +460,9 @@ void write_geotiff(const std::string& path, const DemGrid& dem, double nodata, c
   if (!driver) throw core::RuntimeError(path + ": GDAL has no GTiff driver");
   char** options = nullptr;
   options = CSLSetNameValue(options, "COMPRESS", "DEFLATE");
-  options = CSLSetNameValue(options, "PREDICTOR", "3");
-  DatasetPtr ds(GDALCreate(driver, out.temp_path().c_str(), s.nx, s.ny, 1, GDT_Float64, options));
+  options = CSLSetNameValue(options, "PREDICTOR", info.integer ? "2" : "3");
+  const GDALDataType type = info.integer ? GDT_Int32 : GDT_Float64;
+  DatasetPtr ds(GDALCreate(driver, out.temp_path().c_str(), s.nx, s.ny, 1, type, options));
   CSLDestroy(options);
   if (!ds) throw core::RuntimeError(path + ": cannot create GeoTIFF" + QuietGdal::last_message());
   const auto h = static_cast<GDALDatasetH>(ds.get());

@@ -142,12 +142,26 @@ Table hazard_table(const mc::HazardAccumulator::Table& h) {
   col(t, "speed_max", Element::f64, 0, "m/s").f64 = h.speed_max;
   col(t, "height_max", Element::f64, 0, "m").f64 = h.height_max;
   t["speed_max"].optional = t["height_max"].optional = true;
+  // Columns added after the first schema: absent from earlier files (read as empty).
+  col(t, "energy_max", Element::f64, 0, "J").f64 = h.energy_max;
+  col(t, "speed_zero", Element::i64).i64 = h.speed_zero;
+  t["energy_max"].optional = t["speed_zero"].optional = true;
   col(t, "energy_bucket_cell", Element::i64).i64 = h.energy_cell;
   col(t, "energy_bucket_index", Element::i32).i32 = h.energy_index;
   col(t, "energy_bucket_count", Element::i64).i64 = h.energy_count;
   col(t, "height_bucket_cell", Element::i64).i64 = h.height_cell;
   col(t, "height_bucket_index", Element::i32).i32 = h.height_index;
   col(t, "height_bucket_count", Element::i64).i64 = h.height_count;
+  col(t, "speed_bucket_cell", Element::i64).i64 = h.speed_cell;
+  col(t, "speed_bucket_index", Element::i32).i32 = h.speed_index;
+  col(t, "speed_bucket_count", Element::i64).i64 = h.speed_count;
+  col(t, "exact_cell", Element::i64).i64 = h.exact_cell;
+  col(t, "exact_energy", Element::f64, 0, "J").f64 = h.exact_energy;
+  col(t, "exact_height", Element::f64, 0, "m").f64 = h.exact_height;
+  col(t, "exact_speed", Element::f64, 0, "m/s").f64 = h.exact_speed;
+  for (const char* name : {"speed_bucket_cell", "speed_bucket_index", "speed_bucket_count", "exact_cell",
+                           "exact_energy", "exact_height", "exact_speed"})
+    t[name].optional = true;
   return t;
 }
 
@@ -309,6 +323,15 @@ mc::HazardAccumulator::Table decode_hazard(const Table& t) {
   h.height_zero = t.at("height_zero").i64;
   h.speed_max = t.at("speed_max").f64;
   h.height_max = t.at("height_max").f64;
+  h.energy_max = t.at("energy_max").f64;
+  h.speed_zero = t.at("speed_zero").i64;
+  h.speed_cell = t.at("speed_bucket_cell").i64;
+  h.speed_index = t.at("speed_bucket_index").i32;
+  h.speed_count = t.at("speed_bucket_count").i64;
+  h.exact_cell = t.at("exact_cell").i64;
+  h.exact_energy = t.at("exact_energy").f64;
+  h.exact_height = t.at("exact_height").f64;
+  h.exact_speed = t.at("exact_speed").f64;
   h.energy_cell = t.at("energy_bucket_cell").i64;
   h.energy_index = t.at("energy_bucket_index").i32;
   h.energy_count = t.at("energy_bucket_count").i64;
@@ -318,15 +341,17 @@ mc::HazardAccumulator::Table decode_hazard(const Table& t) {
   return h;
 }
 
-// The hazard table's columns have three different row counts; load them by group.
+// The hazard table's columns have five different row counts; load them by group.
 Table load_hazard(const h5::Group& g, bool torn = false) {
   Table layout = hazard_table({});
   Table out;
-  for (const char* prefix : {"", "energy_bucket_", "height_bucket_"}) {
+  const std::vector<std::string> groups = {"energy_bucket_", "height_bucket_", "speed_bucket_", "exact_"};
+  for (const std::string prefix : {"", "energy_bucket_", "height_bucket_", "speed_bucket_", "exact_"}) {
     Table part;
     for (auto& [name, c] : layout) {
-      const bool bucket = name.rfind("energy_bucket_", 0) == 0 || name.rfind("height_bucket_", 0) == 0;
-      if ((*prefix == '\0') ? !bucket : name.rfind(prefix, 0) == 0) part[name] = c;
+      const bool grouped =
+          std::any_of(groups.begin(), groups.end(), [&](const std::string& p) { return name.rfind(p, 0) == 0; });
+      if (prefix.empty() ? !grouped : name.rfind(prefix, 0) == 0) part[name] = c;
     }
     for (auto& [name, c] : load(g, part, torn)) out[name] = std::move(c);
   }

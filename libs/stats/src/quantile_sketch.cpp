@@ -1,5 +1,6 @@
 #include "talus/stats/quantile_sketch.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "talus/core/error.hpp"
@@ -37,10 +38,8 @@ void QuantileSketch::merge(const QuantileSketch& other) {
   for (const auto& [index, n] : other.buckets_) buckets_[index] += n;
 }
 
-double QuantileSketch::quantile(double p) const {
+double QuantileSketch::value_at_rank(std::uint64_t rank) const {
   if (count_ == 0) throw core::InputError("quantile sketch", "quantile of an empty sketch");
-  p = std::min(std::max(p, 0.0), 1.0);
-  const auto rank = static_cast<std::uint64_t>(std::floor(p * static_cast<double>(count_ - 1)));
   if (rank < zero_count_) return 0.0;
   std::uint64_t seen = zero_count_;
   for (const auto& [index, n] : buckets_) {
@@ -48,6 +47,22 @@ double QuantileSketch::quantile(double p) const {
     if (rank < seen) return 2.0 * std::pow(gamma_, index) / (gamma_ + 1.0);
   }
   return 2.0 * std::pow(gamma_, buckets_.rbegin()->first) / (gamma_ + 1.0);
+}
+
+double QuantileSketch::quantile(double p) const {
+  if (count_ == 0) throw core::InputError("quantile sketch", "quantile of an empty sketch");
+  p = std::min(std::max(p, 0.0), 1.0);
+  return value_at_rank(static_cast<std::uint64_t>(std::floor(p * static_cast<double>(count_ - 1))));
+}
+
+double QuantileSketch::interpolated_quantile(double p) const {
+  if (count_ == 0) throw core::InputError("quantile sketch", "quantile of an empty sketch");
+  p = std::min(std::max(p, 0.0), 1.0);
+  const double h = p * static_cast<double>(count_ - 1);
+  const auto lo = static_cast<std::uint64_t>(std::floor(h));
+  const double below = value_at_rank(lo);
+  if (lo + 1 >= count_) return below;
+  return below + (h - static_cast<double>(lo)) * (value_at_rank(lo + 1) - below);
 }
 
 double QuantileSketch::mean() const {

@@ -72,9 +72,10 @@ void write_esri_ascii(const std::string& path, const terrain::DemGrid& dem, doub
 struct BandInfo {
   std::string description;
   std::string unit;
+  bool integer = false;  ///< whole numbers (counts): written as an Int32 band
 };
 
-/// Writes `dem` as a north-up, DEFLATE-compressed Float64 GeoTIFF; NaN is written as
+/// Writes `dem` as a north-up, DEFLATE-compressed Float64 GeoTIFF (Int32 for an integer `band`); NaN is written as
 /// `nodata` and declared as the band's nodata value. `crs_wkt` (optional) is stored as the
 /// spatial reference, `band` (optional) as the band's description and unit. A write–read
 /// round trip is exact. Atomic (io::AtomicOutput).

@@ -106,11 +106,16 @@ ReleaseDraw draw_release(const Scene& scene, const terrain::Surface& ground, std
 /// orientation.
 Eigen::Quaterniond uniform_rotation(double u1, double u2, double u3);
 
+/// A per-cell hazard variable: each realization's largest value in the cell of its
+/// kinetic energy (J), passing height (m) or centroid speed (m/s).
+enum class HazardVariable { energy, height, speed };
+
 /// Per-cell hazard accumulators: how many realizations reached each cell, sketches of
-/// their energies and passing heights there (P95/P99 without storing trajectories), and
-/// the largest speed and passing height of any of them.
-/// Counts are integers and sketches merge exactly, so the result does not depend on the
-/// order realizations are added or shards merged.
+/// their energies, passing heights and speeds there (quantiles without storing
+/// trajectories), their exact values while a cell has at most kExactLimit passages (exact
+/// low-count quantiles), and the largest energy, speed and passing height of any of them.
+/// Counts are integers, sketches merge exactly and exact values are kept sorted, so the
+/// result does not depend on the order realizations are added or shards merged.
 class HazardAccumulator {
  public:
   HazardAccumulator() = default;
@@ -118,14 +123,21 @@ class HazardAccumulator {
 
   /// The flat form stored in files: cells with reach > 0 ascending, with their maxima
   /// (empty in files written before they were kept: the maxima are then unknown, NaN); for
-  /// each sketch the (cell, bucket index, count) triplets in ascending (cell, index) order.
+  /// each sketch the (cell, bucket index, count) triplets in ascending (cell, index) order
+  /// (no speed sketch in files written before it was kept); the exact values of the cells
+  /// that keep them, (cell, energy, height, speed) rows by cell, each cell's values in
+  /// ascending order per column (none in files written before they were kept).
   struct Table {
-    std::vector<std::int64_t> cell, reach, energy_zero, height_zero;
-    std::vector<double> speed_max, height_max;
+    std::vector<std::int64_t> cell, reach, energy_zero, height_zero, speed_zero;
+    std::vector<double> speed_max, height_max, energy_max;
     std::vector<std::int64_t> energy_cell, energy_count;
     std::vector<std::int32_t> energy_index;
     std::vector<std::int64_t> height_cell, height_count;
     std::vector<std::int32_t> height_index;
+    std::vector<std::int64_t> speed_cell, speed_count;
+    std::vector<std::int32_t> speed_index;
+    std::vector<std::int64_t> exact_cell;
+    std::vector<double> exact_energy, exact_height, exact_speed;
   };
 
   void add(const std::vector<CellVisit>& visits);
@@ -137,16 +149,49 @@ class HazardAccumulator {
 
   const HazardGridSpec& spec() const { return spec_; }
   double relative_accuracy() const { return alpha_; }
-  /// Values at or below these count as zero in the sketches (J, m).
+  /// Values at or below these count as zero in the sketches (J, m, m/s).
   static constexpr double kMinEnergy = 1e-6;
   static constexpr double kMinHeight = 1e-6;
+  static constexpr double kMinSpeed = 1e-6;
+  /// A cell keeps the exact values of its passages up to this many passages: below it
+  /// quantiles are exact order statistics; above it they come from the sketches.
+  static constexpr std::uint64_t kExactLimit = 100;
 
   struct Cell {
     std::uint64_t reach = 0;
     stats::QuantileSketch energy;
     stats::QuantileSketch height;
+    stats::QuantileSketch speed;
     double max_speed = 0.0;   ///< m/s; NaN when a merged file did not keep it
     double max_height = 0.0;  ///< m; NaN likewise
+    double max_energy = 0.0;  ///< J; NaN likewise
+    /// Each passage's value, ascending, while every part kept them and reach ≤ kExactLimit
+    /// (else empty).
+    std::vector<double> exact_energy, exact_height, exact_speed;
+
+    /// True when the cell holds every passage's exact values.
+    bool exact() const { return reach > 0 && exact_energy.size() == reach; }
+    /// The p-quantile of the variable over the passages (Hyndman–Fan type 7): exact order
+    /// statistics when exact(), else interpolated between sketch representatives (within
+    /// the sketch's relative accuracy). NaN when unknown (no passage, or a speed sketch
+    /// missing from an earlier file).
+    double quantile(HazardVariable v, double p) const;
+    /// The mean over the passages: exact when exact(), else of the sketch's bucket
+    /// representatives. NaN when unknown.
+    double mean(HazardVariable v) const;
+    /// The largest value of any passage (exact); NaN when unknown.
+    double max(HazardVariable v) const;
+    /// How many passages had a value ≥ x: exact when exact(), else counted by bucket
+    /// representative (a threshold within the sketch's relative accuracy of a value may
+    /// count it either way). NaN when unknown.
+    double count_at_least(HazardVariable v, double x) const;
+    /// The k-th largest value over the passages (k ≥ 1; 0 when k > reach): exact when
+    /// exact(), else its bucket's representative. NaN when unknown.
+    double kth_largest(HazardVariable v, std::uint64_t k) const;
+    /// The exact values of the variable (empty unless exact()).
+    const std::vector<double>& values(HazardVariable v) const;
+    /// The sketch of the variable.
+    const stats::QuantileSketch& sketch(HazardVariable v) const;
   };
   const std::map<std::int64_t, Cell>& cells() const { return cells_; }
 

@@ -31,6 +31,14 @@ class QuantileSketch {
   /// The p-quantile (p in [0, 1]) of the values added, within relative error α (the value
   /// of rank ⌊p·(n − 1)⌋ among the sorted values, 0-based). Throws if empty.
   double quantile(double p) const;
+  /// The p-quantile by linear interpolation between the order statistics of ranks ⌊h⌋ and
+  /// ⌊h⌋ + 1, h = p·(n − 1) (Hyndman–Fan type 7, as stats::Sample::quantile), each taken as
+  /// its bucket's representative: within relative error α of the type-7 quantile of the
+  /// values added. Throws if empty.
+  double interpolated_quantile(double p) const;
+  /// The representative of the value of 0-based rank `rank` (< count()) among the sorted
+  /// values: 0 in the zero bucket, else its bucket's representative.
+  double value_at_rank(std::uint64_t rank) const;
   /// The mean of the values added, each taken as its bucket's representative (so within
   /// relative error α of the true mean; values ≤ min_value as 0). Throws if empty.
   double mean() const;

@@ -60,7 +60,7 @@ void write_block_file(const std::string& path, const std::vector<block::Block>& 
                       const Provenance& provenance) {
   AtomicOutput out(path);
   {
-    const h5::File file = h5::File::create(out.temp_path());
+    h5::File file = h5::File::create(out.temp_path(), path);
     const h5::Group root = file.root();
     write_header(root, "block", kBlockSchema, provenance);
     const h5::Group lib = root.create_group("blocks");
@@ -104,7 +104,7 @@ void write_block_file(const std::string& path, const std::vector<block::Block>& 
       write_mat(g, "rotation", b.rotation, "-");
       write_vec(g, "translation", b.translation, "m");
     }
-    file.flush();
+    file.close();
   }
   out.commit();
 }

@@ -513,9 +513,9 @@ void write_whole(const std::filesystem::path& path, Fill fill) {
       path.parent_path() / ("." + path.filename().string() + ".tmp-" + std::to_string(::getpid()));
   try {
     {
-      const h5::File file = h5::File::create(temp.string());
+      h5::File file = h5::File::create(temp.string(), path.string());
       fill(file.root());
-      file.flush();
+      file.close();
     }
     std::filesystem::rename(temp, path);
   } catch (...) {
@@ -634,7 +634,7 @@ void RunJournal::remove() const {
 void write_run_file(const std::string& path, const RunInfo& info, const mc::RunData& data) {
   AtomicOutput out(path);
   {
-    const h5::File file = h5::File::create(out.temp_path());
+    h5::File file = h5::File::create(out.temp_path(), path);
     const h5::Group root = file.root();
     write_header(root, "run", kRunSchema, info.provenance);
     write_info(root, info);
@@ -668,7 +668,7 @@ void write_run_file(const std::string& path, const RunInfo& info, const mc::RunD
       traj.write("xdmf_topology", topology.data(), {topology.size()});
       traj.set_attr("polylines", static_cast<std::int64_t>(polylines));
     }
-    file.flush();
+    file.close();
   }
   if (!data.trajectories.empty()) {
     std::size_t polylines = 1;

@@ -140,7 +140,7 @@ void write_terrain_file(const std::string& path, const Terrain& terrain, const P
 
   AtomicOutput out(path);
   {
-    const h5::File file = h5::File::create(out.temp_path());
+    h5::File file = h5::File::create(out.temp_path(), path);
     const h5::Group root = file.root();
     write_header(root, "terrain", kTerrainSchema, provenance);
     root.set_attr("name", terrain.name);
@@ -186,7 +186,7 @@ void write_terrain_file(const std::string& path, const Terrain& terrain, const P
     // The seed is a 64-bit pattern; int64 storage keeps every bit.
     g_rough.set_attr("seed", static_cast<std::int64_t>(terrain.roughness.seed));
     if (roughness_index) g_rough.set_attr("roughness_index", *roughness_index);
-    file.flush();
+    file.close();
   }
   out.commit();
 }

@@ -292,7 +292,6 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
   clock.restart();
   std::size_t ran = 0;
   {
-    const StopSignals signals;
     try {
       mc::run_realizations(scene, pending, cli::parse_threads(opt.threads), [&](mc::RealizationResult&& r) {
         buffer.push_back(std::move(r));
@@ -325,6 +324,12 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
   const mc::RunData data = journal.read();
   io::write_run_file(output, info, data);
   journal.remove();
+  if (g_stop_signal != 0) {
+    // The signal came during the final write, which the handler let finish.
+    const int signal = g_stop_signal;
+    throw Interrupted(signal, std::string(signal == SIGINT ? "interrupted (SIGINT)" : "stopped (SIGTERM)") +
+                                  " during the final write: " + output + " is complete");
+  }
   const unsigned thread_count = cli::parse_threads(opt.threads) == 0 ? core::default_thread_count() : cli::parse_threads(opt.threads);
   const std::string threads = std::to_string(thread_count) + (thread_count == 1 ? " thread" : " threads") +
                               (cli::parse_threads(opt.threads) == 0 ? " (" + core::default_thread_source() + ")" : "");
@@ -375,6 +380,9 @@ int merge_main(int argc, char** argv) {
 
 int main(int argc, char** argv) {
   if (argc > 1 && std::string(argv[1]) == "merge") return merge_main(argc - 1, argv + 1);
+  // Before any work: a signal while the scene is read stops the run at its first check
+  // with the one-line message, never by the default action.
+  const StopSignals signals;
 
   [[maybe_unused]] int rank = 0;
   int ranks = 1;

@@ -191,6 +191,8 @@ def make_fixtures(bin_dir, root):
     os.makedirs(os.path.join(root, "sub"))
     write(os.path.join(root, "loop.yaml"), "a: &a [*a]\n")
     write(os.path.join(root, "faces.yaml"), "blocks:\n  - mesh: cube.obj\ninputs:\n  simplify:\n    mode: faces\n    target_faces: -5\n")
+    with open(os.path.join(root, "garbage.asc"), "wb") as f:
+        f.write(b"ncols\x01\x02\xff\xfe" + bytes(range(128, 228)) + b" 4\n")
 
     def tool(*args):
         r = subprocess.run([os.path.join(bin_dir, args[0])] + list(args[1:]), cwd=root, capture_output=True, text=True)
@@ -359,6 +361,10 @@ CASES = [
     (["calibrate", "-c", "calibrate.yaml", "--set", "groups[0].main_direction_deg=1000", "-o", "c"], BAD_INPUT,
      ["--set groups[0].main_direction_deg", "[-360, 360] deg"]),
     (["block-gen", "-c", "faces.yaml", "-o", "x.h5"], BAD_INPUT, ["faces.yaml:6", "inputs.simplify.target_faces", "[4, 1e+08]", "-5"]),
+    (["terrain-gen", "garbage.asc", "-o", "x.h5"], BAD_INPUT, ["garbage.asc:1", "\\x01\\x02\\xff"]),
+    (["dda-run", "merge", "run.h5", "run.h5", "-o", "x.h5"], BAD_INPUT, ["run.h5: realization 0 appears twice (also in run.h5; the same file given twice?)"]),
+    (["calibrate", "-c", "calibrate.yaml", "-o", "calibrate.yaml"], USAGE, ["-o calibrate.yaml", "settings file"]),
+    (["calibrate", "-c", "calibrate.yaml", "-o", "stops.csv"], USAGE, ["-o stops.csv", "is a file"]),
     # calibrate (docs/calibration.md): settings, observed stops, posterior files.
     (["calibrate", "-c", "calibrate.yaml"], USAGE, ["-o"]),
     (["calibrate", "-c", "calibrate.yaml", "--set", "groups[0].observed=missing.csv", "-o", "c"], BAD_INPUT,

@@ -424,6 +424,10 @@ int main(int argc, char** argv) {
                    "POSTERIOR.h5"}};
   spec.check = [&](const cli::Invocation& inv) {
     if (inv.output.empty()) throw core::UsageError("no output directory given (-o DIR)");
+    io::check_outputs_distinct(inv.named_inputs(), {{"-o", inv.output}});
+    std::error_code ec;
+    if (fs::exists(inv.output, ec) && !fs::is_directory(inv.output, ec))
+      throw core::UsageError("-o " + inv.output + ": is a file; calibrate writes into a directory (choose another -o)");
     cli::parse_threads(threads_text);
     if (resume && !predict_path.empty()) throw core::UsageError("--resume and --predict exclude each other");
     if (!predict_path.empty() && !fs::exists(predict_path))

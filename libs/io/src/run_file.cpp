@@ -778,10 +778,18 @@ RunFile merge_run_files(const std::vector<RunFile>& shards, const std::vector<st
   RunFile merged;
   merged.info = shards.front().info;
   merged.data.hazard = empty_hazard(merged.info);
+  std::map<std::uint32_t, std::size_t> holder;  // realization → the shard that holds it
   for (std::size_t k = 0; k < shards.size(); ++k) {
     const RunInfo& info = shards[k].info;
     if (const std::string why = run_difference(merged.info, info); !why.empty())
       throw InputError(names[k], "is not a shard of the same run as " + names.front() + " (" + why + ")");
+    for (const auto& r : shards[k].data.records) {
+      const auto [at, inserted] = holder.emplace(r.realization, k);
+      if (!inserted)
+        throw InputError(names[k], "realization " + std::to_string(r.realization) + " appears twice (also in " +
+                                       names[at->second] +
+                                       (names[at->second] == names[k] ? "; the same file given twice?)" : ")"));
+    }
     mc::RunData copy = shards[k].data;
     merged.data.append(std::move(copy));
   }

@@ -57,7 +57,7 @@ std::string join_lines(const std::vector<std::string>& lines) {
 }  // namespace
 
 void write_block_file(const std::string& path, const std::vector<block::Block>& blocks,
-                      const Provenance& provenance) {
+                      const Provenance& provenance, const std::string& xdmf_path) {
   AtomicOutput out(path);
   {
     h5::File file = h5::File::create(out.temp_path(), path);
@@ -106,6 +106,7 @@ void write_block_file(const std::string& path, const std::vector<block::Block>& 
     }
     file.close();
   }
+  if (!xdmf_path.empty()) write_block_xdmf(xdmf_path, path, blocks);
   out.commit();
 }
 

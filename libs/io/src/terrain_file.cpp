@@ -10,6 +10,7 @@
 #include "talus/core/error.hpp"
 #include "talus/io/atomic_output.hpp"
 #include "talus/io/hdf5.hpp"
+#include "talus/io/xdmf.hpp"
 
 namespace talus::io {
 namespace {
@@ -123,7 +124,7 @@ std::uint64_t u64(std::size_t n) { return static_cast<std::uint64_t>(n); }
 }  // namespace
 
 void write_terrain_file(const std::string& path, const Terrain& terrain, const Provenance& provenance,
-                        std::optional<double> roughness_index) {
+                        std::optional<double> roughness_index, const std::string& xdmf_path) {
   if (const std::string problem = terrain_problem(terrain); !problem.empty())
     throw core::RuntimeError(path + ": refusing to write an inconsistent terrain: " + problem);
   std::vector<std::array<std::int32_t, 3>> generated;
@@ -188,6 +189,7 @@ void write_terrain_file(const std::string& path, const Terrain& terrain, const P
     if (roughness_index) g_rough.set_attr("roughness_index", *roughness_index);
     file.close();
   }
+  if (!xdmf_path.empty()) write_terrain_xdmf(xdmf_path, path, vertices.size(), terrain.mesh.triangles.size());
   out.commit();
 }
 

@@ -528,7 +528,9 @@ class Writer final : public SettingsVisitor {
 };
 
 // Applies one "a.b[2].c=value" override to the YAML tree.
-void apply_override(YAML::Node& root, const std::string& text, SetValues& set_values) {
+// `defaults` is the tree of the default settings: a key the file does not give is filled
+// from it, so `--set materials[0].restitution_mean=0.9` reaches the default list's item.
+void apply_override(YAML::Node& root, const std::string& text, SetValues& set_values, const YAML::Node& defaults) {
   const auto eq = text.find('=');
   if (eq == std::string::npos || eq == 0)
     throw core::UsageError("--set expects key=value, got '" + text + "'");
@@ -561,6 +563,9 @@ void apply_override(YAML::Node& root, const std::string& text, SetValues& set_va
 
   // yaml-cpp nodes are references: walk by reassigning handles.
   std::vector<YAML::Node> chain{root};
+  // The same place in the default tree (a null node when it has none). yaml-cpp's
+  // assignment writes through a node, so the walk pushes handles instead.
+  std::vector<YAML::Node> fallbacks{defaults};
   for (std::size_t i = 0; i < parts.size(); ++i) {
     YAML::Node node = chain.back();
     const std::string& part = parts[i];
@@ -574,14 +579,23 @@ void apply_override(YAML::Node& root, const std::string& text, SetValues& set_va
       }
       if (!node.IsSequence() || index >= node.size())
         throw core::UsageError("--set " + key + ": no list item " + part);
+      const YAML::Node& f = fallbacks.back();
+      fallbacks.push_back(f.IsSequence() && index < f.size() ? f[index] : YAML::Node());
       if (last) node[index] = parsed;
       else chain.push_back(node[index]);
     } else {
       if (node.IsNull()) node = YAML::Node(YAML::NodeType::Map);
       if (!node.IsMap()) throw core::UsageError("--set " + key + ": '" + part + "' is not in a mapping");
+      const YAML::Node& f = fallbacks.back();
+      fallbacks.push_back(f.IsMap() && f[part] ? f[part] : YAML::Node());
+      const YAML::Node& fallback = fallbacks.back();
       if (last) node[part] = parsed;
       else {
-        if (!node[part]) node[part] = YAML::Node(YAML::NodeType::Map);
+        if (!node[part]) {
+          // An item of a default list is reached through a copy of that list.
+          const bool list_next = parts[i + 1].front() == '[';
+          node[part] = list_next && fallback.IsSequence() ? YAML::Clone(fallback) : YAML::Node(YAML::NodeType::Map);
+        }
         chain.push_back(node[part]);
       }
     }
@@ -631,7 +645,8 @@ void read_settings(const std::string& yaml_text, const std::string& source,
   if (!root.IsMap()) throw InputError(source, "expected a mapping of settings at the top level");
   check_unique_keys(root, source);
   SetValues set_values;
-  for (const auto& o : overrides) apply_override(root, o, set_values);
+  const YAML::Node defaults = overrides.empty() ? YAML::Node() : YAML::Load(write_settings(body, false));
+  for (const auto& o : overrides) apply_override(root, o, set_values, defaults);
   Reader reader(root, source, "", set_values);
   reader.declared_by(&body);
   body(reader);

@@ -277,6 +277,17 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
   io::RunJournal journal = resume ? io::RunJournal::resume(journal_path, info)
                                   : io::RunJournal::create(journal_path, info);
 
+  // A failed write (a full disk) leaves the journal as it was before that write.
+  const std::string resumable = "; the journal " + journal_path +
+                                " keeps the realizations written so far: run the same command with --resume once "
+                                "there is room";
+  const auto append = [&](const std::vector<mc::RealizationResult>& results) {
+    try {
+      journal.append(results);
+    } catch (const core::RuntimeError& e) {
+      throw core::RuntimeError(e.what() + resumable);
+    }
+  };
   const std::vector<std::uint32_t> done = journal.finished();
   std::vector<std::uint32_t> pending;
   std::set_difference(all.begin(), all.end(), done.begin(), done.end(), std::back_inserter(pending));
@@ -297,7 +308,7 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
         buffer.push_back(std::move(r));
         ++ran;
         if (buffer.size() >= chunk) {
-          journal.append(buffer);
+          append(buffer);
           buffer.clear();
           if (++chunks == abort_after) std::_Exit(137);
         }
@@ -308,7 +319,7 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
     } catch (const StopRequested&) {
       // Realizations handed over are kept; those still running on workers are abandoned
       // within a few hundred steps and redone by the resume.
-      journal.append(buffer);
+      append(buffer);
       progress.finish();
       const int signal = g_stop_signal;
       throw Interrupted(signal, std::string(signal == SIGINT ? "interrupted (SIGINT)" : "stopped (SIGTERM)") + ": " +
@@ -317,12 +328,16 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
                                     "; run the same command with --resume to complete it");
     }
   }
-  journal.append(buffer);
+  append(buffer);
   progress.finish();
   const double seconds = clock.seconds();
 
   const mc::RunData data = journal.read();
-  io::write_run_file(output, info, data);
+  try {
+    io::write_run_file(output, info, data);
+  } catch (const core::RuntimeError& e) {
+    throw core::RuntimeError(e.what() + resumable);
+  }
   journal.remove();
   if (g_stop_signal != 0) {
     // The signal came during the final write, which the handler let finish.

@@ -358,6 +358,8 @@ CASES = [
     (["dda-run", "-c", "scene.yaml", "--set", "release.height=1e12", "-o", "x.h5"], BAD_INPUT,
      ["--set release.height", "[-10000, 10000] m", "1e+12"]),
     (["dda-run", "-c", "scene.yaml", "--set", "release=", "-o", "x.h5"], BAD_INPUT, ["--set release", "got nothing"]),
+    (["dda-run", "-c", "scene.yaml", "--set", "blocks=[NOPE]", "-o", "x.h5"], BAD_INPUT,
+     ["--set blocks", "block 'NOPE' is not in the block file b.h5 (it has: c)"]),
     (["calibrate", "-c", "calibrate.yaml", "--set", "groups[0].main_direction_deg=1000", "-o", "c"], BAD_INPUT,
      ["--set groups[0].main_direction_deg", "[-360, 360] deg"]),
     (["block-gen", "-c", "faces.yaml", "-o", "x.h5"], BAD_INPUT, ["faces.yaml:6", "inputs.simplify.target_faces", "[4, 1e+08]", "-5"]),

@@ -250,6 +250,14 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
   terrain::Terrain terrain = io::read_terrain_file(settings.terrain);
   const std::string fingerprint = io::terrain_fingerprint(terrain);
   const auto library = io::read_block_file(settings.block_file);
+  // A block name is refused where it was given (the scene file or --set blocks).
+  for (const auto& name : settings.blocks)
+    if (std::none_of(library.begin(), library.end(), [&](const block::Block& b) { return b.name == name; })) {
+      std::string names;
+      for (const auto& b : library) names += (names.empty() ? "" : ", ") + b.name;
+      throw core::InputError(inv.source_of("blocks"), "block '" + name + "' is not in the block file " +
+                                                          settings.block_file + " (it has: " + names + ")");
+    }
   // Release zones and barrier lines from vector files, checked against the terrain's CRS.
   const mc::SceneVectors vectors = io::read_scene_vectors(settings, terrain.crs_wkt);
   const mc::Scene scene = mc::Scene::build(settings, std::move(terrain), library, source, vectors);

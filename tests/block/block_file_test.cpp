@@ -127,6 +127,31 @@ TEST_F(BlockFile, ReaderRefusesAPolyhedronThatDoesNotEncloseTheStatedVolume) {
   EXPECT_THROW(read_block_file(infinite), core::InputError);
 }
 
+TEST_F(BlockFile, ReaderRefusesStatedPropertiesThePolyhedronContradicts) {
+  const auto refused = [&](const std::string& name, const std::vector<block::Block>& blocks, const std::string& words) {
+    const std::string file = path(name);
+    write_block_file(file, blocks, Provenance{});
+    try {
+      read_block_file(file);
+      ADD_FAILURE() << name << " accepted";
+    } catch (const core::InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+    }
+  };
+  std::vector<block::Block> one{library()[0]};
+  one[0].volume_exact = std::numeric_limits<double>::quiet_NaN();
+  refused("nan-exact.h5", one, "volume_exact is nan");
+  one = {library()[0]};
+  one[0].volume_exact = 7.5;  // the dodecahedron encloses 1 m^3
+  refused("wrong-exact.h5", one, "volume_exact is 7.5");
+  one = {library()[0]};
+  one[0].mass = 0.0;
+  refused("no-mass.h5", one, "mass is 0 kg");
+  std::vector<block::Block> two = library();
+  two[1].name = two[0].name;
+  refused("same-name.h5", two, "two blocks are named 'R4'");
+}
+
 TEST_F(BlockFile, XdmfSidecarNamesEveryBlockSafely) {
   std::vector<block::Block> blocks = library();
   blocks[1].name = "a<b & \"c\"";

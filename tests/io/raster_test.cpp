@@ -137,8 +137,21 @@ INSTANTIATE_TEST_SUITE_P(
                       "8: too few values: expected 4 (ncols 2 x nrows 2), found 3"},
         MalformedCase{"too_many", "ncols 2\nnrows 2\nxllcorner 0\nyllcorner 0\ncellsize 1\n1 2\n3 4\n5\n",
                       "8: too many values: expected 4 (ncols 2 x nrows 2), extra value '5'"},
-        MalformedCase{"blank", "  \n\n", " empty file"}),
+        MalformedCase{"blank", "  \n\n", " empty file"},
+        // Bytes of a binary file are shown escaped and cut, never raw.
+        MalformedCase{"binary", "nc\x01\xff\xfe\x80\x81\x82\x83\x84\x85\x86\x87\x88\x89\x8a\x8b\x8c\x8d\x8e\x8f"
+                                "\x90\x91\x92\x93\x94\x95\x96\x97\x98\x99\x9a\x9b 2\n",
+                      "1: unknown header key 'nc\\x01\\xff\\xfe\\x80\\x81\\x82\\x83\\x84\\x85\\x86\\x87\\x88\\x89"
+                      "\\x8a\\x8b\\x8c\\x8d\\x8e\\x8f\\x90\\x91\\x92\\x93\\x94\\x95\\x96\\x97\\x98\\x99\\x9a...'"}),
     [](const ::testing::TestParamInfo<MalformedCase>& param) { return std::string(param.param.name); });
+
+TEST(EsriAscii, UtfByteOrderMarkIsSkipped) {
+  const std::string path = write_file("bom.asc", "\xEF\xBB\xBFncols 2\nnrows 1\nxllcorner 0\nyllcorner 0\ncellsize 1\n1 2\n");
+  const terrain::DemGrid dem = read_esri_ascii(path);
+  EXPECT_EQ(dem.spec.nx, 2);
+  EXPECT_EQ(dem.z[dem.spec.index(1, 0)], 2.0);
+  fs::remove(path);
+}
 
 TEST(EsriAscii, EmptyAndMissingFilesNameTheFile) {
   const std::string missing = temp_file("does_not_exist.asc");

@@ -131,6 +131,24 @@ TEST(SettingsYaml, OverridesApplyAfterFile) {
   EXPECT_THROW(read_settings("", "f", {"zones[5].name=x"}, bind(e)), core::UsageError);
 }
 
+TEST(SettingsYaml, OverrideReachesAnItemOfTheDefaultList) {
+  Example e;
+  e.zones.resize(2);
+  e.zones[0].name = "a";
+  e.zones[1].name = "c";
+  read_settings("sigma: 0.4\n", "f", {"zones[1].name=z"}, bind(e));
+  ASSERT_EQ(e.zones.size(), 2u);
+  EXPECT_EQ(e.zones[0].name, "a");
+  EXPECT_EQ(e.zones[1].name, "z");
+}
+
+TEST(SettingsYaml, SelfNestingAliasesAndEmptySectionsAreErrors) {
+  Example e;
+  EXPECT_THROW(read_settings("sigma: &a [*a]\n", "loop.yaml", {}, bind(e)), core::InputError);
+  EXPECT_THROW(read_settings("", "f", {"nested="}, bind(e)), core::InputError);
+  EXPECT_THROW(read_settings("", "f", {"zones="}, bind(e)), core::InputError);
+}
+
 TEST(SettingsYaml, PrintedSettingsReadBackIdentically) {
   Example e;
   e.sigma = 0.1 + 0.2;  // not exactly representable in short decimal

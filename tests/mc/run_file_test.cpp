@@ -100,6 +100,28 @@ TEST_F(RunFileTest, ReaderRefusesNonFiniteValuesOfRealizationsThatDidNotFail) {
   EXPECT_NO_THROW(read_run_file(path));
 }
 
+TEST_F(RunFileTest, ReaderRefusesNonPhysicalValuesAndCounts) {
+  mc::RunData data = reference();
+  data.records[1].end = dda::EndReason::rest;
+  data.records[1].max_kinetic_energy = -1e9;
+  const std::string path = (dir_ / "negative.h5").string();
+  write_run_file(path, info(), data);
+  try {
+    read_run_file(path);
+    FAIL() << "a negative kinetic energy was accepted";
+  } catch (const core::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("max_kinetic_energy is -1000000000 (must be >= 0)"), std::string::npos) << e.what();
+  }
+  RunInfo bad = info();
+  bad.shard = "7/3";
+  write_run_file(path, bad, reference());
+  EXPECT_THROW(read_run_file(path), core::InputError);
+  bad = info();
+  bad.realizations = 1000000000000000ULL;
+  write_run_file(path, bad, reference());
+  EXPECT_THROW(read_run_file(path), core::InputError);
+}
+
 TEST_F(RunFileTest, TornAppendIsDroppedOnResume) {
   const std::string path = (dir_ / "run.h5.journal").string();
   {

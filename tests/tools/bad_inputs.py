@@ -189,6 +189,10 @@ def make_fixtures(bin_dir, root):
     write(os.path.join(root, "zones.geojson"), '{"type": "FeatureCollection", "features": [{"type": "Feature", '
           '"properties": {"w": -1}, "geometry": {"type": "LineString", "coordinates": [[3, 4], [3, 6]]}}]}\n')
     os.makedirs(os.path.join(root, "sub"))
+    write(os.path.join(root, "loop.yaml"), "a: &a [*a]\n")
+    write(os.path.join(root, "faces.yaml"), "blocks:\n  - mesh: cube.obj\ninputs:\n  simplify:\n    mode: faces\n    target_faces: -5\n")
+    with open(os.path.join(root, "garbage.asc"), "wb") as f:
+        f.write(b"ncols\x01\x02\xff\xfe" + bytes(range(128, 228)) + b" 4\n")
 
     def tool(*args):
         r = subprocess.run([os.path.join(bin_dir, args[0])] + list(args[1:]), cwd=root, capture_output=True, text=True)
@@ -346,6 +350,23 @@ CASES = [
     (["stats", "--set", "plots=false", "run.h5", "-o", "no/such/dir"], RUNTIME, ["no/such"]),
     (["stats", "--set", "plots=false", "run.h5", "--set", "terrain=other.h5", "-o", "s"], BAD_INPUT,
      ["other.h5", "is not the terrain of the run run.h5", "fingerprint"]),
+    # Settings that crash, hang or are silently ignored.
+    (["terrain-gen", "-c", "loop.yaml", "-o", "x.h5"], BAD_INPUT, ["loop.yaml:1", "nested more than 64 levels"]),
+    (["terrain-gen", "-c", "sub", "-o", "x.h5"], BAD_INPUT, ["sub", "is a directory, not a settings file"]),
+    (["terrain-gen", "-c", "plane.yaml", "--set", "synthetic.cell_size=3", "-o", "x.h5"], BAD_INPUT,
+     ["length 20 m is not a whole number of cells of cell_size 3 m"]),
+    (["dda-run", "-c", "scene.yaml", "--set", "release.height=1e12", "-o", "x.h5"], BAD_INPUT,
+     ["--set release.height", "[-10000, 10000] m", "1e+12"]),
+    (["dda-run", "-c", "scene.yaml", "--set", "release=", "-o", "x.h5"], BAD_INPUT, ["--set release", "got nothing"]),
+    (["dda-run", "-c", "scene.yaml", "--set", "blocks=[NOPE]", "-o", "x.h5"], BAD_INPUT,
+     ["--set blocks", "block 'NOPE' is not in the block file b.h5 (it has: c)"]),
+    (["calibrate", "-c", "calibrate.yaml", "--set", "groups[0].main_direction_deg=1000", "-o", "c"], BAD_INPUT,
+     ["--set groups[0].main_direction_deg", "[-360, 360] deg"]),
+    (["block-gen", "-c", "faces.yaml", "-o", "x.h5"], BAD_INPUT, ["faces.yaml:6", "inputs.simplify.target_faces", "[4, 1e+08]", "-5"]),
+    (["terrain-gen", "garbage.asc", "-o", "x.h5"], BAD_INPUT, ["garbage.asc:1", "\\x01\\x02\\xff"]),
+    (["dda-run", "merge", "run.h5", "run.h5", "-o", "x.h5"], BAD_INPUT, ["run.h5: realization 0 appears twice (also in run.h5; the same file given twice?)"]),
+    (["calibrate", "-c", "calibrate.yaml", "-o", "calibrate.yaml"], USAGE, ["-o calibrate.yaml", "settings file"]),
+    (["calibrate", "-c", "calibrate.yaml", "-o", "stops.csv"], USAGE, ["-o stops.csv", "is a file"]),
     # calibrate (docs/calibration.md): settings, observed stops, posterior files.
     (["calibrate", "-c", "calibrate.yaml"], USAGE, ["-o"]),
     (["calibrate", "-c", "calibrate.yaml", "--set", "groups[0].observed=missing.csv", "-o", "c"], BAD_INPUT,

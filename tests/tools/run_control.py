@@ -5,7 +5,8 @@
   - --resume without a journal is a fresh run (a Makefile rule can always pass it);
   - a second writer on the same output is refused while the first runs (lock);
   - SIGINT and SIGTERM end with 130/143, keep the finished realizations in a resumable
-    journal, and the resume gives the uninterrupted run's records;
+    journal, and the resume gives the uninterrupted run's records; so does a signal
+    the moment the handlers are in place, before the first realization;
   - temporaries of dead processes of this host are removed, other hosts' are kept;
   - the default thread count follows the affinity mask and SLURM_CPUS_PER_TASK;
   - progress lines (not a terminal) name the output and shard; the summary line;
@@ -158,6 +159,32 @@ def main():
                 for g in ("/records", "/hazard", "/crossings"):
                     d = run(["h5diff", "ref.h5", out, g, g])
                     check(d.returncode == 0, f"resume after {sig.name} equals the uninterrupted run in {g}", d.stdout)
+
+        # A signal as early as the handler can see it (the moment /proc says it is caught,
+        # while the scene is still being read): the same line and exit code, never the
+        # default action, and a journal (or none) that --resume completes.
+        for sig, code in ((signal.SIGINT, 130), (signal.SIGTERM, 143)):
+            out = f"early{code}.h5"
+            first = subprocess.Popen([dda, "-c", "scene.yaml", "--threads", "1", "-o", out], cwd=work,
+                                     stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                                     restore_signals=True)
+            deadline = time.time() + 30
+            caught = False
+            while not caught and first.poll() is None and time.time() < deadline:
+                try:
+                    with open(f"/proc/{first.pid}/status") as f:
+                        mask = next(int(l.split()[1], 16) for l in f if l.startswith("SigCgt:"))
+                    caught = bool(mask & (1 << (int(sig) - 1)))
+                except (OSError, StopIteration):
+                    pass
+                if not caught:
+                    time.sleep(0.0005)
+            first.send_signal(sig)
+            _, err = first.communicate(timeout=60)
+            check(first.returncode == code and err.count("dda-run: error:") == 1 and "--resume" in err,
+                  f"an early {sig.name} ends with {code} and one line", f"{first.returncode}: {err}")
+            r = run([dda, "-c", "scene.yaml", "--threads", "1", "--resume", "-o", out])
+            check(r.returncode == 0, f"resume after an early {sig.name}", r.stderr)
 
         # A signal does not wait for the realizations in hand: one long realization (a block
         # floating without gravity for 600 s in steps of 10 µs, every step searched) is

@@ -143,8 +143,8 @@ int main(int argc, char** argv) {
         core::log_warn(b.source + ": block '" + b.name + "' has a volume of " + core::format_number(b.volume_exact) +
                        " m^3, more than rockfall blocks have (1e4 m^3): if the mesh is in centimetres or "
                        "millimetres, set inputs.scale to 0.01 or 0.001");
-    io::write_block_file(inv.output, blocks, inv.provenance("block-gen", block_gen::provenance_seed(settings)));
-    if (settings.xdmf) io::write_block_xdmf(io::xdmf_sidecar_path(inv.output), inv.output, blocks);
+    io::write_block_file(inv.output, blocks, inv.provenance("block-gen", block_gen::provenance_seed(settings)),
+                         settings.xdmf ? io::xdmf_sidecar_path(inv.output) : std::string());
     if (!export_path.empty()) export_meshes(export_path, blocks);
     for (const auto& b : blocks)
       core::log_info(b.name + ": " + std::to_string(b.polyhedron.faces.size()) + " faces, V = " +

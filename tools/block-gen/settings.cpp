@@ -17,7 +17,8 @@ void RepairSettings::visit(core::SettingsVisitor& v) {
 void SimplifySettings::visit(core::SettingsVisitor& v) {
   v.choice("mode", mode, {"none", "faces", "hull"},
            "level of detail: none, faces (edge collapse to target_faces triangles) or hull (convex hull)");
-  v.field("target_faces", target_faces, "-", "triangle count after simplification (mode: faces)");
+  v.bounded("target_faces", target_faces, "-", "triangle count after simplification (mode: faces)",
+            core::Range::closed(4.0, 1e8));
 }
 
 void InputSettings::visit(core::SettingsVisitor& v) {

@@ -68,7 +68,7 @@ void write_posterior(const std::string& path, const Problem& problem, const Chec
                      const io::Provenance& provenance, const std::vector<std::vector<std::vector<double>>>& fit) {
   io::AtomicOutput out(path);
   {
-    const io::h5::File f = io::h5::File::create(out.temp_path());
+    io::h5::File f = io::h5::File::create(out.temp_path(), path);
     const io::h5::Group root = f.root();
     io::write_header(root, "calibration", kCalibrationSchema, provenance);
     const Settings& s = problem.settings();
@@ -119,6 +119,7 @@ void write_posterior(const std::string& path, const Problem& problem, const Chec
         cg.write("fitted", flat.data(), {fit[c].size(), problem.variables().size()}, "m");
       }
     }
+    f.close();
   }
   out.commit();
 }
@@ -284,7 +285,7 @@ void predict(const Problem& problem, const AbcGeneration& g, const std::string& 
   ks << "case,variable,n_observed,n_predicted,ks_distance,ks_p_value\n";
   io::AtomicOutput h5out((fs::path(dir) / "predictive.h5").string());
   {
-    const io::h5::File out = io::h5::File::create(h5out.temp_path());
+    io::h5::File out = io::h5::File::create(h5out.temp_path(), h5out.final_path());
     io::write_header(out.root(), "calibration-prediction", kCalibrationSchema, provenance);
     out.root().write_strings("variables", problem.variables());
     for (std::size_t c = 0; c < problem.cases().size(); ++c) {
@@ -331,6 +332,7 @@ void predict(const Problem& problem, const AbcGeneration& g, const std::string& 
            << num(stats::ks_p_value(d, os.size(), ps.size())) << "\n";
       }
     }
+    out.close();
   }
   h5out.commit();
   io::write_text_file((fs::path(dir) / "predictive.csv").string(), csv.str());
@@ -422,6 +424,10 @@ int main(int argc, char** argv) {
                    "POSTERIOR.h5"}};
   spec.check = [&](const cli::Invocation& inv) {
     if (inv.output.empty()) throw core::UsageError("no output directory given (-o DIR)");
+    io::check_outputs_distinct(inv.named_inputs(), {{"-o", inv.output}});
+    std::error_code ec;
+    if (fs::exists(inv.output, ec) && !fs::is_directory(inv.output, ec))
+      throw core::UsageError("-o " + inv.output + ": is a file; calibrate writes into a directory (choose another -o)");
     cli::parse_threads(threads_text);
     if (resume && !predict_path.empty()) throw core::UsageError("--resume and --predict exclude each other");
     if (!predict_path.empty() && !fs::exists(predict_path))

@@ -24,8 +24,9 @@ void Group::visit(core::SettingsVisitor& v) {
   v.field("layer", layer, "layer of a vector file; empty = its only layer");
   v.field("origin", origin, "m", "[x, y] runout is measured from (terrain input coordinates); empty = the scene's "
                                  "first release point");
-  v.field("main_direction_deg", main_direction_deg, "deg",
-          "azimuth of the runout direction from +x, counter-clockwise; empty = the scene's release.main_direction_deg");
+  v.bounded("main_direction_deg", main_direction_deg, "deg",
+            "azimuth of the runout direction from +x, counter-clockwise; empty = the scene's release.main_direction_deg",
+            core::Range::symmetric(360.0));
 }
 
 void Settings::visit(core::SettingsVisitor& v) {

@@ -250,6 +250,14 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
   terrain::Terrain terrain = io::read_terrain_file(settings.terrain);
   const std::string fingerprint = io::terrain_fingerprint(terrain);
   const auto library = io::read_block_file(settings.block_file);
+  // A block name is refused where it was given (the scene file or --set blocks).
+  for (const auto& name : settings.blocks)
+    if (std::none_of(library.begin(), library.end(), [&](const block::Block& b) { return b.name == name; })) {
+      std::string names;
+      for (const auto& b : library) names += (names.empty() ? "" : ", ") + b.name;
+      throw core::InputError(inv.source_of("blocks"), "block '" + name + "' is not in the block file " +
+                                                          settings.block_file + " (it has: " + names + ")");
+    }
   // Release zones and barrier lines from vector files, checked against the terrain's CRS.
   const mc::SceneVectors vectors = io::read_scene_vectors(settings, terrain.crs_wkt);
   const mc::Scene scene = mc::Scene::build(settings, std::move(terrain), library, source, vectors);
@@ -277,6 +285,17 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
   io::RunJournal journal = resume ? io::RunJournal::resume(journal_path, info)
                                   : io::RunJournal::create(journal_path, info);
 
+  // A failed write (a full disk) leaves the journal as it was before that write.
+  const std::string resumable = "; the journal " + journal_path +
+                                " keeps the realizations written so far: run the same command with --resume once "
+                                "there is room";
+  const auto append = [&](const std::vector<mc::RealizationResult>& results) {
+    try {
+      journal.append(results);
+    } catch (const core::RuntimeError& e) {
+      throw core::RuntimeError(e.what() + resumable);
+    }
+  };
   const std::vector<std::uint32_t> done = journal.finished();
   std::vector<std::uint32_t> pending;
   std::set_difference(all.begin(), all.end(), done.begin(), done.end(), std::back_inserter(pending));
@@ -292,13 +311,12 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
   clock.restart();
   std::size_t ran = 0;
   {
-    const StopSignals signals;
     try {
       mc::run_realizations(scene, pending, cli::parse_threads(opt.threads), [&](mc::RealizationResult&& r) {
         buffer.push_back(std::move(r));
         ++ran;
         if (buffer.size() >= chunk) {
-          journal.append(buffer);
+          append(buffer);
           buffer.clear();
           if (++chunks == abort_after) std::_Exit(137);
         }
@@ -309,7 +327,7 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
     } catch (const StopRequested&) {
       // Realizations handed over are kept; those still running on workers are abandoned
       // within a few hundred steps and redone by the resume.
-      journal.append(buffer);
+      append(buffer);
       progress.finish();
       const int signal = g_stop_signal;
       throw Interrupted(signal, std::string(signal == SIGINT ? "interrupted (SIGINT)" : "stopped (SIGTERM)") + ": " +
@@ -318,13 +336,23 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
                                     "; run the same command with --resume to complete it");
     }
   }
-  journal.append(buffer);
+  append(buffer);
   progress.finish();
   const double seconds = clock.seconds();
 
   const mc::RunData data = journal.read();
-  io::write_run_file(output, info, data);
+  try {
+    io::write_run_file(output, info, data);
+  } catch (const core::RuntimeError& e) {
+    throw core::RuntimeError(e.what() + resumable);
+  }
   journal.remove();
+  if (g_stop_signal != 0) {
+    // The signal came during the final write, which the handler let finish.
+    const int signal = g_stop_signal;
+    throw Interrupted(signal, std::string(signal == SIGINT ? "interrupted (SIGINT)" : "stopped (SIGTERM)") +
+                                  " during the final write: " + output + " is complete");
+  }
   const unsigned thread_count = cli::parse_threads(opt.threads) == 0 ? core::default_thread_count() : cli::parse_threads(opt.threads);
   const std::string threads = std::to_string(thread_count) + (thread_count == 1 ? " thread" : " threads") +
                               (cli::parse_threads(opt.threads) == 0 ? " (" + core::default_thread_source() + ")" : "");
@@ -375,6 +403,9 @@ int merge_main(int argc, char** argv) {
 
 int main(int argc, char** argv) {
   if (argc > 1 && std::string(argv[1]) == "merge") return merge_main(argc - 1, argv + 1);
+  // Before any work: a signal while the scene is read stops the run at its first check
+  // with the one-line message, never by the default action.
+  const StopSignals signals;
 
   [[maybe_unused]] int rank = 0;
   int ranks = 1;

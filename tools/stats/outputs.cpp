@@ -380,7 +380,7 @@ void write_summary_file(const std::string& path, const std::vector<Run>& runs, c
                         const Settings& settings, const io::Provenance& provenance) {
   io::AtomicOutput out(path);
   {
-    const io::h5::File file = io::h5::File::create(out.temp_path());
+    io::h5::File file = io::h5::File::create(out.temp_path(), path);
     const Group root = file.root();
     io::write_header(root, "stats-summary", {1, 0}, provenance);
     root.set_attr("confidence", settings.confidence);
@@ -449,6 +449,7 @@ void write_summary_file(const std::string& path, const std::vector<Run>& runs, c
       write_vector(c, "ks_distance", d, "-");
       write_vector(c, "p_value", p, "-");
     }
+    file.close();
   }
   out.commit();
 }

@@ -115,9 +115,8 @@ int main(int argc, char** argv) {
       io::export_mesh(export_path, surface.to_mesh(), material);
     }
     if (!inv.output.empty()) {
-      io::write_terrain_file(inv.output, t, inv.provenance("terrain-gen", settings.seed), built.roughness_index);
-      io::write_terrain_xdmf(io::xdmf_sidecar_path(inv.output), inv.output, t.mesh.vertices.size(),
-                             t.mesh.triangles.size());
+      io::write_terrain_file(inv.output, t, inv.provenance("terrain-gen", settings.seed), built.roughness_index,
+                             io::xdmf_sidecar_path(inv.output));
     }
     if (!inv.output.empty() || !export_path.empty())
       core::log_info("wrote the outputs in " + core::format_number(clock.seconds()) + " s");

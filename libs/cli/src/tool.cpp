@@ -3,6 +3,7 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <charconv>
+#include <csignal>
 #include <cstdlib>
 #include <cstdio>
 #include <filesystem>
@@ -82,6 +83,10 @@ int fail(const ToolSpec& spec, core::ExitCode code, const std::string& message) 
 }  // namespace
 
 int run_tool(int argc, char** argv, const ToolSpec& spec) {
+  // Past a file-size limit (ulimit -f) a write then fails with EFBIG and is reported like
+  // a full disk, instead of the default SIGXFSZ killing the tool without a word.
+  std::signal(SIGXFSZ, SIG_IGN);
+  io::prepare_hdf5();
   core::set_log_prefix(spec.name);
   CLI::App app{spec.summary, spec.name};
   app.get_formatter()->column_width(34);

@@ -34,6 +34,10 @@ std::string temp_prefix(const std::filesystem::path& final_path) {
 
 }  // namespace
 
+std::string write_cause() {
+  return errno != 0 ? " (" + std::string(std::strerror(errno)) + ")" : std::string();
+}
+
 std::size_t remove_stale_temporaries(const std::string& final_path) {
   namespace fs = std::filesystem;
   const fs::path p(final_path);
@@ -122,10 +126,12 @@ OutputLock::~OutputLock() {
 void write_text_file(const std::string& path, const std::string& text) {
   AtomicOutput out(path);
   {
+    errno = 0;
     std::ofstream file(out.temp_path(), std::ios::binary);
     file << text;
-    file.flush();
-    if (!file) throw core::RuntimeError(path + ": cannot write output");
+    // close() writes what is buffered: a full disk shows only then.
+    file.close();
+    if (!file) throw core::RuntimeError(path + ": cannot write output" + write_cause());
   }
   out.commit();
 }

@@ -57,10 +57,10 @@ std::string join_lines(const std::vector<std::string>& lines) {
 }  // namespace
 
 void write_block_file(const std::string& path, const std::vector<block::Block>& blocks,
-                      const Provenance& provenance) {
+                      const Provenance& provenance, const std::string& xdmf_path) {
   AtomicOutput out(path);
   {
-    const h5::File file = h5::File::create(out.temp_path());
+    h5::File file = h5::File::create(out.temp_path(), path);
     const h5::Group root = file.root();
     write_header(root, "block", kBlockSchema, provenance);
     const h5::Group lib = root.create_group("blocks");
@@ -104,8 +104,9 @@ void write_block_file(const std::string& path, const std::vector<block::Block>& 
       write_mat(g, "rotation", b.rotation, "-");
       write_vec(g, "translation", b.translation, "m");
     }
-    file.flush();
+    file.close();
   }
+  if (!xdmf_path.empty()) write_block_xdmf(xdmf_path, path, blocks);
   out.commit();
 }
 
@@ -171,6 +172,22 @@ std::vector<block::Block> read_block_file(const std::string& path) {
     if (!(enclosed > 0.0) || std::abs(enclosed - b.volume) > 1e-6 * b.volume)
       throw core::InputError(where, "corrupt block: the polyhedron encloses " + core::format_number(enclosed) +
                                         " m^3, the file states volume " + core::format_number(b.volume) + " m^3");
+    // The stated properties must agree with the polyhedron they describe.
+    const auto close = [](double value, double reference) {
+      return std::abs(value - reference) <= 1e-6 * std::abs(reference);
+    };
+    if (!std::isfinite(b.volume_exact) || !close(b.volume_exact, enclosed))
+      throw core::InputError(where, "corrupt block: volume_exact is " + core::format_number(b.volume_exact) +
+                                        " m^3, the polyhedron encloses " + core::format_number(enclosed) + " m^3");
+    if (!(b.mass > 0.0) || !close(b.mass, b.density * b.volume_exact))
+      throw core::InputError(where, "corrupt block: mass is " + core::format_number(b.mass) + " kg, density x volume is " +
+                                        core::format_number(b.density * b.volume_exact) + " kg");
+    if (!(b.surface_area > 0.0) || !std::isfinite(b.surface_area) || !(b.sphericity > 0.0) || !(b.sphericity <= 1.0 + 1e-9))
+      throw core::InputError(where, "corrupt block: surface_area must be positive and finite, sphericity in (0, 1]");
+    for (const auto& earlier : blocks)
+      if (earlier.name == b.name)
+        throw core::InputError(where, "corrupt block file: two blocks are named '" + b.name +
+                                          "' (names are unique in a block file)");
     blocks.push_back(std::move(b));
   }
   return blocks;

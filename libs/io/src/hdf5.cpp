@@ -3,6 +3,7 @@
 #include <hdf5.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <mutex>
@@ -16,6 +17,8 @@ std::string hdf5_description() {
   H5get_libversion(&major, &minor, &release);
   return "HDF5 " + std::to_string(major) + "." + std::to_string(minor) + "." + std::to_string(release);
 }
+
+void prepare_hdf5() { H5dont_atexit(); }
 
 }  // namespace talus::io
 
@@ -42,10 +45,20 @@ class Id {
   }
   hid_t get() const { return id_; }
   bool valid() const { return id_ >= 0; }
+  hid_t release() {
+    const hid_t id = id_;
+    id_ = H5I_INVALID_HID;
+    return id;
+  }
 
  private:
   hid_t id_;
 };
+
+// " (No space left on device)" after a failed write, from the errno the system call left.
+std::string write_cause() {
+  return errno != 0 ? " (" + std::string(std::strerror(errno)) + ")" : std::string();
+}
 
 // Property list for new groups and datasets: no timestamps, so files are reproducible.
 Id no_times_plist(hid_t cls) {
@@ -81,15 +94,33 @@ std::string Group::where(const std::string& child) const {
   return (path_ == "/" ? "/" : path_ + "/") + child;
 }
 
-File File::create(const std::string& path) {
+File File::create(const std::string& path, const std::string& shown_as) {
   silence_hdf5();
+  const std::string name = shown_as.empty() ? path : shown_as;
   Id fcpl(H5Pcreate(H5P_FILE_CREATE));
   H5Pset_obj_track_times(fcpl.get(), 0);
   Id fapl(H5Pcreate(H5P_FILE_ACCESS));
+  // A strong close closes the groups still open with the file, so close() reports the
+  // last metadata write at once instead of leaving it to an unchecked destructor.
+  H5Pset_fclose_degree(fapl.get(), H5F_CLOSE_STRONG);
+  errno = 0;
   Id id(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, fcpl.get(), fapl.get()));
-  if (!id.valid()) throw core::RuntimeError(path + ": cannot create HDF5 file");
+  if (!id.valid()) throw core::RuntimeError(name + ": cannot create HDF5 file" + write_cause());
   auto handle = std::make_shared<Group::Handle>(Group::Handle{std::move(id)});
-  return File(Group(handle, "/", path));
+  return File(Group(handle, "/", name));
+}
+
+void File::close() {
+  auto& handle = *root_.handle_;
+  if (!handle.id.valid()) return;
+  errno = 0;
+  const bool flushed = H5Fflush(handle.id.get(), H5F_SCOPE_GLOBAL) >= 0;
+  const std::string cause = write_cause();
+  const hid_t id = handle.id.release();
+  errno = 0;
+  const bool closed = H5Fclose(id) >= 0;
+  if (!flushed) throw core::RuntimeError(root_.file_name_ + ": cannot write output" + cause);
+  if (!closed) throw core::RuntimeError(root_.file_name_ + ": cannot write output" + write_cause());
 }
 
 namespace {
@@ -122,7 +153,11 @@ File File::open_rw(const std::string& path) {
   return File(Group(handle, "/", path));
 }
 
-void File::flush() const { H5Fflush(root_.handle_->id.get(), H5F_SCOPE_GLOBAL); }
+void File::flush() const {
+  errno = 0;
+  if (H5Fflush(root_.handle_->id.get(), H5F_SCOPE_GLOBAL) < 0)
+    throw core::RuntimeError(root_.file_name_ + ": cannot write output" + write_cause());
+}
 
 Group Group::create_group(const std::string& name) const {
   Id gcpl = no_times_plist(H5P_GROUP_CREATE);
@@ -177,9 +212,10 @@ void write_dataset(hid_t parent, const std::string& file, const std::string& whe
   Id set(H5Dcreate2(parent, name.c_str(), native_type<T>(), space.get(), H5P_DEFAULT, dcpl.get(),
                     H5P_DEFAULT));
   if (!set.valid()) throw core::RuntimeError(file + ": cannot create dataset " + where);
+  errno = 0;
   if (count > 0 &&
       H5Dwrite(set.get(), native_type<T>(), H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0)
-    throw core::RuntimeError(file + ": cannot write dataset " + where);
+    throw core::RuntimeError(file + ": cannot write dataset " + where + write_cause());
   if (!unit.empty()) {
     Id type = string_type();
     Id scalar(H5Screate(H5S_SCALAR));
@@ -305,7 +341,9 @@ void Group::write_strings(const std::string& name, const std::vector<std::string
   if (!set.valid()) throw core::RuntimeError(file_name_ + ": cannot create dataset " + where(name));
   std::vector<const char*> ptrs;
   for (const auto& v : values) ptrs.push_back(v.c_str());
-  if (!values.empty()) H5Dwrite(set.get(), type.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, ptrs.data());
+  errno = 0;
+  if (!values.empty() && H5Dwrite(set.get(), type.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, ptrs.data()) < 0)
+    throw core::RuntimeError(file_name_ + ": cannot write dataset " + where(name) + write_cause());
 }
 
 namespace {
@@ -342,8 +380,9 @@ void append_rows(hid_t parent, const std::string& file, const std::string& where
   Id space(H5Dget_space(set.get()));
   H5Sselect_hyperslab(space.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr);
   Id memory(H5Screate_simple(static_cast<int>(count.size()), count.data(), nullptr));
+  errno = 0;
   if (H5Dwrite(set.get(), native_type<T>(), memory.get(), space.get(), H5P_DEFAULT, data) < 0)
-    throw core::RuntimeError(file + ": cannot append to dataset " + where);
+    throw core::RuntimeError(file + ": cannot append to dataset " + where + write_cause());
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <cerrno>
 #include <filesystem>
 #include <fstream>
 
@@ -126,6 +127,7 @@ void export_mesh(const std::string& path, const geometry::TriangleMesh& mesh,
   const std::string ext = std::filesystem::path(path).extension().string();
   AtomicOutput out(path);
   {
+    errno = 0;
     std::ofstream file(out.temp_path(), std::ios::binary);
     if (ext == ".obj") {
       char line[128];
@@ -156,8 +158,8 @@ void export_mesh(const std::string& path, const geometry::TriangleMesh& mesh,
     } else {
       throw core::UsageError(path + ": mesh export supports .obj and .ply");
     }
-    file.flush();
-    if (!file) throw core::RuntimeError(path + ": cannot write mesh");
+    file.close();
+    if (!file) throw core::RuntimeError(path + ": cannot write mesh" + write_cause());
   }
   out.commit();
 }

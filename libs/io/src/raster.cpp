@@ -7,6 +7,7 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -131,6 +132,24 @@ struct AsciiHeader {
   }
 };
 
+// A token of the file as a message may show it: at most 32 characters, bytes other than
+// printable ASCII as \xNN, so a binary file never fills the terminal with raw bytes.
+std::string shown(std::string_view token) {
+  std::string out;
+  for (std::size_t k = 0; k < token.size() && k < 32; ++k) {
+    const auto c = static_cast<unsigned char>(token[k]);
+    if (c >= 0x20 && c < 0x7f) {
+      out += static_cast<char>(c);
+    } else {
+      char hex[8];
+      std::snprintf(hex, sizeof hex, "\\x%02x", c);
+      out += hex;
+    }
+  }
+  if (token.size() > 32) out += "...";
+  return out;
+}
+
 std::string at_line(const std::string& path, std::size_t line) {
   return path + ":" + std::to_string(line);
 }
@@ -166,7 +185,9 @@ double lower_left_centre(const std::string& path, const std::optional<AsciiHeade
 
 DemGrid read_esri_ascii(const std::string& path) {
   const std::string text = read_whole_file(path);
-  Tokenizer tokens(text);
+  // A UTF-8 byte-order mark (as some Windows editors save) is not part of the first key.
+  const bool bom = text.compare(0, 3, "\xEF\xBB\xBF") == 0;
+  Tokenizer tokens(std::string_view(text).substr(bom ? 3 : 0));
   AsciiHeader header;
 
   // Header: "key value" lines until the first numeric token.
@@ -174,21 +195,21 @@ DemGrid read_esri_ascii(const std::string& path) {
     const auto key_token = tokens.next();
     const std::string key = lower(key_token.text);
     auto* slot = header.slot(key);
-    if (!slot) throw InputError(at_line(path, key_token.line), "unknown header key '" + std::string(key_token.text) + "'");
+    if (!slot) throw InputError(at_line(path, key_token.line), "unknown header key '" + shown(key_token.text) + "'");
     if (*slot)
-      throw InputError(at_line(path, key_token.line), "duplicate header key '" + std::string(key_token.text) +
+      throw InputError(at_line(path, key_token.line), "duplicate header key '" + shown(key_token.text) +
                                                           "' (first on line " + std::to_string((*slot)->line) + ")");
     const auto value_token = tokens.next();
     if (value_token.text.empty() || value_token.line != key_token.line)
-      throw InputError(at_line(path, key_token.line), "header key '" + std::string(key_token.text) + "' has no value");
+      throw InputError(at_line(path, key_token.line), "header key '" + shown(key_token.text) + "' has no value");
     const auto value = parse_double(value_token.text);
     if (!value)
-      throw InputError(at_line(path, key_token.line), "header key '" + std::string(key_token.text) + "': '" +
-                                                          std::string(value_token.text) + "' is not a number");
+      throw InputError(at_line(path, key_token.line), "header key '" + shown(key_token.text) + "': '" +
+                                                          shown(value_token.text) + "' is not a number");
     if (std::isnan(*value) && key != "nodata_value")
-      throw InputError(at_line(path, key_token.line), "header key '" + std::string(key_token.text) + "' is not finite");
+      throw InputError(at_line(path, key_token.line), "header key '" + shown(key_token.text) + "' is not finite");
     if (std::isinf(*value))
-      throw InputError(at_line(path, key_token.line), "header key '" + std::string(key_token.text) + "' is not finite");
+      throw InputError(at_line(path, key_token.line), "header key '" + shown(key_token.text) + "' is not finite");
     *slot = AsciiHeader::Entry{*value, key_token.line};
   }
   const std::size_t header_end = tokens.peek().text.empty() ? tokens.line() : tokens.peek().line;
@@ -240,16 +261,16 @@ DemGrid read_esri_ascii(const std::string& path) {
     if (count == expected)
       throw InputError(at_line(path, token.line),
                        "too many values: expected " + std::to_string(expected) + " (ncols " + std::to_string(nx) +
-                           " x nrows " + std::to_string(ny) + "), extra value '" + std::string(token.text) + "'");
+                           " x nrows " + std::to_string(ny) + "), extra value '" + shown(token.text) + "'");
     const auto value = parse_double(token.text);
-    if (!value) throw InputError(at_line(path, token.line), "'" + std::string(token.text) + "' is not a number");
+    if (!value) throw InputError(at_line(path, token.line), "'" + shown(token.text) + "' is not a number");
     double z = *value;
     const bool is_nodata = has_nodata && (z == nodata || (std::isnan(z) && std::isnan(nodata)));
     if (is_nodata) z = kNaN;
     else if (!std::isfinite(z))
-      throw InputError(at_line(path, token.line), "non-finite value '" + std::string(token.text) + "'");
+      throw InputError(at_line(path, token.line), "non-finite value '" + shown(token.text) + "'");
     else if (std::abs(z) > kMaxElevation)
-      throw InputError(at_line(path, token.line), "value " + std::string(token.text) + " is outside [-1e6, 1e6] m");
+      throw InputError(at_line(path, token.line), "value " + shown(token.text) + " is outside [-1e6, 1e6] m");
     // File rows run north to south; grid row j = 0 is the southernmost.
     const std::size_t row = count / static_cast<std::size_t>(nx), col = count % static_cast<std::size_t>(nx);
     dem.z[dem.spec.index(static_cast<std::int32_t>(col), ny - 1 - static_cast<std::int32_t>(row))] = z;

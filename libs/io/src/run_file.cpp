@@ -389,9 +389,25 @@ RunInfo read_info(const h5::Group& root) {
   info.provenance = read_provenance(root);
   const h5::Group run = root.open_group("run");
   const std::int64_t total = run.attr_int("realizations");
-  if (total <= 0) throw InputError(root.file_name(), "/run: realizations must be positive");
+  // dda-run numbers realizations with 32 bits (its realizations setting stops there).
+  if (total <= 0 || total > 4294967295LL)
+    throw InputError(root.file_name(), "/run: realizations is " + std::to_string(total) + ", must be in [1, 4294967295]");
   info.realizations = static_cast<std::uint64_t>(total);
   info.shard = run.attr_string("shard");
+  {
+    const auto slash = info.shard.find('/');
+    std::uint64_t k = 0, n = 0;
+    const bool digits = slash != std::string::npos && slash > 0 && slash + 1 < info.shard.size() &&
+                        info.shard.find_first_not_of("0123456789/") == std::string::npos &&
+                        info.shard.find('/', slash + 1) == std::string::npos && slash < 10 &&
+                        info.shard.size() - slash - 1 < 10;
+    if (digits) {
+      k = std::stoull(info.shard.substr(0, slash));
+      n = std::stoull(info.shard.substr(slash + 1));
+    }
+    if (!digits || n == 0 || k >= n)
+      throw InputError(root.file_name(), "/run: shard '" + info.shard + "' is not K/N with 0 <= K < N");
+  }
   info.blocks = run.read_strings("blocks");
   info.stop_classes = run.read_strings("stop_classes");
   info.barriers = run.read_strings("barriers");
@@ -538,9 +554,9 @@ void write_whole(const std::filesystem::path& path, Fill fill) {
       path.parent_path() / ("." + path.filename().string() + ".tmp-" + std::to_string(::getpid()));
   try {
     {
-      const h5::File file = h5::File::create(temp.string());
+      h5::File file = h5::File::create(temp.string(), path.string());
       fill(file.root());
-      file.flush();
+      file.close();
     }
     std::filesystem::rename(temp, path);
   } catch (...) {
@@ -659,7 +675,7 @@ void RunJournal::remove() const {
 void write_run_file(const std::string& path, const RunInfo& info, const mc::RunData& data) {
   AtomicOutput out(path);
   {
-    const h5::File file = h5::File::create(out.temp_path());
+    h5::File file = h5::File::create(out.temp_path(), path);
     const h5::Group root = file.root();
     write_header(root, "run", kRunSchema, info.provenance);
     write_info(root, info);
@@ -693,7 +709,7 @@ void write_run_file(const std::string& path, const RunInfo& info, const mc::RunD
       traj.write("xdmf_topology", topology.data(), {topology.size()});
       traj.set_attr("polylines", static_cast<std::int64_t>(polylines));
     }
-    file.flush();
+    file.close();
   }
   if (!data.trajectories.empty()) {
     std::size_t polylines = 1;
@@ -744,6 +760,14 @@ void check_record_values(const std::vector<mc::Record>& records, const std::stri
         throw InputError(path, "/records: realization " + std::to_string(r.realization) + ": " + name + " is " +
                                    core::format_number(value) + " (values of a realization that did not fail must "
                                    "be finite)");
+    // Magnitudes, durations and energies: a negative one is a damaged or edited file.
+    const std::pair<const char*, double> magnitudes[] = {{"time", r.time},
+                                                         {"max_speed", r.max_speed},
+                                                         {"max_kinetic_energy", r.max_kinetic_energy}};
+    for (const auto& [name, value] : magnitudes)
+      if (value < 0.0)
+        throw InputError(path, "/records: realization " + std::to_string(r.realization) + ": " + name + " is " +
+                                   core::format_number(value) + " (must be >= 0)");
   }
 }
 
@@ -756,6 +780,9 @@ RunFile read_run_file(const std::string& path) {
   RunFile f;
   f.info = read_info(root);
   f.data.records = decode_records(root.open_group("records"), f.info);
+  if (f.data.records.size() > f.info.realizations)
+    throw InputError(path, "/records holds " + std::to_string(f.data.records.size()) + " rows for a run of " +
+                               std::to_string(f.info.realizations) + " realizations");
   check_record_values(f.data.records, path);
   f.data.crossings = decode_crossings(root.open_group("crossings"), f.info);
   f.data.trajectories = decode_trajectories(root.open_group("trajectories"), f.info);
@@ -776,10 +803,18 @@ RunFile merge_run_files(const std::vector<RunFile>& shards, const std::vector<st
   RunFile merged;
   merged.info = shards.front().info;
   merged.data.hazard = empty_hazard(merged.info);
+  std::map<std::uint32_t, std::size_t> holder;  // realization → the shard that holds it
   for (std::size_t k = 0; k < shards.size(); ++k) {
     const RunInfo& info = shards[k].info;
     if (const std::string why = run_difference(merged.info, info); !why.empty())
       throw InputError(names[k], "is not a shard of the same run as " + names.front() + " (" + why + ")");
+    for (const auto& r : shards[k].data.records) {
+      const auto [at, inserted] = holder.emplace(r.realization, k);
+      if (!inserted)
+        throw InputError(names[k], "realization " + std::to_string(r.realization) + " appears twice (also in " +
+                                       names[at->second] +
+                                       (names[at->second] == names[k] ? "; the same file given twice?)" : ")"));
+    }
     mc::RunData copy = shards[k].data;
     merged.data.append(std::move(copy));
   }

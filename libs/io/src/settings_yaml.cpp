@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <type_traits>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <map>
@@ -201,6 +202,9 @@ class Reader final : public SettingsVisitor {
   void section(std::string_view key, std::string_view,
                const std::function<void(SettingsVisitor&)>& body) override {
     auto found = take(key);
+    // `--set release=` would reset a whole section to its defaults without a word.
+    if (found && found->IsNull() && !set_key(*found).empty())
+      fail(*found, key, "expected a mapping of settings, got nothing (give KEY.SUBKEY=VALUE)");
     if (!found || found->IsNull()) {
       // Absent section: visit with an empty map so defaults stay; nothing to check.
       Reader inner(YAML::Node(YAML::NodeType::Map), source_, path(key), set_values_, from_set_);
@@ -215,6 +219,8 @@ class Reader final : public SettingsVisitor {
   }
   void list(std::string_view key, std::string_view, const ListAccess& items) override {
     auto found = take(key);
+    if (found && found->IsNull() && !set_key(*found).empty())
+      fail(*found, key, "expected a list, got nothing (give [] for an empty list)");
     if (!found || found->IsNull()) {
       // Absent list: keep the defaults, but still visit them so nested defaults settle.
       for (std::size_t i = 0; i < items.size(); ++i) {
@@ -522,7 +528,9 @@ class Writer final : public SettingsVisitor {
 };
 
 // Applies one "a.b[2].c=value" override to the YAML tree.
-void apply_override(YAML::Node& root, const std::string& text, SetValues& set_values) {
+// `defaults` is the tree of the default settings: a key the file does not give is filled
+// from it, so `--set materials[0].restitution_mean=0.9` reaches the default list's item.
+void apply_override(YAML::Node& root, const std::string& text, SetValues& set_values, const YAML::Node& defaults) {
   const auto eq = text.find('=');
   if (eq == std::string::npos || eq == 0)
     throw core::UsageError("--set expects key=value, got '" + text + "'");
@@ -555,6 +563,9 @@ void apply_override(YAML::Node& root, const std::string& text, SetValues& set_va
 
   // yaml-cpp nodes are references: walk by reassigning handles.
   std::vector<YAML::Node> chain{root};
+  // The same place in the default tree (a null node when it has none). yaml-cpp's
+  // assignment writes through a node, so the walk pushes handles instead.
+  std::vector<YAML::Node> fallbacks{defaults};
   for (std::size_t i = 0; i < parts.size(); ++i) {
     YAML::Node node = chain.back();
     const std::string& part = parts[i];
@@ -568,14 +579,23 @@ void apply_override(YAML::Node& root, const std::string& text, SetValues& set_va
       }
       if (!node.IsSequence() || index >= node.size())
         throw core::UsageError("--set " + key + ": no list item " + part);
+      const YAML::Node& f = fallbacks.back();
+      fallbacks.push_back(f.IsSequence() && index < f.size() ? f[index] : YAML::Node());
       if (last) node[index] = parsed;
       else chain.push_back(node[index]);
     } else {
       if (node.IsNull()) node = YAML::Node(YAML::NodeType::Map);
       if (!node.IsMap()) throw core::UsageError("--set " + key + ": '" + part + "' is not in a mapping");
+      const YAML::Node& f = fallbacks.back();
+      fallbacks.push_back(f.IsMap() && f[part] ? f[part] : YAML::Node());
+      const YAML::Node& fallback = fallbacks.back();
       if (last) node[part] = parsed;
       else {
-        if (!node[part]) node[part] = YAML::Node(YAML::NodeType::Map);
+        if (!node[part]) {
+          // An item of a default list is reached through a copy of that list.
+          const bool list_next = parts[i + 1].front() == '[';
+          node[part] = list_next && fallback.IsSequence() ? YAML::Clone(fallback) : YAML::Node(YAML::NodeType::Map);
+        }
         chain.push_back(node[part]);
       }
     }
@@ -585,9 +605,15 @@ void apply_override(YAML::Node& root, const std::string& text, SetValues& set_va
 // Refuses a mapping that gives a key twice, at any depth: YAML forbids it, and a parser
 // that takes the first (or the last) would silently drop the other value, such as an
 // override appended at the end of a file.
-void check_unique_keys(const YAML::Node& node, const std::string& source) {
+void check_unique_keys(const YAML::Node& node, const std::string& source, int depth = 0) {
+  // No setting nests this deep; an alias inside its own anchor (a: &a [*a]) nests forever.
+  constexpr int kMaxDepth = 64;
+  if (depth > kMaxDepth)
+    throw InputError(source + ":" + std::to_string(node.Mark().line + 1),
+                     "values nested more than " + std::to_string(kMaxDepth) +
+                         " levels deep (an alias inside its own anchor?)");
   if (node.IsSequence()) {
-    for (const auto& item : node) check_unique_keys(item, source);
+    for (const auto& item : node) check_unique_keys(item, source, depth + 1);
     return;
   }
   if (!node.IsMap()) return;
@@ -601,7 +627,7 @@ void check_unique_keys(const YAML::Node& node, const std::string& source) {
         throw InputError(source + ":" + std::to_string(line),
                          "duplicate key '" + key + "' (first given at line " + std::to_string(at->second) + ")");
     }
-    check_unique_keys(pair.second, source);
+    check_unique_keys(pair.second, source, depth + 1);
   }
 }
 
@@ -619,7 +645,8 @@ void read_settings(const std::string& yaml_text, const std::string& source,
   if (!root.IsMap()) throw InputError(source, "expected a mapping of settings at the top level");
   check_unique_keys(root, source);
   SetValues set_values;
-  for (const auto& o : overrides) apply_override(root, o, set_values);
+  const YAML::Node defaults = overrides.empty() ? YAML::Node() : YAML::Load(write_settings(body, false));
+  for (const auto& o : overrides) apply_override(root, o, set_values, defaults);
   Reader reader(root, source, "", set_values);
   reader.declared_by(&body);
   body(reader);
@@ -628,10 +655,13 @@ void read_settings(const std::string& yaml_text, const std::string& source,
 
 void read_settings_file(const std::string& path, const std::vector<std::string>& overrides,
                         const SettingsBody& body) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw InputError(path, "is a directory, not a settings file");
   std::ifstream in(path);
   if (!in) throw InputError(path, "cannot open settings file");
   std::stringstream text;
   text << in.rdbuf();
+  if (in.bad()) throw InputError(path, "cannot read settings file");
   read_settings(text.str(), path, overrides, body);
 }
 

@@ -10,6 +10,7 @@
 #include "talus/core/error.hpp"
 #include "talus/io/atomic_output.hpp"
 #include "talus/io/hdf5.hpp"
+#include "talus/io/xdmf.hpp"
 
 namespace talus::io {
 namespace {
@@ -123,7 +124,7 @@ std::uint64_t u64(std::size_t n) { return static_cast<std::uint64_t>(n); }
 }  // namespace
 
 void write_terrain_file(const std::string& path, const Terrain& terrain, const Provenance& provenance,
-                        std::optional<double> roughness_index) {
+                        std::optional<double> roughness_index, const std::string& xdmf_path) {
   if (const std::string problem = terrain_problem(terrain); !problem.empty())
     throw core::RuntimeError(path + ": refusing to write an inconsistent terrain: " + problem);
   std::vector<std::array<std::int32_t, 3>> generated;
@@ -140,7 +141,7 @@ void write_terrain_file(const std::string& path, const Terrain& terrain, const P
 
   AtomicOutput out(path);
   {
-    const h5::File file = h5::File::create(out.temp_path());
+    h5::File file = h5::File::create(out.temp_path(), path);
     const h5::Group root = file.root();
     write_header(root, "terrain", kTerrainSchema, provenance);
     root.set_attr("name", terrain.name);
@@ -186,8 +187,9 @@ void write_terrain_file(const std::string& path, const Terrain& terrain, const P
     // The seed is a 64-bit pattern; int64 storage keeps every bit.
     g_rough.set_attr("seed", static_cast<std::int64_t>(terrain.roughness.seed));
     if (roughness_index) g_rough.set_attr("roughness_index", *roughness_index);
-    file.flush();
+    file.close();
   }
+  if (!xdmf_path.empty()) write_terrain_xdmf(xdmf_path, path, vertices.size(), terrain.mesh.triangles.size());
   out.commit();
 }
 

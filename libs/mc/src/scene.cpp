@@ -37,11 +37,13 @@ void ReleaseSettings::visit(core::SettingsVisitor& v) {
   v.field("weight_field", weight_field,
           "numeric field of the features' relative weights (-, >= 0): each realization draws a feature with "
           "probability proportional to it; empty = proportional to the feature's area, length or point count");
-  v.field("height", height, "m",
-          "height above the realized ground: of the centroid at the release point (height_reference "
-          "centroid) or of the block's lowest point above the ground under it (lowest_point; 0 = touching); "
-          "with height_reference elevation, the centroid's elevation in the scene's frame (a drop test from a "
-          "fixed height)");
+  // A fall from 10 km already reaches the step limit; far higher ones run for hours.
+  v.bounded("height", height, "m",
+            "height above the realized ground: of the centroid at the release point (height_reference "
+            "centroid) or of the block's lowest point above the ground under it (lowest_point; 0 = touching); "
+            "with height_reference elevation, the centroid's elevation in the scene's frame (a drop test from a "
+            "fixed height)",
+            core::Range::symmetric(1e4));
   v.choice("height_reference", height_reference, {"centroid", "lowest_point", "elevation"},
            "what height measures: the centroid above the ground, the gap under the block lowered vertically "
            "onto the ground, or the centroid's absolute elevation");

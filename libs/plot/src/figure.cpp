@@ -926,10 +926,14 @@ namespace {
 // "sub" filter and zlib level 3 halve the drawing time of the study's figures against
 // libpng's defaults (adaptive filters, level 6). Returns false when the file cannot be
 // written. No C++ object lives across the setjmp.
+// libpng's default handlers print to stderr; the caller reports a failed write in one line.
+void png_quiet_error(png_structp png, png_const_charp) { png_longjmp(png, 1); }
+void png_quiet_warning(png_structp, png_const_charp) {}
+
 bool write_png(const char* path, const unsigned char* data, int width, int height, int stride, unsigned char* row) {
   std::FILE* file = std::fopen(path, "wb");
   if (!file) return false;
-  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, png_quiet_error, png_quiet_warning);
   png_infop info = png ? png_create_info_struct(png) : nullptr;
   if (!info || setjmp(png_jmpbuf(png))) {
     png_destroy_write_struct(&png, info ? &info : nullptr);

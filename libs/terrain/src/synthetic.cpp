@@ -19,6 +19,11 @@ std::int32_t lattice_points(double extent, double cell, const std::string& what,
                                        " m is shorter than one cell (" + format_number(cell) + " m)");
   }
   if (n > 1e6) throw core::InputError(source, "synthetic slope: " + what + " needs more than 10^6 points");
+  // A remainder would be cut off silently: the slope would be smaller than asked for.
+  if (std::abs(extent - (n - 1.0) * cell) > 1e-6 * cell)
+    throw core::InputError(source, "synthetic slope: " + what + " " + format_number(extent) +
+                                       " m is not a whole number of cells of cell_size " + format_number(cell) +
+                                       " m (choose a cell_size that divides it)");
   return static_cast<std::int32_t>(n);
 }
 

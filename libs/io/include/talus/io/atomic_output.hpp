@@ -51,6 +51,9 @@ class OutputLock {
 /// The lock file of an output ("run.h5" → "run.h5.lock").
 std::string lock_path(const std::string& output);
 
+/// " (No space left on device)": the cause a failed write left in errno, or "" if none.
+std::string write_cause();
+
 /// Writes `text` to `path` atomically (see AtomicOutput).
 void write_text_file(const std::string& path, const std::string& text);
 

@@ -10,8 +10,10 @@ namespace talus::io {
 
 /// Writes a block library (one or more blocks) as a Talus block file, atomically
 /// (layout: docs/formats.md, "Block file"). Throws core::RuntimeError if it cannot be written.
+/// With `xdmf_path`, the sidecar (write_block_xdmf) is written after the HDF5 file is
+/// complete and before it is renamed, so a failure of either keeps both earlier files.
 void write_block_file(const std::string& path, const std::vector<block::Block>& blocks,
-                      const Provenance& provenance);
+                      const Provenance& provenance, const std::string& xdmf_path = {});
 
 /// Reads every block of a block file, with the polyhedron checked to be closed and
 /// consistently oriented. Throws core::InputError naming the file and the block on a

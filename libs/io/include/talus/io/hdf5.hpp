@@ -9,6 +9,11 @@
 namespace talus::io {
 /// "HDF5 1.10.8", for --version.
 std::string hdf5_description();
+
+/// Keeps HDF5 from closing, at process exit, files whose close already failed (a full
+/// disk): HDF5 1.10 crashes on them. Call before any other HDF5 use; every file Talus
+/// opens is closed by its owner before exit.
+void prepare_hdf5();
 }  // namespace talus::io
 
 namespace talus::io::h5 {
@@ -100,16 +105,21 @@ class Group {
 /// An HDF5 file. Closed when the File and every Group taken from it are gone.
 class File {
  public:
-  /// Creates (truncates) a file for writing.
-  static File create(const std::string& path);
+  /// Creates (truncates) a file for writing; messages name it `shown_as` when given (the
+  /// final name of an output written under a temporary one).
+  static File create(const std::string& path, const std::string& shown_as = {});
   /// Opens an existing file read-only; throws InputError if it is missing or not HDF5.
   static File open(const std::string& path);
   /// Opens an existing file for reading and appending (resuming a journal); throws
   /// InputError if it is missing, not HDF5, or cannot be opened for writing.
   static File open_rw(const std::string& path);
   Group root() const { return root_; }
-  /// Flushes buffered data to disk.
+  /// Flushes buffered data to disk; throws core::RuntimeError if a write fails.
   void flush() const;
+  /// Writes what is buffered and closes the file with every Group taken from it; throws
+  /// core::RuntimeError naming the file and the cause (disk full, file too large) if a
+  /// write fails. A file written as an output must end with close() before it is kept.
+  void close();
 
  private:
   explicit File(Group root) : root_(std::move(root)) {}

@@ -28,9 +28,12 @@ std::string terrain_problem(const terrain::Terrain& terrain);
 /// arrays are compressed. Written atomically; the same input gives byte-identical files.
 /// `roughness_index` is recorded when σ was given as R. Checks the terrain first
 /// (core::RuntimeError if it is inconsistent: that is a bug of the caller, not bad input).
+/// With `xdmf_path`, the sidecar (write_terrain_xdmf) is written after the HDF5 file is
+/// complete and before it is renamed, so a failure of either keeps both earlier files.
 void write_terrain_file(const std::string& path, const terrain::Terrain& terrain,
                         const Provenance& provenance,
-                        std::optional<double> roughness_index = std::nullopt);
+                        std::optional<double> roughness_index = std::nullopt,
+                        const std::string& xdmf_path = {});
 
 /// Reads a terrain file written by write_terrain_file. Validates everything — kind and
 /// major schema version, dataset shapes, vertex indices and material ids in range, finite

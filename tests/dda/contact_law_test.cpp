@@ -41,6 +41,16 @@ struct CubeOnGround {
     return out;
   }
 
+  // The corners sliding along +x, compressed by the block's weight (a quarter each).
+  std::vector<Contact> sliding_corners() const {
+    std::vector<Contact> out = corners(-m.mass * kG / (4.0 * m.stiffness), ContactMode::sliding);
+    for (Contact& c : out) {
+      c.slip_direction = Vec3::UnitX();
+      c.normal_force = m.mass * kG / 4.0;
+    }
+    return out;
+  }
+
   detail::StepOutcome solve(std::vector<Contact>& contacts, double friction, VecN<6>& d) {
     PhaseTimes times;
     return detail::solve_step<6>(m, detail::pose_of(m, s), s, kDt, friction, contacts, d, times);
@@ -73,11 +83,7 @@ TEST(DdaContactLaw, SlideDeceleratesByCoulomb) {
   CubeOnGround cube;
   const double m = cube.m.mass, k = cube.m.stiffness;
   cube.s.velocity.head<3>() = Vec3(1.0, 0.0, 0.0);
-  std::vector<Contact> contacts = cube.corners(-m * kG / (4.0 * k), ContactMode::sliding);
-  for (Contact& c : contacts) {
-    c.slip_direction = Vec3::UnitX();
-    c.normal_force = m * kG / 4.0;
-  }
+  std::vector<Contact> contacts = cube.sliding_corners();
   VecN<6> d;
   const double mu = 0.2;
   ASSERT_TRUE(cube.solve(contacts, mu, d).converged);
@@ -98,14 +104,9 @@ TEST(DdaContactLaw, SlideDeceleratesByCoulomb) {
 // elastic recoil only, nanometres against the 2.9 µm friction would take off in a step.
 TEST(DdaContactLaw, SlowSlideSticksAgain) {
   CubeOnGround cube;
-  const double m = cube.m.mass, k = cube.m.stiffness;
   const double v = 1e-4;  // m/s, far below μ·g·Δt = 5.9e-3 m/s
   cube.s.velocity.head<3>() = Vec3(v, 0.0, 0.0);
-  std::vector<Contact> contacts = cube.corners(-m * kG / (4.0 * k), ContactMode::sliding);
-  for (Contact& c : contacts) {
-    c.slip_direction = Vec3::UnitX();
-    c.normal_force = m * kG / 4.0;
-  }
+  std::vector<Contact> contacts = cube.sliding_corners();
   VecN<6> d;
   ASSERT_TRUE(cube.solve(contacts, 0.6, d).converged);
   for (const Contact& c : contacts) {

@@ -154,6 +154,8 @@ def make_fixtures(bin_dir, root):
     write(os.path.join(root, "nan.xyz"), "0 0 0\n1 0 0\nnan 1 0\n0 0 1\n")
     write(os.path.join(root, "two.xyz"), "0 0 0\n1 0 0\n")
     write(os.path.join(root, "empty.obj"), "")
+    # One face given twice, the second turned over: a closed mesh of zero volume.
+    write(os.path.join(root, "twin.obj"), "v 0 0 0\nv 10 0 0\nv 0 10 0\nf 1 2 3\nf 1 3 2\n")
     write(os.path.join(root, "badindex.ply"), "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\n"
           "property float y\nproperty float z\nelement face 4\nproperty list uchar int vertex_indices\n"
           "end_header\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 -1\n")
@@ -283,6 +285,7 @@ CASES = [
     (["terrain-gen", "far.asc", "-o", "x.h5"], BAD_INPUT, ["far.asc", "[-1e9, 1e9] m"]),
     (["terrain-gen", "hole.asc", "-o", "x.h5"], BAD_INPUT, ["hole.asc", "(i=2, j=2) at (x=2600005, y=1200005)", "NODATA"]),
     (["terrain-gen", "huge.obj", "-o", "x.h5"], BAD_INPUT, ["huge.obj", "vertex", "[-1e9, 1e9] m"]),
+    (["terrain-gen", "twin.obj", "-o", "x.h5"], BAD_INPUT, ["twin.obj", "triangle 0 and triangle 1", "same three corners"]),
     (["terrain-gen", "missing.asc", "-o", "x.h5"], BAD_INPUT, ["missing.asc"]),
     (["terrain-gen", "ground.laz", "-o", "x.h5"], BAD_INPUT,
      ["ground.laz", "LAZ is compressed", "las2las -i in.laz -o out.las", "pdal translate in.laz out.las"]),

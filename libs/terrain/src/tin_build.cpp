@@ -1,7 +1,10 @@
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "talus/core/error.hpp"
 #include "talus/core/log.hpp"
@@ -100,6 +103,37 @@ void orient(const geometry::TriangleMesh& mesh, std::vector<std::uint8_t>& flip,
   report.triangles_flipped = static_cast<std::size_t>(std::count(flip.begin(), flip.end(), 1));
 }
 
+// Refuses a face given twice (the same three corners, in either order): a closed
+// zero-volume mesh or a doubled export is no sheet of ground, and two parts sharing a face
+// give it two materials. `origin[t]` is the part and input index of kept triangle t.
+void refuse_doubled_faces(const geometry::TriangleMesh& mesh,
+                          const std::vector<std::pair<std::size_t, std::size_t>>& origin,
+                          const std::vector<std::string>& part_names, const std::string& source) {
+  using Key = std::array<double, 9>;
+  std::vector<std::pair<Key, std::size_t>> keys(mesh.triangles.size());
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    std::array<std::array<double, 3>, 3> corners;
+    for (int k = 0; k < 3; ++k) {
+      const Vec3& v = mesh.vertices[static_cast<std::size_t>(mesh.triangles[t][static_cast<std::size_t>(k)])];
+      corners[static_cast<std::size_t>(k)] = {v.x(), v.y(), v.z()};
+    }
+    std::sort(corners.begin(), corners.end());
+    for (std::size_t k = 0; k < 3; ++k)
+      for (std::size_t c = 0; c < 3; ++c) keys[t].first[3 * k + c] = corners[k][c];
+    keys[t].second = t;
+  }
+  std::sort(keys.begin(), keys.end());
+  for (std::size_t i = 1; i < keys.size(); ++i) {
+    if (keys[i].first != keys[i - 1].first) continue;
+    const auto [pa, ta] = origin[std::min(keys[i - 1].second, keys[i].second)];
+    const auto [pb, tb] = origin[std::max(keys[i - 1].second, keys[i].second)];
+    throw core::InputError(source, part_text(pa, part_names) + ": triangle " + std::to_string(ta) + " and " +
+                                       (pb == pa ? "" : part_text(pb, part_names) + ": ") + "triangle " +
+                                       std::to_string(tb) +
+                                       " have the same three corners: a terrain surface holds each face once");
+  }
+}
+
 }  // namespace
 
 Terrain build_tin_terrain(const std::vector<geometry::TriangleMesh>& parts, const std::vector<std::string>& part_names,
@@ -120,6 +154,8 @@ Terrain build_tin_terrain(const std::vector<geometry::TriangleMesh>& parts, cons
   mesh.vertices.reserve(total_vertices);
   mesh.triangles.reserve(total_triangles);
   terrain.material_of_triangle.reserve(total_triangles);
+  std::vector<std::pair<std::size_t, std::size_t>> origin;  // part and input index of each kept triangle
+  origin.reserve(total_triangles);
 
   for (std::size_t p = 0; p < parts.size(); ++p) {
     const auto& part = parts[p];
@@ -155,12 +191,14 @@ Terrain build_tin_terrain(const std::vector<geometry::TriangleMesh>& parts, cons
       }
       mesh.triangles.push_back({tri[0] + offset, tri[1] + offset, tri[2] + offset});
       terrain.material_of_triangle.push_back(static_cast<std::int32_t>(p));
+      origin.emplace_back(p, t);
     }
     Material m;
     m.name = p < part_names.size() && !part_names[p].empty() ? part_names[p] : "part" + std::to_string(p);
     terrain.materials.push_back(m);
   }
   if (mesh.triangles.empty()) throw core::InputError(source, "every terrain triangle is degenerate (zero area)");
+  refuse_doubled_faces(mesh, origin, part_names, source);
 
   std::vector<std::uint8_t> flip;
   orient(mesh, flip, report);

@@ -97,6 +97,13 @@ void fill_patch(const terrain::Surface& surface, const std::vector<std::int32_t>
   }
 }
 
+double norm_bound(const Mat3& a, bool rotation) {
+  if (rotation) return 1.0 + 1e-6;
+  Eigen::SelfAdjointEigenSolver<Mat3> eigen;
+  eigen.computeDirect(a.transpose() * a, Eigen::EigenvaluesOnly);
+  return std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff())) * (1.0 + 1e-6);
+}
+
 // A bound of ‖F − F₀‖₂ for the map F of `pose` and an earlier F₀ (`rigid0`: a rotation):
 // between rotations √(3 − tr(F·F₀ᵀ)) = 2 sin(θ/2), with 1e-14 for round-off; else the
 // Frobenius norm.
@@ -311,15 +318,6 @@ bool edges_by_walk(const PlacedBlock& at, const Vec3& a, const Vec3& along, doub
   return walk(u, ridge_top + deep, deep);
 }
 
-// ‖F‖₂ of the pose's map, generously: 1 for a rigid pose (a rotation, to round-off), else
-// the square root of FᵀF's largest eigenvalue.
-double map_norm_bound(const Pose& pose) {
-  if (pose.rigid) return 1.0 + 1e-6;
-  Eigen::SelfAdjointEigenSolver<Mat3> eigen;
-  eigen.computeDirect(pose.map.transpose() * pose.map, Eigen::EigenvaluesOnly);
-  return std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff())) * (1.0 + 1e-6);
-}
-
 // The convex edges that can pass the edge–ridge tests with ridge te at this pose or any
 // within `motion` (m), into p, ascending, with what their reuse rests on (pairs_serve).
 [[gnu::noinline]] void gather_ridge_pairs(const PlacedBlock& at, const TerrainPatch::Ridge& te, double ds,
@@ -333,7 +331,7 @@ double map_norm_bound(const Pose& pose) {
   std::vector<std::int32_t>& edges = p.features;
   edges.clear();
   p.coordinates.clear();
-  const double stretch = map_norm_bound(pose);
+  const double stretch = norm_bound(pose.map, pose.rigid);
   // In the body frame (distances lengthened by F⁻¹): a pair's crossing lies within ds of
   // the ridge, or within `depth` and below a plane of one of its triangles (both on a
   // crest).

@@ -30,6 +30,10 @@ void fill_patch(const terrain::Surface& surface, const std::vector<std::int32_t>
 /// (Model::crosses_valleys; `every_valley`, SearchFilter's, crosses them all).
 bool crosses(const Model& model, const TerrainPatch::Ridge& te, bool every_valley);
 
+/// ‖a‖₂, generously (1e-6 over): 1 for a rotation (`rotation`, to round-off), else the
+/// square root of aᵀa's largest eigenvalue.
+double norm_bound(const Mat3& a, bool rotation);
+
 /// A bound of ‖F − F₀‖₂ for the map F of `pose` and an earlier map F₀ of the same block
 /// (`rigid0`: a rotation too): every block point r has moved by at most that times |r|
 /// besides the centre's motion.

@@ -1,6 +1,5 @@
 // SPDX-License-Identifier: MIT
 // The block at a pose, as the contact search and the step control see it (contacts.hpp).
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -40,14 +39,8 @@ PlacedBlock::PlacedBlock(const Model& model, const Pose& pose, std::vector<Vec3>
   const Mat3 abs_map = pose.map.cwiseAbs();
   // centre + F·r rounds by a few ulps of |centre| + |F|·|r|, |r| ≤ radius.
   round_off_ = kRound * (pose.centre.cwiseAbs().maxCoeff() + model.radius * abs_map.rowwise().sum().maxCoeff());
-  // ‖F⁻¹‖₂ = 1/σ_min(F), generously: 1 for a rigid pose (a rotation, to round-off), else
-  // the square root of the largest eigenvalue of F⁻ᵀF⁻¹.
-  inverse_stretch_ = 1.0 + 1e-6;
-  if (!pose.rigid) {
-    Eigen::SelfAdjointEigenSolver<Mat3> eigen;
-    eigen.computeDirect(pose.inverse_map.transpose() * pose.inverse_map, Eigen::EigenvaluesOnly);
-    inverse_stretch_ = std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff())) * (1.0 + 1e-6);
-  }
+  // ‖F⁻¹‖₂ = 1/σ_min(F), generously.
+  inverse_stretch_ = norm_bound(pose.inverse_map, pose.rigid);
   if (reuse != nullptr && reuse->model == &model) {
     // A vertex has moved by at most |Δcentre| + ‖ΔF‖·|r| since (map_change bounds the
     // spectral norm), plus the round-off of its two world positions.

@@ -32,7 +32,10 @@ inline void expect_same_run(const RunData& a, const RunData& b) {
     const TrajectoryPoint &p = a.trajectories[k], &q = b.trajectories[k];
     EXPECT_TRUE(p.realization == q.realization && same_bits(p.sample.time, q.sample.time) &&
                 same_bits(p.sample.position, q.sample.position) && same_bits(p.sample.velocity, q.sample.velocity) &&
-                same_bits(p.sample.height, q.sample.height) && same_bits(p.sample.energy, q.sample.energy))
+                same_bits(p.sample.height, q.sample.height) && same_bits(p.sample.energy, q.sample.energy) &&
+                same_bits(Vec3(p.sample.orientation.vec()), Vec3(q.sample.orientation.vec())) &&
+                same_bits(p.sample.orientation.w(), q.sample.orientation.w()) &&
+                same_bits(p.sample.angular_velocity, q.sample.angular_velocity) && p.sample.motion == q.sample.motion)
         << "trajectory point " << k;
   }
   const auto ta = a.hazard.table(), tb = b.hazard.table();

@@ -66,9 +66,9 @@ void end_with(State& s, EndReason reason) {
 // A trajectory sample at time `t` (s) if one is due: centroid position (m), velocity
 // (m/s), height above the terrain (m, NaN off it) and mechanical energy (J).
 void sample_trajectory(const Model& model, State& s, double t, const Vec3& p, const Vec3& v, double height,
-                       double energy) {
+                       double energy, const Eigen::Quaterniond& orientation, const Vec3& omega, Motion motion) {
   if (model.settings.trajectory_interval <= 0.0 || t + 1e-12 < s.next_sample_time) return;
-  s.trajectory.push_back(TrajectorySample{t, p, v, height, energy});
+  s.trajectory.push_back(TrajectorySample{t, p, v, height, energy, orientation, omega, motion});
   s.next_sample_time += model.settings.trajectory_interval;
 }
 
@@ -100,6 +100,15 @@ bool touching(const State& s) {
 
 }  // namespace
 
+// What the block does at the end of a step: an impact lasts until the law has set the
+// rebound, and its velocity until then is the penalty springs', not the rebound.
+Motion motion_of(const State& s) {
+  if (s.episode.active && s.episode.impact) return Motion::impact;
+  for (const Contact& c : s.contacts)
+    if (c.mode != ContactMode::open) return Motion::contact;
+  return Motion::flight;
+}
+
 // Bookkeeping after an accepted step: time, kinetic energy, height, maxima, rest,
 // leaving, trajectory, limits. Each is computed once here and kept in the state for
 // whoever else needs it (the rest test, the trajectory, the driver's observers).
@@ -120,7 +129,8 @@ void finish_step(const Model& model, const Ground& ground, State& s, double dt) 
   const double height = s.height;
   if (hit) note_jump(surf, s, height, hit->triangle);
   sample_trajectory(model, s, s.time, s.position, s.velocity.head<3>(), height,
-                    s.kinetic + model.mass * model.settings.gravity * s.position.z());
+                    s.kinetic + model.mass * model.settings.gravity * s.position.z(), s.orientation,
+                    s.velocity.segment<3>(3), motion_of(s));
   const geometry::Aabb& b = surf.bounds();
   if (s.position.x() < b.lo.x() || s.position.x() > b.hi.x() || s.position.y() < b.lo.y() ||
       s.position.y() > b.hi.y() || s.position.z() < b.lo.z() - 2.0 * model.radius) {

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
 #include "contact_law.hpp"
+#include "rotation.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -138,6 +139,13 @@ void ContactLaw<N>::assemble() {
   k0_ = (2.0 / (dt_ * dt_)) * m;
   f0_ = (2.0 / dt_) * (m * v0);
   f0_.template head<3>() += model_.mass * gravity_vector(model_);
+  if (!model_.isotropic) {
+    // Euler's equations: the inertial prediction is the torque-free rotation, not ω₀·Δt
+    // (the gyroscopic term), so a step with no contact closed turns exactly as flight.
+    const FreeSpin free = free_spin(model_, s_.orientation, v0.template segment<3>(3), dt_);
+    f0_.template segment<3>(3) += (2.0 / (dt_ * dt_)) * (m.template block<3, 3>(3, 3) *
+                                                          (free.theta - dt_ * v0.template segment<3>(3)));
+  }
   if constexpr (N == 12) {
     // Accumulated strain (body frame, from the stretch U) acts as an initial stress.
     const Mat3 e_body = 0.5 * (s_.stretch + s_.stretch.transpose()) - Mat3::Identity();

@@ -195,8 +195,10 @@ class FlightBound {
  public:
   /// `vertices` (world, m) must outlive the bound's use; `round_off` (m) is taken off
   /// every height.
+  /// `spin_curvature` (1/s², at least |ω|²) bounds |r̈|/|r| of the rotation over the
+  /// flight (rotation_curvature); negative for |ω|², a spin that does not turn.
   void reset(const std::vector<Vec3>& vertices, const Vec3& centre, const Vec3& velocity, const Vec3& spin,
-             double gravity, bool damped, double round_off);
+             double gravity, bool damped, double round_off, double spin_curvature = -1.0);
   /// The bound of a detailed block (`at` has an index; it must outlive the bound's use),
   /// after a check in constant time with the block's box and every vertex taken at the
   /// block's radius R (an approach of at most −n·v + |ω|·R, a curvature of at most
@@ -206,7 +208,7 @@ class FlightBound {
   /// (climb_plane_time), never longer. The separation direction's extent is
   /// PlacedBlock::support. Its round-off allowance is a little wider than the scan's.
   void reset(const PlacedBlock& at, const Vec3& velocity, const Vec3& spin, double gravity, bool damped,
-             double round_off);
+             double round_off, double spin_curvature = -1.0);
   /// Times below `enough` (s) need not be exact: a time the bound would give below it may
   /// come out as any time below it that is still proven clear (a detailed convex block's
   /// search then stops once it knows the time is below); one at or above it is the same
@@ -239,6 +241,7 @@ class FlightBound {
   Vec3 spin_vector_ = Vec3::Zero();      // ω (rad/s) of a detailed block
   Vec3 centre_ = Vec3::Zero(), velocity_ = Vec3::Zero();
   double gravity_ = 0.0, round_off_ = 0.0;
+  double turning_ = 0.0;  // spin_curvature − |ω|² (1/s²): 0 for a spin that does not turn
   double enough_ = 0.0;  // settle_below (s)
   bool damped_ = false;
   std::vector<Vec3> rates_;        // per vertex: wᵢ, or ω × r when damped (m/s)

@@ -78,7 +78,9 @@ void begin(const Model& model, const Ground& ground, State& s) {
   if (model.settings.trajectory_interval > 0.0 && s.trajectory.empty()) {
     double height = std::numeric_limits<double>::quiet_NaN();
     if (const auto hit = ground.surface->height_at(s.position.x(), s.position.y())) height = s.position.z() - hit->z;
-    s.trajectory.push_back(TrajectorySample{s.time, s.position, s.velocity.head<3>(), height, mechanical_energy(model, s)});
+    s.trajectory.push_back(TrajectorySample{s.time, s.position, s.velocity.head<3>(), height,
+                                            mechanical_energy(model, s), s.orientation, s.velocity.segment<3>(3),
+                                            motion_of(s)});
     s.next_sample_time = model.settings.trajectory_interval;
   }
   s.time_limit = time_limit(model, *ground.surface);

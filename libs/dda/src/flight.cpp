@@ -8,6 +8,7 @@
 
 #include "contact_law.hpp"
 #include "episodes.hpp"
+#include "rotation.hpp"
 #include "step.hpp"
 #include "workspace.hpp"
 
@@ -112,11 +113,14 @@ double clear_time(const Model& model, const Ground& ground, State& s, Scratch& w
   const double round_off = 1e-9 * (s.position.cwiseAbs().maxCoeff() + model.radius);
   // Free flight is the exact parabola whatever dynamic_coefficient is (apply_displacement).
   const bool damped = false;
+  // Points accelerate by the spin's change too when ω turns (Euler's equations).
+  const double curvature = rotation_curvature(model, at.pose().rotation, s.velocity.segment<3>(3));
   if (at.index() == nullptr)
     bound.reset(at.vertices(), s.position, s.velocity.head<3>(), s.velocity.segment<3>(3), model.settings.gravity,
-                damped, round_off);
+                damped, round_off, curvature);
   else
-    bound.reset(at, s.velocity.head<3>(), s.velocity.segment<3>(3), model.settings.gravity, damped, round_off);
+    bound.reset(at, s.velocity.head<3>(), s.velocity.segment<3>(3), model.settings.gravity, damped, round_off,
+                curvature);
   double clear = h;
   // Less than one step is no flight: the search decides (flight_step), so the triangles
   // left need no bound, and a time below it need not be exact.
@@ -219,6 +223,8 @@ void sample_flight(const Model& model, const Ground& ground, State& s, double dt
   const Vec3 p0 = s.position;
   const Vec3 v0 = s.velocity.head<3>();
   const double energy = trajectory ? mechanical_energy(model, s) : 0.0;  // constant in flight
+  Eigen::Quaterniond q = s.orientation;
+  Vec3 omega = s.velocity.segment<3>(3);
   for (int j = 1; j < k; ++j) {
     const double tau = j * dt;
     const double t = s.time + tau;
@@ -226,7 +232,9 @@ void sample_flight(const Model& model, const Ground& ground, State& s, double dt
     const auto hit = surf.height_at(p.x(), p.y());
     const double height = hit ? p.z() - hit->z : std::numeric_limits<double>::quiet_NaN();
     if (hit) note_jump(surf, s, height, hit->triangle);
-    sample_trajectory(model, s, t, p, v0 + g * tau, height, energy);
+    if (!trajectory) continue;
+    rotate_free(model, q, omega, dt);
+    sample_trajectory(model, s, t, p, v0 + g * tau, height, energy, q, omega, Motion::flight);
   }
 }
 
@@ -281,7 +289,16 @@ double flight_step(const Model& model, const Ground& ground, State& s, Scratch& 
     const int k = static_cast<int>(std::clamp(whole, 1.0, std::floor(model.settings.flight_step_ratio)));
     h = k * dt;
     if (k > 1) sample_flight(model, ground, s, dt, k);
-    apply_displacement<6>(model, s, free_displacement(model, s, h), h, false, false);
+    if (model.isotropic) {
+      apply_displacement<6>(model, s, free_displacement(model, s, h), h, false, false);
+    } else {
+      // The parabola, and Euler's equations for the spin (ω turns, L stays).
+      s.position += s.velocity.head<3>() * h + 0.5 * gravity_vector(model) * h * h;
+      s.velocity.head<3>() += gravity_vector(model) * h;
+      Vec3 omega = s.velocity.segment<3>(3);
+      rotate_free(model, s.orientation, omega, h);
+      s.velocity.segment<3>(3) = omega;
+    }
   } else {
     // Strains keep oscillating in flight: the contact-free 12-DOF solve; the stretch update
     // is not linear in the step, so a small energy gain is taken back as a contact step's.

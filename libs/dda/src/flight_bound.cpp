@@ -82,7 +82,7 @@ double separation(const PlacedBlock& at, const std::array<Vec3, 3>& corners, Vec
 }
 
 void FlightBound::reset(const std::vector<Vec3>& vertices, const Vec3& centre, const Vec3& velocity, const Vec3& spin,
-                        double gravity, bool damped, double round_off) {
+                        double gravity, bool damped, double round_off, double spin_curvature) {
   vertices_ = &vertices;
   placed_ = nullptr;
   centre_ = centre;
@@ -93,7 +93,8 @@ void FlightBound::reset(const std::vector<Vec3>& vertices, const Vec3& centre, c
   enough_ = 0.0;
   rates_.resize(vertices.size());
   curvature_.resize(vertices.size());
-  const double spin2 = spin.squaredNorm();
+  turning_ = std::max(0.0, spin_curvature - spin.squaredNorm());
+  const double spin2 = spin.squaredNorm() + turning_;
   for (std::size_t i = 0; i < vertices.size(); ++i) {
     const Vec3 r = vertices[i] - centre;
     rates_[i] = damped ? spin.cross(r) : Vec3(velocity + spin.cross(r));
@@ -102,7 +103,8 @@ void FlightBound::reset(const std::vector<Vec3>& vertices, const Vec3& centre, c
 }
 
 void FlightBound::reset(const PlacedBlock& at, const Vec3& velocity, const Vec3& spin, double gravity, bool damped,
-                        double round_off) {
+                        double round_off, double spin_curvature) {
+  turning_ = std::max(0.0, spin_curvature - spin.squaredNorm());
   vertices_ = nullptr;
   placed_ = &at;
   centre_ = at.pose().centre;
@@ -150,7 +152,7 @@ double FlightBound::plane_time(const Vec3& n, double offset, double limit) const
     const Vec3 m = pose.map.transpose() * n;
     const Vec3 k = pose.map.transpose() * n.cross(spin_vector_);
     const Vec3 m_abs = m.cwiseAbs(), k_abs = k.cwiseAbs();
-    const double spin2 = spin_vector_.squaredNorm();
+    const double spin2 = spin_vector_.squaredNorm() + turning_;
     const double base = n.dot(centre_) - offset - round_off_;
     // The round-off of a vertex's computed height and approach against these bounds.
     const double slack_height = 4.0 * placed_->round_off() + 1e-12 * (std::abs(base) + model.radius);
@@ -195,7 +197,7 @@ double FlightBound::box_plane_time(const Vec3& n, double offset, double limit) c
   const double rate = (damped_ ? translation : -n.dot(velocity_)) + spin_ * radius_;
   const double height = n.dot(centre_) - placed_->support_bound(-n) - offset - round_off_;
   if (!(height > 0.0)) return 0.0;
-  return reach_time(height, rate, fall + spin_ * spin_ * radius_, limit);
+  return reach_time(height, rate, fall + (spin_ * spin_ + turning_) * radius_, limit);
 }
 
 // On a convex block the least gap after t is at least the concave G(t) = n·c − offset +
@@ -206,7 +208,7 @@ double FlightBound::climb_plane_time(const Vec3& n, double offset, double limit)
   const double base = n.dot(centre_) - offset - round_off_;
   const double lift = damped_ ? -std::max(0.0, -n.dot(velocity_)) : n.dot(velocity_);
   const double fall = gravity_ * (damped_ ? std::max(0.0, n.z()) : n.z());
-  const double a = std::max(0.0, fall + spin_ * spin_ * radius_);
+  const double a = std::max(0.0, fall + (spin_ * spin_ + turning_) * radius_);
   std::int32_t from = -1;
   Vec3 lever = Vec3::Zero();  // xᵢ − c of the last support vertex
   const auto extent = [&](const Vec3& u) { return placed_->climbed_support(u, from, lever); };

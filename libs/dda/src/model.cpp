@@ -248,6 +248,12 @@ Model Model::build(const Settings& settings, const geometry::Polyhedron& block) 
   m.mass = settings.density * props.volume;
   m.second_moments = props.second_moments;
   m.inertia = settings.density * props.inertia;
+  const Eigen::SelfAdjointEigenSolver<Mat3> principal(m.inertia);
+  m.principal_moments = principal.eigenvalues();
+  m.principal_axes = principal.eigenvectors();
+  if (m.principal_axes.determinant() < 0.0) m.principal_axes.col(2) *= -1.0;
+  m.isotropic = m.principal_moments.maxCoeff() - m.principal_moments.minCoeff() <=
+                1e-9 * m.principal_moments.maxCoeff();
   m.vertices.reserve(block.vertices.size());
   for (const Vec3& p : block.vertices) {
     m.vertices.push_back(p - props.centroid);

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "kinematics.hpp"
+#include "rotation.hpp"
 
 namespace talus::dda::detail {
 
@@ -60,9 +61,12 @@ void aim_pass_over(const Model& model, const State& s, const Pose& pose, double 
 /// Ends the realization with `reason` unless it has ended already.
 void end_with(State& s, EndReason reason);
 /// A trajectory sample at time `t` (s) if one is due: centroid position (m), velocity
-/// (m/s), height above the terrain (m, NaN off it) and mechanical energy (J).
+/// (m/s), height above the terrain (m, NaN off it), mechanical energy (J), orientation,
+/// angular velocity (world, rad/s) and what the block is doing.
 void sample_trajectory(const Model& model, State& s, double t, const Vec3& p, const Vec3& v, double height,
-                       double energy);
+                       double energy, const Eigen::Quaterniond& orientation, const Vec3& omega, Motion motion);
+/// What the block does at the end of the last step (a trajectory sample's `motion`).
+Motion motion_of(const State& s);
 /// The centroid `height` (m) above the terrain triangle `triangle` below it: the jump
 /// maxima, from the first touch on.
 void note_jump(const terrain::Surface& surf, State& s, double height, std::int32_t triangle);
@@ -82,6 +86,7 @@ template <int N>
 void apply_displacement(const Model& model, State& s, const VecN<N>& d, double dt, bool strain_frozen = false,
                         bool damped = true) {
   const Mat3 r_old = s.orientation.toRotationMatrix();
+  const Eigen::Quaterniond q_old = s.orientation;
   const Vec3 theta = d.template segment<3>(3);
   s.position += d.template head<3>();
   const double angle = theta.norm();
@@ -91,7 +96,13 @@ void apply_displacement(const Model& model, State& s, const VecN<N>& d, double d
     const Mat3 e = strain_tensor(d.template tail<6>());
     s.stretch = s.stretch + r_old.transpose() * e * r_old * s.stretch;
   }
-  const VecN<N> v1 = (2.0 / dt) * d - s.velocity.template head<N>();
+  VecN<N> v1 = (2.0 / dt) * d - s.velocity.template head<N>();
+  if (!model.isotropic) {
+    // The spin the torque-free rotation ends with, plus what the contacts added to its
+    // turn (rotation.hpp, free_spin: the step's inertial prediction).
+    const FreeSpin free = free_spin(model, q_old, s.velocity.template segment<3>(3), dt);
+    v1.template segment<3>(3) = free.omega + (2.0 / dt) * (theta - free.theta);
+  }
   s.velocity.template head<N>() = damped ? model.settings.dynamic_coefficient * v1 : v1;
   if constexpr (N == 12) {
     if (strain_frozen) s.velocity.template tail<6>().setZero();

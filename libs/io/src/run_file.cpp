@@ -122,6 +122,11 @@ Table trajectory_table(const std::vector<mc::TrajectoryPoint>& points) {
   auto& velocity = col(t, "velocity", Element::f64, 3, "m/s").f64;
   auto& height = col(t, "height", Element::f64, 0, "m").f64;
   auto& energy = col(t, "energy", Element::f64, 0, "J").f64;
+  // Columns added after the first schema: absent from earlier files (read as empty).
+  auto& orientation = col(t, "orientation", Element::f64, 4, "1").f64;
+  auto& spin = col(t, "angular_velocity", Element::f64, 3, "rad/s").f64;
+  auto& motion = col(t, "motion", Element::u8).u8;
+  t["orientation"].optional = t["angular_velocity"].optional = t["motion"].optional = true;
   for (const auto& p : points) {
     realization.push_back(p.realization);
     time.push_back(p.sample.time);
@@ -129,6 +134,10 @@ Table trajectory_table(const std::vector<mc::TrajectoryPoint>& points) {
     put3(velocity, p.sample.velocity);
     height.push_back(p.sample.height);
     energy.push_back(p.sample.energy);
+    const Eigen::Quaterniond& q = p.sample.orientation;
+    orientation.insert(orientation.end(), {q.w(), q.x(), q.y(), q.z()});
+    put3(spin, p.sample.angular_velocity);
+    motion.push_back(static_cast<std::uint8_t>(p.sample.motion));
   }
   return t;
 }
@@ -311,6 +320,18 @@ std::vector<mc::TrajectoryPoint> decode_trajectories(const h5::Group& g, const R
     p.sample.velocity = get3(t["velocity"].f64, k);
     p.sample.height = t["height"].f64[k];
     p.sample.energy = t["energy"].f64[k];
+    // A file of schema 1.1 or earlier has no pose: identity and zero, motion unknown (flight).
+    if (!t["orientation"].f64.empty()) {
+      const std::vector<double>& q = t["orientation"].f64;
+      p.sample.orientation = Eigen::Quaterniond(q[4 * k], q[4 * k + 1], q[4 * k + 2], q[4 * k + 3]);
+    }
+    if (!t["angular_velocity"].f64.empty()) p.sample.angular_velocity = get3(t["angular_velocity"].f64, k);
+    if (!t["motion"].u8.empty()) {
+      const std::uint8_t m = t["motion"].u8[k];
+      if (m > static_cast<std::uint8_t>(dda::Motion::contact))
+        throw InputError(g.file_name(), g.path() + "/motion has the unknown value " + std::to_string(m));
+      p.sample.motion = static_cast<dda::Motion>(m);
+    }
   }
   return out;
 }
@@ -707,6 +728,16 @@ void write_run_file(const std::string& path, const RunInfo& info, const mc::RunD
       }
       const h5::Group traj = root.open_group("trajectories");
       traj.write("xdmf_topology", topology.data(), {topology.size()});
+      // The pose as a rotation matrix (row-major, body → world) per sample: ParaView's
+      // Tensor Glyph draws the block's axes from it.
+      std::vector<double> rotation;
+      rotation.reserve(9 * data.trajectories.size());
+      for (const auto& p : data.trajectories) {
+        const geometry::Mat3 r = p.sample.orientation.normalized().toRotationMatrix();
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j) rotation.push_back(r(i, j));
+      }
+      traj.write("xdmf_rotation", rotation.data(), {data.trajectories.size(), 9});
       traj.set_attr("polylines", static_cast<std::int64_t>(polylines));
     }
     file.close();
@@ -730,9 +761,16 @@ void write_run_file(const std::string& path, const RunInfo& info, const mc::RunD
       x << "   <Attribute Name=\"" << name << "\" AttributeType=\"Scalar\" Center=\"Node\">\n    <DataItem Dimensions=\"" << n
         << "\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << h5_name << ":/trajectories/" << name
         << "</DataItem>\n   </Attribute>\n";
-    x << "   <Attribute Name=\"velocity\" AttributeType=\"Vector\" Center=\"Node\">\n    <DataItem Dimensions=\"" << n
-      << " 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << h5_name
-      << ":/trajectories/velocity</DataItem>\n   </Attribute>\n  </Grid>\n </Domain>\n</Xdmf>\n";
+    for (const char* name : {"velocity", "angular_velocity"})
+      x << "   <Attribute Name=\"" << name << "\" AttributeType=\"Vector\" Center=\"Node\">\n    <DataItem Dimensions=\""
+        << n << " 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << h5_name << ":/trajectories/" << name
+        << "</DataItem>\n   </Attribute>\n";
+    x << "   <Attribute Name=\"motion\" AttributeType=\"Scalar\" Center=\"Node\">\n    <DataItem Dimensions=\"" << n
+      << "\" NumberType=\"UChar\" Precision=\"1\" Format=\"HDF\">" << h5_name << ":/trajectories/motion</DataItem>\n"
+      << "   </Attribute>\n"
+      << "   <Attribute Name=\"rotation\" AttributeType=\"Tensor\" Center=\"Node\">\n    <DataItem Dimensions=\"" << n
+      << " 9\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << h5_name
+      << ":/trajectories/xdmf_rotation</DataItem>\n   </Attribute>\n  </Grid>\n </Domain>\n</Xdmf>\n";
     write_text_file(xdmf_sidecar_path(path), x.str());
   }
   out.commit();

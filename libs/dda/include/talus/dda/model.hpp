@@ -57,6 +57,13 @@ struct Model {
   double mass = 0.0;            ///< kg
   Mat3 second_moments = Mat3::Zero();  ///< ρ-free ∫ r rᵀ dV about the centroid, body frame (m⁵)
   Mat3 inertia = Mat3::Zero();  ///< inertia tensor about the centroid, body frame (kg m²)
+  /// Principal moments of inertia, ascending (kg m²), and their axes as the columns of a
+  /// proper rotation (body frame): the frame of Euler's equations.
+  Vec3 principal_moments = Vec3::Zero();
+  Mat3 principal_axes = Mat3::Identity();
+  /// The principal moments agree within 1e-9 of the largest (the Platonic solids): the
+  /// gyroscopic torque ω × Jω vanishes and free spin keeps ω.
+  bool isotropic = false;
   double radius = 0.0;          ///< circumscribed radius about the centroid (m)
   /// Length that scales the step control (m): the circumscribed diameter, but never more
   /// than twice the block's thickness (the width along its thinnest principal axis,

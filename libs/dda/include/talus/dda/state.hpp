@@ -125,12 +125,22 @@ struct Episode {
   double restitution_scale = 12.0;  ///< K of the material hit (m/s)
 };
 
+/// What the block is doing at a trajectory sample (part of the run-file format).
+enum class Motion : std::uint8_t {
+  flight = 0,   ///< no contact closed
+  impact = 1,   ///< inside an impact, before the restitution law has set the rebound
+  contact = 2,  ///< rolling, sliding or resting on the ground
+};
+
 struct TrajectorySample {
   double time = 0.0;               ///< s
   Vec3 position = Vec3::Zero();    ///< centroid (m)
   Vec3 velocity = Vec3::Zero();    ///< centroid (m/s)
   double height = 0.0;             ///< centroid above the terrain surface (m), NaN off terrain
   double energy = 0.0;             ///< kinetic + potential (J), potential from z = 0
+  Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();  ///< body → world
+  Vec3 angular_velocity = Vec3::Zero();  ///< world frame (rad/s)
+  Motion motion = Motion::flight;
 };
 
 /// Release conditions of one realization.

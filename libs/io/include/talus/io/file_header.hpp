@@ -24,7 +24,7 @@ struct SchemaVersion {
 };
 inline constexpr SchemaVersion kTerrainSchema{1, 1};  // 1.1: optional crs_wkt attribute
 inline constexpr SchemaVersion kBlockSchema{1, 0};
-inline constexpr SchemaVersion kRunSchema{1, 1};  // 1.1: optional /hazard exact values, speed sketch, energy maxima
+inline constexpr SchemaVersion kRunSchema{1, 2};  // 1.1: optional /hazard exact values, speed sketch, energy maxima; 1.2: trajectory orientation, angular velocity, motion
 
 /// Writes the root attributes "talus_format" (kind) and "schema_version" ("MAJOR.MINOR"),
 /// and the /provenance group.

@@ -206,6 +206,9 @@ class ContactStep {
   bool any_closed_ = false;
   double spring_energy_ = 0.0;
   Approach arrival_, closing_;
+  // The contact that opened in the step with the least end gap: the last to let go
+  // (finish_impact).
+  Separation separation_;
   std::optional<Cholesky6> mass_llt_;
 };
 
@@ -521,10 +524,14 @@ bool ContactStep<N>::keep_contacts() {
   // Contacts closed through the whole step: their end points (world), normals and, for
   // those that end it locked, the friction impulse they can carry (settle_contacts).
   b_.persistent.clear();
+  separation_ = {};
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
     Contact& c = contacts_[i];
     const Vec3 du = point_displacement<N>(c.point - pose_.centre, d_);
     const double g = c.gap - c.gap_offset + c.normal.dot(du);
+    if (c.mode == ContactMode::open && b_.start_modes[i] != ContactMode::open && g > 0.0 &&
+        (separation_.gap == 0.0 || g < separation_.gap))
+      separation_ = {g, c.normal, c.point + du, dt_};
     if (c.mode == ContactMode::open) {
       if (c.anchored && g < keep_gap) {
         c.normal_force = 0.0;
@@ -618,7 +625,7 @@ void ContactStep<N>::update_episode() {
     start_episode_along(model_, ground_, s_, v_start_, kinetic_start_, arrival_.normal, arrival_.triangle,
                         {arrival_.speed, arrival_.energy});
   } else if (!any_closed_ && s_.episode.active) {
-    end_episode(model_, s_);
+    end_episode(model_, s_, separation_);
   } else if (s_.episode.active && s_.episode.impact && end_approach() < set_.impact_min_normal_speed &&
              rebound_complete(model_, s_, spring_energy_)) {
     finish_impact(model_, s_);

@@ -94,14 +94,29 @@ void start_episode_along(const Model& model, const Ground& ground, State& s, con
   ++s.impacts;
 }
 
+
 // Applies the restitution law to the rebound of the impact in progress; the episode
 // goes on as a rolling/sliding one if contacts stay closed.
-void finish_impact(const Model& model, State& s) {
+void finish_impact(const Model& model, State& s, const Separation& separation) {
   Episode& e = s.episode;
   const bool impact = e.impact;
   e.impact = false;
   if (!impact || model.restitution == RestitutionLaw::off) return;
-  Vec3 v = s.velocity.head<3>();
+  // The rebound is the velocity at the moment the last contact let go, τ before the step's
+  // end: its point then flew away from the ground by its end gap g along n at the end rate
+  // u_n, so g = u_n·τ − ½g_n·τ² gives τ = 2g / (u_n + √(u_n² − 2·g_n·g)), within the step.
+  const Vec3 gravity(0.0, 0.0, -model.settings.gravity);
+  double tau = 0.0;
+  if (separation.gap > 0.0) {
+    const Vec3& n = separation.normal;
+    const Vec3 r = separation.point - s.position;
+    const double un = n.dot(s.velocity.head<3>() + s.velocity.segment<3>(3).cross(r));
+    const double gn = gravity.dot(n);
+    const double root = std::sqrt(std::max(0.0, un * un - 2.0 * gn * separation.gap));
+    if (un + root > 0.0) tau = std::min(separation.step, 2.0 * separation.gap / (un + root));
+  }
+  const Vec3 v_separation = s.velocity.head<3>() - gravity * tau;
+  Vec3 v = v_separation;
   Vec3 w = s.velocity.segment<3>(3);
   const auto rotational = [&](const Vec3& omega) {
     const Vec3 wb = s.orientation.conjugate() * omega;
@@ -164,12 +179,14 @@ void finish_impact(const Model& model, State& s) {
       w *= factor;
     }
   }
-  s.velocity.head<3>() = v;
+  // The flight since the separation is redone with the law's rebound.
+  s.position += (v - v_separation) * tau;
+  s.velocity.head<3>() = v + gravity * tau;
   s.velocity.segment<3>(3) = w;
 }
 
-void end_episode(const Model& model, State& s) {
-  finish_impact(model, s);
+void end_episode(const Model& model, State& s, const Separation& separation) {
+  finish_impact(model, s, separation);
   s.episode.active = false;
 }
 

@@ -30,11 +30,23 @@ void start_episode(const Model& model, const Ground& ground, State& s, const Vec
 /// impact that arrives while other contacts are closed (docs/dda.md, Impact–rebound).
 void start_episode_along(const Model& model, const Ground& ground, State& s, const Vec3& v_in, double kinetic_in,
                          const Vec3& normal, std::int32_t triangle, PointApproach point = {});
+/// The last contact to let go in a step that ends an impact: its end gap (m, > 0), unit
+/// normal, block point at the step's end (world, m) and the step's length (s). The block
+/// flew from that moment at the raw rebound; the law's rebound belongs to that moment.
+struct Separation {
+  double gap = 0.0;
+  Vec3 normal = Vec3::UnitZ();
+  Vec3 point = Vec3::Zero();
+  double step = 0.0;
+};
+
 /// Applies the restitution law to the rebound of the impact in progress; the episode
-/// goes on as a rolling/sliding one if contacts stay closed.
-void finish_impact(const Model& model, State& s);
-/// Ends the episode (applying the law if it is an impact).
-void end_episode(const Model& model, State& s);
+/// goes on as a rolling/sliding one if contacts stay closed. With a `separation` the law
+/// acts on the velocity at the moment of separation and the flight since is redone with
+/// the law's rebound.
+void finish_impact(const Model& model, State& s, const Separation& separation = {});
+/// Ends the episode (applying the law if it is an impact); `separation` as for finish_impact.
+void end_episode(const Model& model, State& s, const Separation& separation = {});
 /// True once an impact whose block stays in contact has rebounded (docs/dda.md).
 bool rebound_complete(const Model& model, const State& s, double spring_energy);
 

@@ -56,14 +56,14 @@ def rebound(path, edge, mass, inertia):
     speed, from the trajectory: positions of the parabolas before and after the first impact."""
     t = h5py.File(path)["trajectories"]
     time, pos, motion = t["time"][:], t["position"][:], t["motion"][:]
-    spin = t["angular_velocity"][:]
-    touched = np.nonzero(motion != 0)[0]
-    if len(touched) == 0:
+    spin, velocity = t["angular_velocity"][:], t["velocity"][:]
+    # The impact may fall between two samples (a small block's steps are short): the
+    # rebound is the first parabola after the centroid has turned upwards.
+    rising = np.nonzero(velocity[:, 2] > 0.0)[0]
+    if len(rising) == 0:
         return None
-    first = touched[0]
-    # The first flight after the impact that rises: three samples of it.
-    after = [k for k in range(first, len(time) - 3) if motion[k] == 0 and motion[k + 1] == 0 and motion[k + 2] == 0
-             and k > first]
+    first = rising[0]
+    after = [k for k in range(first, len(time) - 3) if motion[k] == 0 and motion[k + 1] == 0 and motion[k + 2] == 0]
     if not after:
         return None
     k = after[0]

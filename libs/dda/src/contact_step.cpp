@@ -586,8 +586,10 @@ bool ContactStep<N>::keep_contacts() {
 template <int N>
 void ContactStep<N>::check_overlap() {
   if (!set_.check_invariants) return;
-  const double overlap = std::max(terrain_depth_in_block(model_, pose_of(model_, s_), w_.patch),
-                                  block_depth_below_terrain(world_vertices(model_, s_), w_.patch, model_.radius));
+  const Pose end = pose_of(model_, s_);
+  const double overlap = std::max({terrain_depth_in_block(model_, end, w_.patch),
+                                   block_depth_below_terrain(world_vertices(model_, s_), w_.patch, model_.radius),
+                                   depth_below_ground(model_, end, *ground_.surface)});
   s_.max_depth = std::max(s_.max_depth, overlap);
   if (overlap > depth_) ++s_.counters.depth_violations;
 }

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "episodes.hpp"
+#include "invariants.hpp"
 #include "step.hpp"
 #include "workspace.hpp"
 #include "talus/core/error.hpp"
@@ -110,9 +111,17 @@ void step(const Model& model, const Ground& ground, State& s, Workspace& workspa
   // The last step ends exactly at the time limit.
   if (s.time + s.dt > s.time_limit) s.dt = std::max(s.time_limit - s.time, 1e-3 * model.settings.min_time_step);
   Scratch& w = workspace.scratch();
-  if (fly(model, ground, s, w)) return;
-  if (model.dof == DofPath::rigid6) contact_step<6>(model, ground, s, w);
-  else contact_step<12>(model, ground, s, w);
+  if (!fly(model, ground, s, w)) {
+    if (model.dof == DofPath::rigid6) contact_step<6>(model, ground, s, w);
+    else contact_step<12>(model, ground, s, w);
+  }
+  // A block that ends on the ground is checked once, exactly, for lying below it (a
+  // terrain feature through it that no contact held): it is not at rest but a failure.
+  if (s.end == EndReason::rest || s.end == EndReason::step_limit) {
+    const double depth = depth_below_ground(model, pose_of(model, s), *ground.surface);
+    s.max_depth = std::max(s.max_depth, depth);
+    if (depth > model.penetration_limit()) s.end = EndReason::penetration;
+  }
 }
 
 Summary summarize(const State& s) {

@@ -99,6 +99,76 @@ double block_depth_below_terrain(const std::vector<Vec3>& world, const TerrainPa
 }
 
 
+double depth_below_ground(const Model& model, const Pose& pose, const terrain::Surface& surf) {
+  if (!surf.is_height_field()) return 0.0;
+  std::vector<Vec3> world;
+  world.reserve(model.vertices.size());
+  geometry::Aabb box;
+  for (const Vec3& r : model.vertices) {
+    world.push_back(pose.centre + pose.map * r);
+    box.add(world.back());
+  }
+  double deepest = 0.0;
+  // Block vertices against the ground under them.
+  for (const Vec3& p : world)
+    if (const auto hit = surf.height_at(p.x(), p.y())) deepest = std::max(deepest, hit->z - p.z());
+  // The terrain under the block's plan box: its vertices and edges.
+  geometry::Aabb plan = box;
+  plan.lo.z() = -std::numeric_limits<double>::infinity();
+  plan.hi.z() = std::numeric_limits<double>::infinity();
+  std::vector<std::int32_t> triangles;
+  surf.triangles_in_box(plan, triangles);
+  const auto in_plan = [&](const Vec3& q) {
+    return q.x() >= box.lo.x() && q.x() <= box.hi.x() && q.y() >= box.lo.y() && q.y() <= box.hi.y();
+  };
+  for (std::int32_t t : triangles) {
+    const std::array<Vec3, 3> tri = surf.triangle_vertices(static_cast<std::size_t>(t));
+    for (const Vec3& q : tri) {
+      if (!in_plan(q)) continue;
+      // The block's lowest point on the vertical line through q: its faces' planes there,
+      // for the faces q lies over or under in plan.
+      double lowest = std::numeric_limits<double>::infinity();
+      for (const BlockFace& f : model.faces) {
+        const Vec3 n = pose.inverse_map.transpose() * f.normal;
+        if (std::abs(n.z()) < 1e-12 * n.norm()) continue;
+        bool inside = false;
+        const std::size_t m = f.vertices.size();
+        for (std::size_t a = 0, b = m - 1; a < m; b = a++) {
+          const Vec3& pa = world[static_cast<std::size_t>(f.vertices[a])];
+          const Vec3& pb = world[static_cast<std::size_t>(f.vertices[b])];
+          if ((pa.y() > q.y()) != (pb.y() > q.y()) &&
+              q.x() < (pb.x() - pa.x()) * (q.y() - pa.y()) / (pb.y() - pa.y()) + pa.x())
+            inside = !inside;
+        }
+        if (!inside) continue;
+        const Vec3& p0 = world[static_cast<std::size_t>(f.vertices[0])];
+        lowest = std::min(lowest, p0.z() - (n.x() * (q.x() - p0.x()) + n.y() * (q.y() - p0.y())) / n.z());
+      }
+      if (std::isfinite(lowest)) deepest = std::max(deepest, q.z() - lowest);
+    }
+    // Block edges crossing the triangle's edges in plan.
+    for (int k = 0; k < 3; ++k) {
+      const Vec3& a = tri[k];
+      const Vec3& b = tri[(k + 1) % 3];
+      const Eigen::Vector2d d2 = (b - a).head<2>();
+      for (const BlockEdge& e : model.edges) {
+        const Vec3& p = world[static_cast<std::size_t>(e.a)];
+        const Vec3& q = world[static_cast<std::size_t>(e.b)];
+        const Eigen::Vector2d d1 = (q - p).head<2>();
+        const double den = d1.x() * d2.y() - d1.y() * d2.x();
+        if (std::abs(den) < 1e-300) continue;
+        const Eigen::Vector2d r = (a - p).head<2>();
+        const double u = (r.x() * d2.y() - r.y() * d2.x()) / den;  // along the block edge
+        const double v = (r.x() * d1.y() - r.y() * d1.x()) / den;  // along the terrain edge
+        if (u < 0.0 || u > 1.0 || v < 0.0 || v > 1.0) continue;
+        deepest = std::max(deepest, (a.z() + v * (b.z() - a.z())) - (p.z() + u * (q.z() - p.z())));
+      }
+    }
+  }
+  return deepest;
+}
+
+
 namespace {
 
 // The rim point nearest to (x, y) in plan, looked for within `reach` and then within

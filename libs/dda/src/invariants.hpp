@@ -15,6 +15,16 @@ double terrain_depth_in_block(const Model& model, const Pose& pose, const Terrai
 /// over (vertical projection, depth measured along the triangle normal), 0 if none.
 double block_depth_below_terrain(const std::vector<Vec3>& world, const TerrainPatch& patch, double radius);
 
+/// How deep (m) the block at `pose` lies below the ground surface of a height-field
+/// terrain: the largest ground height less block height over every vertical line through
+/// the block, 0 if none is below it. Exact: the difference of the two piecewise-linear
+/// surfaces is largest at a block vertex, at a terrain vertex (against the block's lowest
+/// point on its vertical line) or where a block edge crosses a terrain edge in plan, and
+/// all three are looked at. It sees what the contact depths cannot: a terrain edge or face
+/// through a thin block with no vertex of either inside the other. 0 on a TIN that is no
+/// height field (walls, overhangs).
+double depth_below_ground(const Model& model, const Pose& pose, const terrain::Surface& surf);
+
 /// Whether part of the block (state `s`) has dropped past the terrain's rim (engine.cpp,
 /// where the rule is written out). A detailed block over ground whose rim bounds its
 /// footprint (Surface::rim_bounds_footprint: a grid, a TIN without walls, overhangs or

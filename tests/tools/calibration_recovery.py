@@ -145,7 +145,7 @@ def main():
 
     predict = os.path.join(work, "predict")
     draws = ["predictive_draws=3", "realizations=8"] if args.sanitized else \
-            ["predictive_draws=8", "realizations=20"] if args.quick else ["predictive_draws=16", "realizations=30"]
+            ["predictive_draws=16", "realizations=20"] if args.quick else ["predictive_draws=16", "realizations=30"]
     pargs = ["-c", os.path.join(SAMPLE, "predict.yaml"), "--set", "set=[terrain=%s, block_file=%s]" % (terrain, blocks),
              "--set", "groups[0].observed=" + obs_b, "--set", "plots=false"]
     for kv in draws:

@@ -12,21 +12,24 @@ namespace talus::dda::detail {
 namespace {
 
 // Largest angle (rad) the block turns in one sub-step of the composition: its phase error
-// is then below 1e-8 per radian turned, far below any contact's effect.
-constexpr double kSubstepAngle = 0.02;
+// is then below 1e-7 per radian turned (DdaRotation.FollowsEulersEquations), far below
+// any contact's effect.
+constexpr double kSubstepAngle = 0.05;
 
 // Rotates the frame `p` (principal → world) and the body angular momentum `m` (principal
 // frame) by the exact flow of ½ m_axis²/I_axis over tau: the body turns about its own axis.
 void turn_about(int axis, double tau, const Vec3& moments, Eigen::Quaterniond& p, Vec3& m) {
   const double phi = tau * m[axis] / moments[axis];
-  const double c = std::cos(phi), s = std::sin(phi);
+  // One sine and cosine, of the half angle: the quaternion's, and the full angle's from it.
+  const double ch = std::cos(0.5 * phi), sh = std::sin(0.5 * phi);
+  const double c = ch * ch - sh * sh, s = 2.0 * sh * ch;
   const int j = (axis + 1) % 3, k = (axis + 2) % 3;
   // m ← R_axis(−φ)·m, so that p·m (the world angular momentum) does not change.
   const double mj = m[j], mk = m[k];
   m[j] = c * mj + s * mk;
   m[k] = -s * mj + c * mk;
-  Eigen::Quaterniond r(std::cos(0.5 * phi), 0.0, 0.0, 0.0);
-  r.vec()[axis] = std::sin(0.5 * phi);
+  Eigen::Quaterniond r(ch, 0.0, 0.0, 0.0);
+  r.vec()[axis] = sh;
   p = p * r;
 }
 

@@ -167,6 +167,7 @@ void pool_runs(std::vector<Run>& runs, const Settings& settings) {
     info.barrier_lines.clear();
     info.hazard = mc::HazardGridSpec{};
     info.shard = "0/1";
+    info.release.clear();
     mc::RunData& data = pooled.file.data;
     std::uint32_t offset = 0;
     for (const Run* m : members) {
@@ -197,9 +198,18 @@ void pool_runs(std::vector<Run>& runs, const Settings& settings) {
         t.realization += offset;
         data.trajectories.push_back(t);
       }
+      // A member's release features, weighted by its share of the pool's realizations;
+      // members released from zones of another kind (points and polygons) have no one layer.
+      if (mi.release_kind != info.release_kind) info.release_kind.clear();
+      for (io::ReleaseArea area : mi.release) {
+        area.probability *= count;
+        info.release.push_back(std::move(area));
+      }
       offset += count;
     }
     info.realizations = offset;
+    if (info.release_kind.empty()) info.release.clear();
+    for (io::ReleaseArea& area : info.release) area.probability /= std::max<std::uint32_t>(offset, 1);
     runs.push_back(std::move(pooled));
   }
 }
@@ -468,10 +478,37 @@ RunResult run_result(const Run& run, const Settings& settings, std::optional<dou
     auto& shifted = plan.barrier_lines.emplace_back();
     for (const auto& v : line) shifted.push_back({v[0] + shift[0], v[1] + shift[1]});
   }
+  plan.barrier_downslope.assign(info.barrier_lines.size(), 0);
+  if (ground) {
+    const terrain::Surface smooth = terrain::Surface::realize(*ground, std::nullopt);
+    const double cell = ground->grid ? std::max(ground->grid->dx, ground->grid->dy) : 0.0;
+    // Two DEM cells either side, at least 2 m: past the roughness of single cells.
+    const double offset = std::max(2.0, 2.0 * cell);
+    for (std::size_t b = 0; b < info.barrier_lines.size(); ++b)
+      plan.barrier_downslope[b] = downslope_side(smooth, info.barrier_lines[b], offset);
+  }
   return out;
 }
 
 }  // namespace
+
+int downslope_side(const terrain::Surface& ground, const std::vector<std::array<double, 2>>& line, double offset) {
+  double rise_right = 0.0;  // Σ (z right − z left) · length along the line
+  for (std::size_t k = 1; k < line.size(); ++k) {
+    const double dx = line[k][0] - line[k - 1][0], dy = line[k][1] - line[k - 1][1];
+    const double length = std::hypot(dx, dy);
+    if (!(length > 0.0)) continue;
+    const double lx = -dy / length * offset, ly = dx / length * offset;  // towards the left
+    const auto pieces = static_cast<int>(std::ceil(length / (0.5 * offset)));
+    for (int i = 0; i < pieces; ++i) {
+      const double t = (i + 0.5) / pieces;
+      const double x = line[k - 1][0] + t * dx, y = line[k - 1][1] + t * dy;
+      const auto left = ground.height_at(x + lx, y + ly), right = ground.height_at(x - lx, y - ly);
+      if (left && right) rise_right += (right->z - left->z) * length / pieces;
+    }
+  }
+  return rise_right > 0.0 ? 1 : rise_right < 0.0 ? -1 : 0;
+}
 
 std::optional<double> VariableSummary::censored_share() const {
   if (!censored) return std::nullopt;

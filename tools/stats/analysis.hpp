@@ -117,6 +117,9 @@ struct PlanView {
   std::vector<std::array<double, 3>> trajectory_position;  ///< m
   std::vector<std::vector<std::array<double, 2>>> barrier_lines;  ///< m
   std::vector<std::string> barrier_names;
+  /// Per barrier, the side of the line (from its first vertex) the terrain falls to:
+  /// +1 left, −1 right, 0 unknown (level, off the terrain, or no terrain read).
+  std::vector<int> barrier_downslope;
 };
 
 /// One segment of a barrier line (or the whole line) in the design sheet: the first
@@ -186,6 +189,12 @@ VariableSummary summarize(std::string name, std::string unit, std::vector<double
 /// layers follow (add_intensity_layers).
 HazardMaps hazard_maps(const io::RunFile& run, const std::array<double, 3>& origin_shift, const Settings& settings,
                        std::optional<double> release_frequency = std::nullopt);
+
+/// The side of a barrier line (plan vertices, the terrain's local frame, m) the terrain
+/// falls to: +1 left of the line as digitised, −1 right, 0 when its two sides are level or
+/// off the terrain. Sums, along the line, the elevation difference between points
+/// `offset` m right and left of it, so a bent line still has one downslope side.
+int downslope_side(const terrain::Surface& ground, const std::vector<std::array<double, 2>>& line, double offset);
 
 /// Appends to `maps` the layers of Settings::intensity_thresholds and return_periods for a
 /// run whose zone releases `release_frequency` events per year (docs/stats.md,

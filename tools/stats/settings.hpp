@@ -85,7 +85,8 @@ struct Settings {
   std::vector<double> release_frequencies;
   /// Length of the segments of a barrier line in the design sheet (m).
   double barrier_segment_length = 10.0;
-  /// Vector layers of each run (stop points, first barrier crossings, trajectories):
+  /// Vector layers of each run (stop points, first barrier crossings, barrier lines,
+  /// release zone, trajectories):
   /// "gpkg" (one GeoPackage per run), "geojson" (one GeoJSON file per layer) or "none".
   std::string vector_format = "gpkg";
   /// Plots (figures.hpp), drawn with Cairo.

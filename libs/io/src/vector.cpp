@@ -3,6 +3,7 @@
 #include <cpl_string.h>
 #include <ogr_api.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -37,7 +38,11 @@ OGRwkbGeometryType geometry_type(VectorGeometry g) {
   switch (g) {
     case VectorGeometry::point: return wkbPoint;
     case VectorGeometry::point_z: return wkbPoint25D;
+    case VectorGeometry::line_string: return wkbLineString;
     case VectorGeometry::line_string_z: return wkbLineString25D;
+    case VectorGeometry::multi_point: return wkbMultiPoint;
+    case VectorGeometry::multi_line_string: return wkbMultiLineString;
+    case VectorGeometry::multi_polygon: return wkbMultiPolygon;
   }
   return wkbUnknown;
 }
@@ -51,18 +56,57 @@ OGRFieldType field_type(FieldType t) {
   return OFTString;
 }
 
+bool planar(VectorGeometry kind) { return kind != VectorGeometry::point_z && kind != VectorGeometry::line_string_z; }
+
+bool finite_vertices(VectorGeometry kind, const std::vector<std::array<double, 3>>& vertices) {
+  return std::all_of(vertices.begin(), vertices.end(), [&](const auto& v) {
+    return std::isfinite(v[0]) && std::isfinite(v[1]) && (planar(kind) || std::isfinite(v[2]));
+  });
+}
+
+// A multi-geometry of `feature.parts`: points, polylines or polygons (rings closed here).
+OGRGeometryH make_multi_geometry(VectorGeometry kind, const VectorFeature& feature) {
+  GeometryPtr multi(OGR_G_CreateGeometry(geometry_type(kind)));
+  for (const auto& part : feature.parts) {
+    if (part.empty()) return nullptr;
+    for (const auto& list : part)
+      if (list.empty() || !finite_vertices(kind, list)) return nullptr;
+    OGRGeometryH g = nullptr;
+    if (kind == VectorGeometry::multi_point) {
+      g = OGR_G_CreateGeometry(wkbPoint);
+      OGR_G_SetPoint_2D(g, 0, part[0][0][0], part[0][0][1]);
+    } else if (kind == VectorGeometry::multi_line_string) {
+      g = OGR_G_CreateGeometry(wkbLineString);
+      for (const auto& v : part[0]) OGR_G_AddPoint_2D(g, v[0], v[1]);
+    } else {
+      g = OGR_G_CreateGeometry(wkbPolygon);
+      for (const auto& ring : part) {
+        OGRGeometryH r = OGR_G_CreateGeometry(wkbLinearRing);
+        for (const auto& v : ring) OGR_G_AddPoint_2D(r, v[0], v[1]);
+        OGR_G_CloseRings(r);
+        OGR_G_AddGeometryDirectly(g, r);
+      }
+    }
+    OGR_G_AddGeometryDirectly(multi.get(), g);
+  }
+  return feature.parts.empty() ? nullptr : multi.release();
+}
+
 // The geometry of a written feature; null when it has no vertex or a non-finite one (a
 // realization that failed numerically ends at NaN).
-OGRGeometryH make_geometry(VectorGeometry kind, const std::vector<std::array<double, 3>>& vertices) {
-  if (vertices.empty()) return nullptr;
-  for (const auto& v : vertices)
-    if (!std::isfinite(v[0]) || !std::isfinite(v[1]) || (kind != VectorGeometry::point && !std::isfinite(v[2])))
-      return nullptr;
+OGRGeometryH make_geometry(VectorGeometry kind, const VectorFeature& feature) {
+  if (kind == VectorGeometry::multi_point || kind == VectorGeometry::multi_line_string ||
+      kind == VectorGeometry::multi_polygon)
+    return make_multi_geometry(kind, feature);
+  const auto& vertices = feature.vertices;
+  if (vertices.empty() || !finite_vertices(kind, vertices)) return nullptr;
   OGRGeometryH g = OGR_G_CreateGeometry(geometry_type(kind));
   if (kind == VectorGeometry::point) {
     OGR_G_SetPoint_2D(g, 0, vertices[0][0], vertices[0][1]);
   } else if (kind == VectorGeometry::point_z) {
     OGR_G_SetPoint(g, 0, vertices[0][0], vertices[0][1], vertices[0][2]);
+  } else if (kind == VectorGeometry::line_string) {
+    for (const auto& v : vertices) OGR_G_AddPoint_2D(g, v[0], v[1]);
   } else {
     for (const auto& v : vertices) OGR_G_AddPoint(g, v[0], v[1], v[2]);
   }
@@ -126,7 +170,7 @@ void write_vector_file(const std::string& path, const std::string& format, const
                                  std::to_string(layer.fields.size()) + " fields");
       FeaturePtr f(OGR_F_Create(defn));
       for (std::size_t k = 0; k < feature.values.size(); ++k) set_value(f.get(), static_cast<int>(k), feature.values[k]);
-      if (OGRGeometryH g = make_geometry(layer.geometry, feature.vertices)) OGR_F_SetGeometryDirectly(f.get(), g);
+      if (OGRGeometryH g = make_geometry(layer.geometry, feature)) OGR_F_SetGeometryDirectly(f.get(), g);
       if (OGR_L_CreateFeature(l, f.get()) != OGRERR_NONE) throw fail("cannot write a feature of layer '" + layer.name + "'");
     }
     if (transaction && GDALDatasetCommitTransaction(h) != OGRERR_NONE) throw fail("cannot write layer '" + layer.name + "'");

@@ -25,15 +25,19 @@ struct VectorField {
 /// An attribute value; std::monostate (and a NaN real) is written as null.
 using FieldValue = std::variant<std::monostate, std::int64_t, double, std::string>;
 
-/// Geometry of the features of a written layer: plan points, points with z, polylines
-/// with z.
-enum class VectorGeometry { point, point_z, line_string_z };
+/// Geometry of the features of a written layer: plan points, points with z, plan
+/// polylines, polylines with z, and the plan multi-geometries of release zones.
+enum class VectorGeometry { point, point_z, line_string, line_string_z, multi_point, multi_line_string, multi_polygon };
 
 struct VectorFeature {
-  /// The point (one vertex) or the polyline's vertices (x, y, z; z unused for plain
-  /// points). Empty, or any non-finite coordinate: the feature has no geometry.
+  /// The point (one vertex) or the polyline's vertices (x, y, z; z unused for plan
+  /// geometries). Empty, or any non-finite coordinate: the feature has no geometry.
   std::vector<std::array<double, 3>> vertices;
   std::vector<FieldValue> values;  ///< one per field of the layer, in order
+  /// A multi-geometry's parts, each a list of vertex lists: a point (one list of one
+  /// vertex), a polyline, or a polygon (outer ring, then holes; without the closing
+  /// vertex). Used instead of `vertices` by the multi_* geometries.
+  std::vector<std::vector<std::vector<std::array<double, 3>>>> parts{};
 };
 
 struct VectorLayer {

@@ -770,24 +770,36 @@ TEST_F(Stats, ValidatesASeriesAgainstObservedStopPoints) {
 TEST_F(Stats, DrawsPlots) {
   // Three threads draw the figures, whatever the machine's core count.
   const Outcome o = run({"whole.h5", "-o", "out-plots", "--set", "bootstrap_resamples=50", "--set", "plot_jobs=3",
-                         "--set", "plot_formats=[png,svg]"});
+                         "--set", "plot_formats=[png,svg]", "--set", "plot_hazard_summary=true"});
   ASSERT_EQ(o.code, 0) << o.err;
   for (const char* stem : {"cdf-runout", "cdf-max_kinetic_energy", "convergence-runout", "barrier-toe", "plan-whole",
-                           "hazard-whole"})
+                           "hazard-whole", "map-whole-reach_probability", "map-whole-passage_count",
+                           "map-whole-energy_p95", "map-whole-speed_max"})
     for (const char* ext : {".png", ".svg"}) {
       const fs::path file = dir_ / "out-plots" / "plots" / (std::string(stem) + ext);
       ASSERT_TRUE(fs::exists(file)) << file;
       EXPECT_GT(fs::file_size(file), 1000u) << file;
     }
-  // One run, so one panel of 4.6 × 3.6 in; the plan view is 9 × 6 in; SVG in points.
+  // One run, so one panel of 4.6 × 3.6 in; maps are 10 in wide, as high as the terrain's
+  // extent asks within 3.4–8.9 in; SVG in points.
   EXPECT_EQ(png_size(dir_ / "out-plots" / "plots" / "cdf-runout.png"), (std::pair<std::uint32_t, std::uint32_t>{552, 432}));
-  EXPECT_EQ(png_size(dir_ / "out-plots" / "plots" / "plan-whole.png"), (std::pair<std::uint32_t, std::uint32_t>{1080, 720}));
+  for (const char* map : {"plan-whole.png", "map-whole-energy_p95.png"}) {
+    const auto [width, height] = png_size(dir_ / "out-plots" / "plots" / map);
+    EXPECT_EQ(width, 1200u) << map;
+    EXPECT_GE(height, 408u) << map;
+    EXPECT_LE(height, 1068u) << map;
+  }
   const std::string svg = read_text(dir_ / "out-plots" / "plots" / "plan-whole.svg");
-  EXPECT_NE(svg.find("width=\"648pt\" height=\"432pt\""), std::string::npos) << svg.substr(0, 300);
+  EXPECT_NE(svg.find("width=\"720pt\""), std::string::npos) << svg.substr(0, 300);
   EXPECT_NE(svg.rfind("</svg>"), std::string::npos);
+  // Without plot_hazard_summary, one map per raster and no compact figure.
+  const Outcome maps = run({"whole.h5", "-o", "out-maps", "--set", "bootstrap_resamples=0"});
+  ASSERT_EQ(maps.code, 0) << maps.err;
+  EXPECT_FALSE(fs::exists(dir_ / "out-maps" / "plots" / "hazard-whole.png"));
+  EXPECT_TRUE(fs::exists(dir_ / "out-maps" / "plots" / "map-whole-height_mean.png"));
   // Drawn again by one thread, every file has the same bytes, and no temporary file is left.
   const Outcome serial = run({"whole.h5", "-o", "out-plots-serial", "--set", "bootstrap_resamples=50", "--set",
-                              "plot_jobs=1", "--set", "plot_formats=[png,svg]"});
+                              "plot_jobs=1", "--set", "plot_formats=[png,svg]", "--set", "plot_hazard_summary=true"});
   ASSERT_EQ(serial.code, 0) << serial.err;
   std::size_t compared = 0;
   for (const auto& entry : fs::directory_iterator(dir_ / "out-plots" / "plots")) {

@@ -486,7 +486,16 @@ RunResult run_result(const Run& run, const Settings& settings, std::optional<dou
     const double offset = std::max(2.0, 2.0 * cell);
     for (std::size_t b = 0; b < info.barrier_lines.size(); ++b)
       plan.barrier_downslope[b] = downslope_side(smooth, info.barrier_lines[b], offset);
+    if (settings.plots) plan.hillshade = hillshade(smooth, cell, shift);
   }
+  plan.release_kind = info.release_kind;
+  for (const auto& area : info.release)
+    for (const auto& part : area.parts)
+      for (const auto& ring : part) {
+        auto& shifted = plan.release_rings.emplace_back();
+        for (const auto& v : ring) shifted.push_back({v[0] + shift[0], v[1] + shift[1]});
+      }
+  plan.crs_name = crs_name(out.crs_wkt);
   return out;
 }
 
@@ -508,6 +517,52 @@ int downslope_side(const terrain::Surface& ground, const std::vector<std::array<
     }
   }
   return rise_right > 0.0 ? 1 : rise_right < 0.0 ? -1 : 0;
+}
+
+terrain::DemGrid hillshade(const terrain::Surface& ground, double finest, const std::array<double, 3>& shift) {
+  const geometry::Aabb& b = ground.bounds();
+  terrain::DemGrid out;
+  const double wide = std::max(b.hi.x() - b.lo.x(), b.hi.y() - b.lo.y());
+  if (!(wide > 0.0)) return out;
+  const double h = std::max(finest, wide / 800.0);
+  const auto nx = static_cast<std::int32_t>(std::max(1.0, std::round((b.hi.x() - b.lo.x()) / h)));
+  const auto ny = static_cast<std::int32_t>(std::max(1.0, std::round((b.hi.y() - b.lo.y()) / h)));
+  const double dx = (b.hi.x() - b.lo.x()) / nx, dy = (b.hi.y() - b.lo.y()) / ny;
+  out.spec = {b.lo.x() + 0.5 * dx + shift[0], b.lo.y() + 0.5 * dy + shift[1], dx, dy, nx, ny};
+  std::vector<double> z(out.spec.point_count(), kNaN);
+  for (std::int32_t j = 0; j < ny; ++j)
+    for (std::int32_t i = 0; i < nx; ++i)
+      if (const auto hit = ground.height_at(b.lo.x() + (i + 0.5) * dx, b.lo.y() + (j + 0.5) * dy))
+        z[out.spec.index(i, j)] = hit->z;
+  // Light from azimuth 315° (clockwise from north), 45° up: the GIS default.
+  const double up = std::sin(M_PI / 4), across = std::cos(M_PI / 4);
+  const double lx = across * std::sin(-M_PI / 4), ly = across * std::cos(-M_PI / 4);
+  out.z.assign(z.size(), kNaN);
+  const auto at = [&](std::int32_t i, std::int32_t j) {
+    return i < 0 || j < 0 || i >= nx || j >= ny ? kNaN : z[out.spec.index(i, j)];
+  };
+  // A central difference, one-sided at the edge of the ground.
+  const auto slope = [](double below, double here, double above, double step) {
+    if (!std::isnan(below) && !std::isnan(above)) return (above - below) / (2 * step);
+    if (!std::isnan(above)) return (above - here) / step;
+    if (!std::isnan(below)) return (here - below) / step;
+    return 0.0;
+  };
+  for (std::int32_t j = 0; j < ny; ++j)
+    for (std::int32_t i = 0; i < nx; ++i) {
+      const double c = at(i, j);
+      if (std::isnan(c)) continue;
+      const double p = slope(at(i - 1, j), c, at(i + 1, j), dx), q = slope(at(i, j - 1), c, at(i, j + 1), dy);
+      out.z[out.spec.index(i, j)] = std::max(0.0, (-p * lx - q * ly + up) / std::sqrt(p * p + q * q + 1.0));
+    }
+  return out;
+}
+
+std::string crs_name(const std::string& wkt) {
+  const auto open = wkt.find('"');
+  if (open == std::string::npos) return "";
+  const auto close = wkt.find('"', open + 1);
+  return close == std::string::npos ? "" : wkt.substr(open + 1, close - open - 1);
 }
 
 std::optional<double> VariableSummary::censored_share() const {
@@ -555,11 +610,11 @@ void add_intensity_layers(HazardMaps& maps, const io::RunFile& run, const std::a
   // Exceedance frequency of each intensity class's lower bound: any passage, E ≥ e1, E ≥ e2.
   const std::array<double, 3> bounds = {0.0, e[0], e[1]};
   const std::array<std::size_t, 3> frequency = {
-      add("frequency_low", "frequency of a passage (1/yr)",
+      add("frequency_low", "frequency of a passage",
           "exceedance frequency of a passage of any energy: release frequency × passages / realizations", "1/yr", false),
-      add("frequency_medium", "frequency of E ≥ " + e1 + " (1/yr)",
+      add("frequency_medium", "frequency of E ≥ " + e1,
           "exceedance frequency of a passage with kinetic energy ≥ " + e1, "1/yr", false),
-      add("frequency_high", "frequency of E ≥ " + e2 + " (1/yr)",
+      add("frequency_high", "frequency of E ≥ " + e2,
           "exceedance frequency of a passage with kinetic energy ≥ " + e2, "1/yr", false)};
   std::vector<std::size_t> intensity;
   for (double period : t) {

@@ -93,6 +93,9 @@ struct Settings {
   bool plots = true;
   /// Plot formats among "png" and "svg" (PNG only by default).
   std::vector<std::string> plot_formats = {"png"};
+  /// Besides one map per hazard raster, the compact figure of all of a run's rasters as
+  /// small panels (hazard-RUN).
+  bool plot_hazard_summary = false;
   /// Trajectories drawn in each plan view at most (the first by realization index).
   std::int64_t plot_trajectories = 200;
   /// Figures drawn at once, each in its own process (0 = one per available core).

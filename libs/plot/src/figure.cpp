@@ -801,7 +801,7 @@ double vertical_ticks(const Canvas& c, double x, const std::vector<Tick>& ticks,
   return widest;
 }
 
-void draw_colorbar(const Canvas& c, const Frame& f, const Axes::Bar& bar) {
+void draw_colorbar(const Canvas& c, const Frame& f, const Axes::Bar& bar, bool whole) {
   cairo_t* cr = c.cr;
   const double pad = 0.1 * kDpi, w = std::clamp(f.ph / 20.0, 0.08 * kDpi, 0.16 * kDpi);
   const double h = f.ph * 0.9, x = f.px + f.pw + pad, y = f.py + (f.ph - h) / 2;
@@ -820,7 +820,7 @@ void draw_colorbar(const Canvas& c, const Frame& f, const Axes::Bar& bar) {
   cairo_set_line_width(cr, 0.8 * kPt);
   cairo_stroke(cr);
   Scaling scaling;
-  const auto ticks = linear_ticks(lo, hi, std::max(2, static_cast<int>(h / kPt / (2 * kFont))), scaling);
+  const auto ticks = linear_ticks(lo, hi, std::max(2, static_cast<int>(h / kPt / (2 * kFont))), scaling, whole);
   const double widest =
       vertical_ticks(c, x + w, ticks, [&](double t) { return y + h - (t - lo) / (hi - lo) * h; }, true);
   if (scaling.any()) c.text(scaling.text(), x, y - 0.3 * kFont * kPt, kFont, {0, 0, 0, 1}, 0.0, 1.0);
@@ -830,11 +830,12 @@ void draw_colorbar(const Canvas& c, const Frame& f, const Axes::Bar& bar) {
 }
 
 // The width a colour bar takes right of its panel, labels included (pixels).
-double colorbar_width(const Canvas& c, const Axes::Bar& bar, double panel_height) {
+double colorbar_width(const Canvas& c, const Axes::Bar& bar, double panel_height, bool whole) {
   const double lo = bar.lo, hi = bar.hi > bar.lo ? bar.hi : bar.lo + 1.0;
   Scaling scaling;
   double widest = 0.0;
-  for (const auto& t : linear_ticks(lo, hi, std::max(2, static_cast<int>(0.9 * panel_height / kPt / (2 * kFont))), scaling))
+  for (const auto& t :
+       linear_ticks(lo, hi, std::max(2, static_cast<int>(0.9 * panel_height / kPt / (2 * kFont))), scaling, whole))
     widest = std::max(widest, c.width(t.label, kFont));
   return 0.1 * kDpi + std::clamp(panel_height / 20.0, 0.08 * kDpi, 0.16 * kDpi) + 2 * kTick * kPt + widest +
          (bar.label.empty() ? 0.0 : 0.4 * kFont * kPt + c.ascent(kFont) + c.descent(kFont));
@@ -862,7 +863,7 @@ class Renderer {
     }
     Frame f{a.box_[0] * kDpi, a.box_[1] * kDpi, a.box_[2] * kDpi, a.box_[3] * kDpi,
             limits(xl, xs, a.xlim_, a.xscale_), limits(yl, ys, a.ylim_, a.yscale_), a.xscale_, a.yscale_};
-    if (a.bar_) f.pw = std::max(f.pw - colorbar_width(c, *a.bar_, f.ph), 0.3 * f.pw);
+    if (a.bar_) f.pw = std::max(f.pw - colorbar_width(c, *a.bar_, f.ph, a.whole_ticks_), 0.3 * f.pw);
     if (a.equal_) {
       const double scale = std::min(f.pw / (f.xl[1] - f.xl[0]), f.ph / (f.yl[1] - f.yl[0]));
       const double w = scale * (f.xl[1] - f.xl[0]), h = scale * (f.yl[1] - f.yl[0]);
@@ -935,8 +936,9 @@ class Renderer {
     if (!a.title_.empty())
       c.text(a.title_, f.px + f.pw / 2, f.py - 6.0 * kPt - (yscaling.any() ? label_h : 0.0), a.title_size_, {0, 0, 0, 1}, 0.5, 1.0);
     if (a.legend_)
-      draw_legend(c, f, a.entries_, a.legend_->first, a.legend_->second, a.bar_ ? colorbar_width(c, *a.bar_, f.ph) : 0.0);
-    if (a.bar_) draw_colorbar(c, f, *a.bar_);
+      draw_legend(c, f, a.entries_, a.legend_->first, a.legend_->second,
+                  a.bar_ ? colorbar_width(c, *a.bar_, f.ph, a.whole_ticks_) : 0.0);
+    if (a.bar_) draw_colorbar(c, f, *a.bar_, a.whole_ticks_);
   }
 };
 

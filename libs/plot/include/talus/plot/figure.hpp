@@ -97,9 +97,9 @@ class Axes {
   void set_xlabel(std::string s) { xlabel_ = std::move(s); }
   void set_ylabel(std::string s) { ylabel_ = std::move(s); }
   void grid() { grid_ = true; }
-  /// Tick labels of linear axes give whole values, with no offset or power of ten set
-  /// apart (map coordinates: 2601050, not 1050 and "+2600000"), and as few ticks as keep
-  /// the labels apart.
+  /// Tick labels of linear axes and of the colour bar give whole values, with no offset
+  /// or power of ten set apart (map coordinates: 2601050, not 1050 and "+2600000"; an
+  /// energy of 400000 J, not 4 and "1e5"), and as few ticks as keep the labels apart.
   void set_whole_tick_labels() { whole_ticks_ = true; }
   /// A legend of the labelled lines, bands and markers, in their order.
   void legend(Place place, double size_pt) { legend_ = {place, size_pt}; }

@@ -8,7 +8,7 @@ The files are committed; this script says how they were made and remakes them
 byte for byte (Python's own seeded generator, fixed decimals, no third-party module).
 --check compares instead of writing and exits 1 when a file differs.
 
-  quickstart/dem.asc            120 x 60 m slope (ESRI ASCII, 2 m cells, projected coordinates)
+  quickstart/dem.asc            160 x 140 m valley slope (ESRI ASCII, 2 m cells, projected coordinates)
   quickstart/rock-scan.ply      scanned-like rock, 1 m^3, 320 triangles (ASCII PLY, metres, z up)
   quickstart/release-zones.geojson  two release zones on the cliff band with weights, and
   quickstart/fences.geojson     a fence and a ditch edge, as drawn in a GIS (GeoJSON, LV95)
@@ -45,11 +45,12 @@ def fmt(x, decimals):
 # --- rasters ------------------------------------------------------------------------------
 
 def quickstart_dem():
-    """A cliff band over 30 m of 35 degree talus, a flattening run-out and the foot of the
-    opposite slope, falling towards +x, with a shallow gully along y = 30 m; survey noise
-    of a few centimetres."""
+    """A cliff band over 30 m of 35 degree talus, a flattening run-out and the opposite
+    slope, falling towards +x, with a shallow gully along y = 70 m, in a valley 140 m wide
+    (its sides 8 m higher than its axis) and 160 m long, so that the blocks stay on it;
+    survey noise of a few centimetres."""
     rng = random.Random(12)
-    ncols, nrows, cell = 60, 30, 2.0
+    ncols, nrows, cell = 80, 70, 2.0
     t60, t35 = math.tan(math.radians(60.0)), math.tan(math.radians(35.0))
 
     def z_of(x, y):
@@ -57,11 +58,11 @@ def quickstart_dem():
             z = 56.0 - x * t60
         elif x < 40.0:                    # talus, 35 degrees
             z = 56.0 - 10.0 * t60 - (x - 10.0) * t35
-        else:                             # run-out, flattening, then rising 6 m to x = 120 m
+        else:                             # run-out, flattening, then the opposite slope from x = 90 m
             z = 56.0 - 10.0 * t60 - 30.0 * t35 - 0.7 * 10.0 * (1.0 - math.exp(-(x - 40.0) / 10.0))
             if x > 90.0:
-                z += 6.0 * ((x - 90.0) / 30.0) ** 2
-        return z - 2.0 * math.exp(-((y - 30.0) / 10.0) ** 2) + 100.0
+                z += 6.0 * ((min(x, 150.0) - 90.0) / 30.0) ** 2 + 0.8 * max(x - 150.0, 0.0)
+        return z - 2.0 * math.exp(-((y - 70.0) / 10.0) ** 2) + 8.0 * ((y - 70.0) / 70.0) ** 2 + 100.0
 
     out = io.StringIO()
     out.write("ncols %d\nnrows %d\nxllcorner %.1f\nyllcorner %.1f\ncellsize %.1f\nNODATA_value -9999\n"
@@ -99,8 +100,8 @@ def quickstart_release_zones():
     def ring(points):
         return [[EAST0 + x, NORTH0 + y] for x, y in points + points[:1]]
     return geojson("release-zones", [
-        ([("name", "north"), ("weight", 2.0)], "Polygon", [ring([(2, 34), (6, 33), (7, 44), (6, 54), (2, 52)])]),
-        ([("name", "south"), ("weight", 1.0)], "Polygon", [ring([(2, 8), (6, 8), (6, 24), (2, 24)])]),
+        ([("name", "north"), ("weight", 2.0)], "Polygon", [ring([(2, 74), (6, 73), (7, 84), (6, 94), (2, 92)])]),
+        ([("name", "south"), ("weight", 1.0)], "Polygon", [ring([(2, 48), (6, 48), (6, 64), (2, 64)])]),
     ])
 
 
@@ -109,8 +110,8 @@ def quickstart_fences():
     def line(points):
         return [[EAST0 + x, NORTH0 + y] for x, y in points]
     return geojson("fences", [
-        ([("name", "ditch")], "LineString", line([(42, 1), (44, 30), (42, 59)])),
-        ([("name", "fence")], "LineString", line([(70, 0), (70, 60)])),
+        ([("name", "ditch")], "LineString", line([(42, 41), (44, 70), (42, 99)])),
+        ([("name", "fence")], "LineString", line([(70, 40), (70, 100)])),
     ])
 
 

@@ -495,7 +495,7 @@ RunResult run_result(const Run& run, const Settings& settings, std::optional<dou
         auto& shifted = plan.release_rings.emplace_back();
         for (const auto& v : ring) shifted.push_back({v[0] + shift[0], v[1] + shift[1]});
       }
-  plan.crs_name = crs_name(out.crs_wkt);
+  if (!out.crs_wkt.empty()) plan.crs_name = io::crs_name(out.crs_wkt);
   return out;
 }
 
@@ -556,13 +556,6 @@ terrain::DemGrid hillshade(const terrain::Surface& ground, double finest, const 
       out.z[out.spec.index(i, j)] = std::max(0.0, (-p * lx - q * ly + up) / std::sqrt(p * p + q * q + 1.0));
     }
   return out;
-}
-
-std::string crs_name(const std::string& wkt) {
-  const auto open = wkt.find('"');
-  if (open == std::string::npos) return "";
-  const auto close = wkt.find('"', open + 1);
-  return close == std::string::npos ? "" : wkt.substr(open + 1, close - open - 1);
 }
 
 std::optional<double> VariableSummary::censored_share() const {

@@ -128,7 +128,7 @@ struct PlanView {
   /// coordinates; a point is a ring of one vertex).
   std::string release_kind;
   std::vector<std::vector<std::array<double, 2>>> release_rings;
-  /// The name of the terrain's CRS ("CH1903+ / LV95"), "" when it has none.
+  /// The name of the terrain's CRS ("CH1903+ / LV95 (EPSG:2056)"), "" when it has none.
   std::string crs_name;
 };
 
@@ -212,9 +212,6 @@ int downslope_side(const terrain::Surface& ground, const std::vector<std::array<
 /// between the surface normal and the light, 0 … 1, NaN where there is no ground. Grid
 /// points are cell centres shifted by `shift` (x, y).
 terrain::DemGrid hillshade(const terrain::Surface& ground, double finest, const std::array<double, 3>& shift);
-
-/// The name a WKT gives its CRS (the first quoted text: "WGS 84 / UTM zone 32N"); "" for none.
-std::string crs_name(const std::string& wkt);
 
 /// Appends to `maps` the layers of Settings::intensity_thresholds and return_periods for a
 /// run whose zone releases `release_frequency` events per year (docs/stats.md,

@@ -12,6 +12,7 @@ byte for byte (Python's own seeded generator, fixed decimals, no third-party mod
   quickstart/rock-scan.ply      scanned-like rock, 1 m^3, 320 triangles (ASCII PLY, metres, z up)
   quickstart/release-zones.geojson  two release zones on the cliff band with weights, and
   quickstart/fences.geojson     a fence and a ditch edge, as drawn in a GIS (GeoJSON, LV95)
+  quickstart/ground-zones.geojson  ground material zones drawn in a GIS (field "material")
   terrain/site-dem.tif          800 x 700 m hillside (GeoTIFF, 10 m cells, CH1903+/LV95)
   terrain/bench-floor.obj       quarry survey, one file per ground material (y up,
   terrain/face.obj              projected coordinates): upper bench, overhanging face,
@@ -112,6 +113,19 @@ def quickstart_fences():
     return geojson("fences", [
         ([("name", "ditch")], "LineString", line([(42, 41), (44, 70), (42, 99)])),
         ([("name", "fence")], "LineString", line([(70, 40), (70, 100)])),
+    ])
+
+
+def quickstart_ground_zones():
+    """Ground material zones of quickstart/dem.asc as drawn in QGIS (field "material",
+    names of my-terrain.yaml): a rock outcrop in the talus, with a pocket of talus in it,
+    and a rock rib along the cliff foot south of the gully."""
+    def ring(points):
+        return [[EAST0 + x, NORTH0 + y] for x, y in points + points[:1]]
+    return geojson("ground-zones", [
+        ([("material", "rock")], "Polygon",
+         [ring([(22, 80), (30, 78), (32, 90), (26, 96), (20, 90)]), ring([(24, 84), (28, 84), (27, 89)])]),
+        ([("material", "rock")], "Polygon", [ring([(10, 40), (14, 40), (14, 60), (10, 60)])]),
     ])
 
 
@@ -442,6 +456,7 @@ def boulder_scan():
 
 FILES = {
     "quickstart/dem.asc": quickstart_dem,
+    "quickstart/ground-zones.geojson": quickstart_ground_zones,
     "quickstart/rock-scan.ply": rock_scan,
     "quickstart/release-zones.geojson": quickstart_release_zones,
     "quickstart/fences.geojson": quickstart_fences,

@@ -13,6 +13,7 @@ byte for byte (Python's own seeded generator, fixed decimals, no third-party mod
   quickstart/release-zones.geojson  two release zones on the cliff band with weights, and
   quickstart/fences.geojson     a fence and a ditch edge, as drawn in a GIS (GeoJSON, LV95)
   quickstart/ground-zones.geojson  ground material zones drawn in a GIS (field "material")
+  quickstart/release-cells.asc  release cells as a raster (relative densities 0, 1, 2)
   terrain/site-dem.tif          800 x 700 m hillside (GeoTIFF, 10 m cells, CH1903+/LV95)
   terrain/bench-floor.obj       quarry survey, one file per ground material (y up,
   terrain/face.obj              projected coordinates): upper bench, overhanging face,
@@ -114,6 +115,25 @@ def quickstart_fences():
         ([("name", "ditch")], "LineString", line([(42, 41), (44, 70), (42, 99)])),
         ([("name", "fence")], "LineString", line([(70, 40), (70, 100)])),
     ])
+
+
+def quickstart_release_cells():
+    """Release cells of quickstart/dem.asc as a raster (ESRI ASCII, 2 m cells on the DEM's
+    grid, its first 10 m): density 1 on the cliff band from y = 46 to 94 m, 2 in the gully
+    (y 64-76 m), where the rock is more broken; 0 elsewhere."""
+    ncols, nrows, cell = 5, 70, 2.0
+    out = io.StringIO()
+    out.write("ncols %d\nnrows %d\nxllcorner %.1f\nyllcorner %.1f\ncellsize %.1f\nNODATA_value -9999\n"
+              % (ncols, nrows, EAST0, NORTH0, cell))
+    for j in range(nrows - 1, -1, -1):    # north row first
+        y = (j + 0.5) * cell
+        row = []
+        for i in range(ncols):
+            x = (i + 0.5) * cell
+            on_band = 2.0 < x < 8.0 and 46.0 < y < 94.0
+            row.append(0 if not on_band else 2 if 64.0 < y < 76.0 else 1)
+        out.write(" ".join(str(v) for v in row) + "\n")
+    return out.getvalue().encode()
 
 
 def quickstart_ground_zones():
@@ -457,6 +477,7 @@ def boulder_scan():
 FILES = {
     "quickstart/dem.asc": quickstart_dem,
     "quickstart/ground-zones.geojson": quickstart_ground_zones,
+    "quickstart/release-cells.asc": quickstart_release_cells,
     "quickstart/rock-scan.ply": rock_scan,
     "quickstart/release-zones.geojson": quickstart_release_zones,
     "quickstart/fences.geojson": quickstart_fences,

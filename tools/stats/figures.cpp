@@ -316,7 +316,8 @@ void draw_map_features(Axes& ax, const PlanView& plan) {
       ax.line(std::move(x), std::move(y), {Rgba{0, 0, 0, 1}, 1.3, plot::Dash::dashed}, "release zone");
     }
   }
-  static constexpr std::uint32_t kColors[] = {0xdc143c, 0x0060ff, 0x00a040, 0xff8c00, 0x000000};
+  // Colours no colour map or class legend uses (the hazard classes are red, blue, yellow).
+  static constexpr std::uint32_t kColors[] = {0x000000, 0xff00ff, 0x00c8e0, 0x00a040, 0xff8c00};
   static constexpr plot::Dash kDashes[] = {plot::Dash::solid, plot::Dash::dashed, plot::Dash::dash_dot};
   for (std::size_t k = 0; k < plan.barrier_lines.size(); ++k) {
     const auto& line = plan.barrier_lines[k];

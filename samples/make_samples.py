@@ -14,6 +14,9 @@ byte for byte (Python's own seeded generator, fixed decimals, no third-party mod
   quickstart/fences.geojson     a fence and a ditch edge, as drawn in a GIS (GeoJSON, LV95)
   quickstart/ground-zones.geojson  ground material zones drawn in a GIS (field "material")
   quickstart/release-cells.asc  release cells as a raster (relative densities 0, 1, 2)
+  site/dem.tif                  600 x 500 m slope of docs/tutorial-site.md (GeoTIFF, 5 m cells,
+                                WGS 84 / UTM zone 32N), and its release zones, nets and
+  site/*.geojson                ground materials as drawn in QGIS
   terrain/site-dem.tif          800 x 700 m hillside (GeoTIFF, 10 m cells, CH1903+/LV95)
   terrain/bench-floor.obj       quarry survey, one file per ground material (y up,
   terrain/face.obj              projected coordinates): upper bench, overhanging face,
@@ -180,9 +183,10 @@ def site_dem():
     return geotiff(rows, west, north, cell)
 
 
-def geotiff(rows, west, north, cell):
+def geotiff(rows, west, north, cell, epsg=2056):
     """A single-band float32 GeoTIFF, uncompressed (so that the bytes do not depend on a
-    compressor's version), pixel-is-area, EPSG:2056, nodata -9999."""
+    compressor's version), pixel-is-area, EPSG:`epsg` (default CH1903+ / LV95), nodata
+    -9999."""
     nrows, ncols = len(rows), len(rows[0])
     raw = b"".join(struct.pack("<%df" % ncols, *r) for r in rows)
     data = raw
@@ -191,7 +195,7 @@ def geotiff(rows, west, north, cell):
     keys = [1, 1, 0, 4,
             1024, 0, 1, 1,      # GTModelType: projected
             1025, 0, 1, 1,      # GTRasterType: pixel is area
-            3072, 0, 1, 2056,   # ProjectedCSType: CH1903+ / LV95
+            3072, 0, 1, epsg,   # ProjectedCSType: CH1903+ / LV95 by default
             3076, 0, 1, 9001]   # ProjLinearUnits: metre
     geokeys = struct.pack("<%dH" % len(keys), *keys)
     nodata = b"-9999\0"
@@ -226,6 +230,86 @@ def geotiff(rows, west, north, cell):
     for at in fixups:
         body = body[:at] + struct.pack("<I", strip_at) + body[at + 4:]
     return b"II*\0" + struct.pack("<I", 8) + body + extra + data
+
+
+# --- the site of docs/tutorial-site.md (WGS 84 / UTM zone 32N) ---------------------------
+
+SITE_E, SITE_N = 412000.0, 5140000.0   # the DEM's south-west corner (EPSG:32632, m)
+
+
+def tutorial_profile(t):
+    """Elevation (m) t metres north of the DEM's south edge: a counter-slope, the valley
+    floor with its road, 160 m of 35 degree talus, a 60 degree cliff band 40 m deep and
+    the plateau above it."""
+    t60, t35 = math.tan(math.radians(60.0)), math.tan(math.radians(35.0))
+    floor = 1180.0 + 50.0 * max(110.0 - t, 0.0) ** 2 / 12100.0
+    if t < 200.0:
+        return floor + 6.0 * math.exp(-(200.0 - t) / 15.0)
+    if t < 360.0:
+        return floor + 6.0 + (t - 200.0) * t35
+    if t < 400.0:
+        return floor + 6.0 + 160.0 * t35 + (t - 360.0) * t60
+    return floor + 6.0 + 160.0 * t35 + 40.0 * t60 + (t - 400.0) * 0.1
+
+
+def tutorial_dem():
+    """121 x 101 points, 5 m cells, EPSG:32632: a south-facing cliff and talus over a
+    valley floor, with ribs and gullies across the slope."""
+    rng = random.Random(32632)
+    ncols, nrows, cell = 121, 101, 5.0
+    west, north = SITE_E - cell / 2, SITE_N + 500.0 + cell / 2
+    rows = []
+    for j in range(nrows):                # north row first
+        n = north - (j + 0.5) * cell
+        row = []
+        for i in range(ncols):
+            e = west + (i + 0.5) * cell
+            t = n - SITE_N
+            rib = 4.0 * math.sin((e - SITE_E) / 45.0) * min(max((t - 150.0) / 60.0, 0.0), 1.0)
+            row.append(round(tutorial_profile(t) + rib + rng.uniform(-0.1, 0.1), 2))
+        rows.append(row)
+    return geotiff(rows, west, north, cell, epsg=32632)
+
+
+def utm_geojson(name, features):
+    """A GeoJSON FeatureCollection in WGS 84 / UTM zone 32N, as QGIS writes one."""
+    text = geojson(name, features).decode()
+    return text.replace("urn:ogc:def:crs:EPSG::2056", "urn:ogc:def:crs:EPSG::32632").encode()
+
+
+def site_xy(points):
+    return [[SITE_E + x, SITE_N + y] for x, y in points]
+
+
+def tutorial_release():
+    """Two release zones drawn on the cliff band: the western one in a gully, twice as
+    active (field "weight")."""
+    def ring(points):
+        return site_xy(points + points[:1])
+    return utm_geojson("release", [
+        ([("zone", "west gully"), ("weight", 2.0)], "Polygon", [ring([(170, 375), (260, 370), (265, 395), (175, 398)])]),
+        ([("zone", "east face"), ("weight", 1.0)], "Polygon", [ring([(330, 370), (430, 375), (425, 396), (335, 396)])]),
+    ])
+
+
+def tutorial_barriers():
+    """A net across the talus (drawn east to west) and one above the road (west to east)."""
+    return utm_geojson("barriers", [
+        ([("name", "talus net")], "LineString", site_xy([(460, 282), (300, 275), (140, 282)])),
+        ([("name", "road net")], "LineString", site_xy([(100, 205), (300, 200), (500, 205)])),
+    ])
+
+
+def tutorial_ground():
+    """Ground materials drawn in QGIS (field "material"): the cliff band, the road and
+    the forest floor of the valley; the talus is the terrain's first material."""
+    def ring(points):
+        return [site_xy(points + points[:1])]
+    return utm_geojson("ground", [
+        ([("material", "rock")], "Polygon", ring([(-5, 355), (605, 355), (605, 405), (-5, 405)])),
+        ([("material", "forest floor")], "Polygon", ring([(-5, -5), (605, -5), (605, 160), (-5, 160)])),
+        ([("material", "road")], "Polygon", ring([(-5, 166), (605, 166), (605, 174), (-5, 174)])),
+    ])
 
 
 # --- surveyed quarry (TIN) ----------------------------------------------------------------
@@ -476,6 +560,10 @@ def boulder_scan():
 
 FILES = {
     "quickstart/dem.asc": quickstart_dem,
+    "site/dem.tif": tutorial_dem,
+    "site/release.geojson": tutorial_release,
+    "site/barriers.geojson": tutorial_barriers,
+    "site/ground.geojson": tutorial_ground,
     "quickstart/ground-zones.geojson": quickstart_ground_zones,
     "quickstart/release-cells.asc": quickstart_release_cells,
     "quickstart/rock-scan.ply": rock_scan,

@@ -168,19 +168,21 @@ def site_profile(north):
 def site_dem():
     """81 x 71 points, 10 m cells: the site of configs/terrain/dem-zones.yaml, with ribs
     and gullies across the slope."""
-    rng = random.Random(2056)
-    ncols, nrows, cell = 81, 71, 10.0
+    cell = 10.0
     west, north = EAST0 + 100.0 - cell / 2, NORTH0 + 1000.0 + cell / 2
-    rows = []
-    for j in range(nrows):                # north row first
-        n = north - (j + 0.5) * cell
-        row = []
-        for i in range(ncols):
-            e = west + (i + 0.5) * cell
-            z = site_profile(n) + 6.0 * math.sin((e - EAST0) / 70.0) * math.sin((n - NORTH0) / 110.0)
-            row.append(round(z + rng.uniform(-0.2, 0.2), 2))
-        rows.append(row)
+    rows = dem_rows(81, 71, cell, west, north, random.Random(2056), 0.2,
+                    lambda e, n: site_profile(n) + 6.0 * math.sin((e - EAST0) / 70.0) * math.sin((n - NORTH0) / 110.0))
     return geotiff(rows, west, north, cell)
+
+
+def dem_rows(ncols, nrows, cell, west, north, rng, noise, z_of):
+    """The rows of a north-up DEM, north row first: z_of(east, north) at each cell centre
+    plus survey noise uniform in +-noise (m), rounded to centimetres."""
+    rows = []
+    for j in range(nrows):
+        n = north - (j + 0.5) * cell
+        rows.append([round(z_of(west + (i + 0.5) * cell, n) + rng.uniform(-noise, noise), 2) for i in range(ncols)])
+    return rows
 
 
 def geotiff(rows, west, north, cell, epsg=2056):
@@ -255,19 +257,13 @@ def tutorial_profile(t):
 def tutorial_dem():
     """121 x 101 points, 5 m cells, EPSG:32632: a south-facing cliff and talus over a
     valley floor, with ribs and gullies across the slope."""
-    rng = random.Random(32632)
-    ncols, nrows, cell = 121, 101, 5.0
+    cell = 5.0
     west, north = SITE_E - cell / 2, SITE_N + 500.0 + cell / 2
-    rows = []
-    for j in range(nrows):                # north row first
-        n = north - (j + 0.5) * cell
-        row = []
-        for i in range(ncols):
-            e = west + (i + 0.5) * cell
-            t = n - SITE_N
-            rib = 4.0 * math.sin((e - SITE_E) / 45.0) * min(max((t - 150.0) / 60.0, 0.0), 1.0)
-            row.append(round(tutorial_profile(t) + rib + rng.uniform(-0.1, 0.1), 2))
-        rows.append(row)
+
+    def z_of(e, n):
+        t = n - SITE_N
+        return tutorial_profile(t) + 4.0 * math.sin((e - SITE_E) / 45.0) * min(max((t - 150.0) / 60.0, 0.0), 1.0)
+    rows = dem_rows(121, 101, cell, west, north, random.Random(32632), 0.1, z_of)
     return geotiff(rows, west, north, cell, epsg=32632)
 
 

@@ -774,7 +774,7 @@ TEST_F(Stats, DrawsPlots) {
   ASSERT_EQ(o.code, 0) << o.err;
   for (const char* stem : {"cdf-runout", "cdf-max_kinetic_energy", "convergence-runout", "barrier-toe", "plan-whole",
                            "hazard-whole", "map-whole-reach_probability", "map-whole-passage_count",
-                           "map-whole-energy_p95", "map-whole-speed_max"})
+                           "map-whole-energy_p95", "map-whole-speed_max", "sheet-whole-toe"})
     for (const char* ext : {".png", ".svg"}) {
       const fs::path file = dir_ / "out-plots" / "plots" / (std::string(stem) + ext);
       ASSERT_TRUE(fs::exists(file)) << file;

@@ -246,6 +246,74 @@ std::optional<Figure> barrier_figure(const Analysis& a, const std::string& barri
   return fig;
 }
 
+/// The design sheet of one barrier of one run, along the line from its first vertex:
+/// first crossings per segment (bars), then Q95 and Q99 of the kinetic energy and of the
+/// passing height per segment with their bootstrap intervals (whiskers); legends right of
+/// the panels.
+std::optional<Figure> sheet_figure(const std::vector<BarrierSegment>& sheet, const std::string& run_name,
+                                   const std::string& barrier, const Settings& settings) {
+  std::vector<const BarrierSegment*> segments;
+  const BarrierSegment* whole = nullptr;
+  for (const auto& s : sheet) {
+    if (s.barrier != barrier) continue;
+    if (s.segment == "all")
+      whole = &s;
+    else
+      segments.push_back(&s);
+  }
+  if (segments.empty() || whole == nullptr || whole->crossings == 0) return std::nullopt;
+  const double scale = settings.energy_unit == "kJ" ? 1e-3 : 1.0;
+  Figure fig(9.0, 8.0);
+  const auto axes = grid(fig, 3, 3, 1, 0.9, 2.3, 0.6, 0.85, 0.0, 0.55);
+  // Bars of the crossings: a step band from 0 over each segment.
+  std::vector<double> edges, zero, counts;
+  for (const auto* s : segments) edges.push_back(s->from), counts.push_back(static_cast<double>(s->crossings));
+  edges.push_back(segments.back()->to), counts.push_back(counts.back());
+  zero.assign(edges.size(), 0.0);
+  axes[0]->step_band(edges, zero, counts, plot::cycle_color(0).with_alpha(0.6));
+  axes[0]->legend_patch(plot::cycle_color(0).with_alpha(0.6), "first crossings");
+  axes[0]->set_ylabel("crossings per segment");
+  // Q95 and Q99 at each segment's middle, with their intervals.
+  const auto quantiles = [&](Axes& ax, const auto& value, const auto& interval, double factor) {
+    for (std::size_t q = 0; q < 2; ++q) {
+      std::vector<double> x, y, wx, wy;
+      for (const auto* s : segments) {
+        // Q95 left of the segment's middle, Q99 right of it: their whiskers apart.
+        const double mid = 0.5 * (s->from + s->to) + (q == 0 ? -0.12 : 0.12) * (s->to - s->from);
+        if (std::isnan((s->*value)[q])) continue;
+        x.push_back(mid), y.push_back(factor * (s->*value)[q]);
+        const stats::Interval ci = (s->*interval)[q];
+        if (std::isnan(ci.lo) || std::isnan(ci.hi)) continue;
+        wx.insert(wx.end(), {mid, mid, std::nan("")}), wy.insert(wy.end(), {factor * ci.lo, factor * ci.hi, std::nan("")});
+      }
+      const Rgba color = plot::cycle_color(q == 0 ? 1 : 3);
+      ax.line(wx, wy, {color, 1.2, plot::Dash::solid});
+      ax.markers(x, y, color, 5.0, q == 0 ? "Q95" : "Q99");
+    }
+    ax.legend_entry({Rgba{0.3, 0.3, 0.3, 1.0}, 1.2, plot::Dash::solid},
+                    format("%g", 100 * settings.confidence) + " % interval");
+  };
+  quantiles(*axes[1], &BarrierSegment::energy, &BarrierSegment::energy_ci, scale);
+  axes[1]->set_ylabel("kinetic energy (" + settings.energy_unit + ")");
+  quantiles(*axes[2], &BarrierSegment::height, &BarrierSegment::height_ci, 1.0);
+  axes[2]->set_ylabel("passing height (m)");
+  axes[2]->set_xlabel("position along the line from its first vertex (m)");
+  for (Axes* ax : axes) {
+    ax->set_xlim(0.0, whole->to);
+    ax->grid();
+    ax->legend(plot::Place::outside_right, plot::kSmall);
+  }
+  const int ead = ead_energy_class(whole->energy[1]);
+  fig.suptitle(run_name + ": barrier " + barrier + ", crossings and design values by " +
+               core::format_number(settings.barrier_segment_length) + " m segment");
+  axes[0]->set_title(std::to_string(whole->crossings) + " first crossings; whole line Q99 " +
+                         format("%.4g", scale * whole->energy[1]) + " " + settings.energy_unit + ", " +
+                         format("%.3g", whole->height[1]) + " m" +
+                         (ead >= 0 ? ", EAD energy class " + std::to_string(ead) : ""),
+                     plot::kSmall);
+  return fig;
+}
+
 // ---- Maps: one subject per file, on a hillshade, in the terrain's coordinates --------
 
 /// The plan extent of a map (x0, x1, y0, y1; m): the terrain's, else the raster's.
@@ -577,6 +645,12 @@ std::vector<std::string> draw_figures(const std::vector<Run>& runs, const Analys
                         [&, r, l = &layer]() -> std::optional<Figure> { return layer_map(a, runs[r].name, r, *l, settings); }});
   for (const auto& b : barriers)
     jobs.push_back({"barrier-" + safe(b), [&, b] { return barrier_figure(a, b, settings); }});
+  for (std::size_t r = 0; r < a.runs.size(); ++r)
+    for (const auto& s : a.runs[r].barrier_sheet)
+      if (s.segment == "all")
+        jobs.push_back({"sheet-" + safe(runs[r].name) + "-" + safe(s.barrier), [&, r, b = s.barrier] {
+                          return sheet_figure(a.runs[r].barrier_sheet, runs[r].name, b, settings);
+                        }});
   for (const auto& v : plain)
     jobs.push_back({"convergence-" + safe(v), [&, v] { return convergence_figure(a, v, settings.convergence_target); }});
   for (const auto& v : plain)

@@ -42,7 +42,7 @@ EXCLUDED = [
     (r"^\./scripts/install-deps\.sh\b", "installs Debian packages (root)"),
     (r"^(cmake|ctest)\b", "builds or tests the tree this test is part of"),
     (r"^scripts/study\.sh\b",
-     "the whole reference study (3 x 1000 realizations and 62 figures, about 10 s on 2 cores); its steps are "
+     "the whole reference study (3 x 1000 realizations and 68 figures, about 10 s on 2 cores); its steps are "
      "dda-run.md's and stats.md's commands, run here with fewer realizations"),
     (r"^bench/stress/stress\.sh\b",
      "the stress suite (minutes to hours); its CI subset is the dda_stress_quick test"),

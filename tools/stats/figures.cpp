@@ -536,7 +536,14 @@ Figure layer_map(const Analysis& a, const std::string& run_name, std::size_t r, 
 
 std::optional<Figure> hazard_figure(const Analysis& a, const std::string& run_name, std::size_t r) {
   const auto& layers = a.runs[r].hazard->layers;
-  auto [fig, axes] = panel_figure(layers.size(), 0.5);
+  // Panels as high as the grid's aspect needs (a map 3.2 in wide beside its colour bar),
+  // so that a wide terrain leaves no empty band between the rows.
+  const auto& g = layers.front().grid.spec;
+  const double aspect = g.nx > 0 && g.ny > 0 ? (g.ny * g.dy) / (g.nx * g.dx) : 0.75;
+  const std::size_t cols = std::min<std::size_t>(layers.size(), 3), rows = (layers.size() + cols - 1) / cols;
+  const double panel = std::clamp(3.2 * aspect, 1.0, 3.6);
+  Figure fig(5.1 * static_cast<double>(cols), (panel + 0.95) * static_cast<double>(rows) + 0.5);
+  const auto axes = grid(fig, layers.size(), rows, cols, 0.7, 0.7, 0.55, 0.95, 1.4, 0.95);
   for (std::size_t k = 0; k < layers.size(); ++k) {
     const HazardLayer& layer = layers[k];
     std::string title = layer.title;
@@ -569,7 +576,7 @@ std::optional<Figure> hazard_figure(const Analysis& a, const std::string& run_na
     ax.set_equal_aspect();
   }
   fig.suptitle(run_name + ": hazard maps");
-  return std::move(fig);
+  return fig;
 }
 
 std::optional<Figure> validation_figure(const Validation& v, double confidence) {

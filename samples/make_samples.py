@@ -8,10 +8,15 @@ The files are committed; this script says how they were made and remakes them
 byte for byte (Python's own seeded generator, fixed decimals, no third-party module).
 --check compares instead of writing and exits 1 when a file differs.
 
-  quickstart/dem.asc            120 x 60 m slope (ESRI ASCII, 2 m cells, projected coordinates)
+  quickstart/dem.asc            160 x 140 m valley slope (ESRI ASCII, 2 m cells, projected coordinates)
   quickstart/rock-scan.ply      scanned-like rock, 1 m^3, 320 triangles (ASCII PLY, metres, z up)
   quickstart/release-zones.geojson  two release zones on the cliff band with weights, and
   quickstart/fences.geojson     a fence and a ditch edge, as drawn in a GIS (GeoJSON, LV95)
+  quickstart/ground-zones.geojson  ground material zones drawn in a GIS (field "material")
+  quickstart/release-cells.asc  release cells as a raster (relative densities 0, 1, 2)
+  site/dem.tif                  600 x 500 m slope of docs/tutorial-site.md (GeoTIFF, 5 m cells,
+                                WGS 84 / UTM zone 32N), and its release zones, nets and
+  site/*.geojson                ground materials as drawn in QGIS
   terrain/site-dem.tif          800 x 700 m hillside (GeoTIFF, 10 m cells, CH1903+/LV95)
   terrain/bench-floor.obj       quarry survey, one file per ground material (y up,
   terrain/face.obj              projected coordinates): upper bench, overhanging face,
@@ -45,11 +50,12 @@ def fmt(x, decimals):
 # --- rasters ------------------------------------------------------------------------------
 
 def quickstart_dem():
-    """A cliff band over 30 m of 35 degree talus, a flattening run-out and the foot of the
-    opposite slope, falling towards +x, with a shallow gully along y = 30 m; survey noise
-    of a few centimetres."""
+    """A cliff band over 30 m of 35 degree talus, a flattening run-out and the opposite
+    slope, falling towards +x, with a shallow gully along y = 70 m, in a valley 140 m wide
+    (its sides 8 m higher than its axis) and 160 m long, so that the blocks stay on it;
+    survey noise of a few centimetres."""
     rng = random.Random(12)
-    ncols, nrows, cell = 60, 30, 2.0
+    ncols, nrows, cell = 80, 70, 2.0
     t60, t35 = math.tan(math.radians(60.0)), math.tan(math.radians(35.0))
 
     def z_of(x, y):
@@ -57,11 +63,11 @@ def quickstart_dem():
             z = 56.0 - x * t60
         elif x < 40.0:                    # talus, 35 degrees
             z = 56.0 - 10.0 * t60 - (x - 10.0) * t35
-        else:                             # run-out, flattening, then rising 6 m to x = 120 m
+        else:                             # run-out, flattening, then the opposite slope from x = 90 m
             z = 56.0 - 10.0 * t60 - 30.0 * t35 - 0.7 * 10.0 * (1.0 - math.exp(-(x - 40.0) / 10.0))
             if x > 90.0:
-                z += 6.0 * ((x - 90.0) / 30.0) ** 2
-        return z - 2.0 * math.exp(-((y - 30.0) / 10.0) ** 2) + 100.0
+                z += 6.0 * ((min(x, 150.0) - 90.0) / 30.0) ** 2 + 0.8 * max(x - 150.0, 0.0)
+        return z - 2.0 * math.exp(-((y - 70.0) / 10.0) ** 2) + 8.0 * ((y - 70.0) / 70.0) ** 2 + 100.0
 
     out = io.StringIO()
     out.write("ncols %d\nnrows %d\nxllcorner %.1f\nyllcorner %.1f\ncellsize %.1f\nNODATA_value -9999\n"
@@ -99,8 +105,8 @@ def quickstart_release_zones():
     def ring(points):
         return [[EAST0 + x, NORTH0 + y] for x, y in points + points[:1]]
     return geojson("release-zones", [
-        ([("name", "north"), ("weight", 2.0)], "Polygon", [ring([(2, 34), (6, 33), (7, 44), (6, 54), (2, 52)])]),
-        ([("name", "south"), ("weight", 1.0)], "Polygon", [ring([(2, 8), (6, 8), (6, 24), (2, 24)])]),
+        ([("name", "north"), ("weight", 2.0)], "Polygon", [ring([(2, 74), (6, 73), (7, 84), (6, 94), (2, 92)])]),
+        ([("name", "south"), ("weight", 1.0)], "Polygon", [ring([(2, 48), (6, 48), (6, 64), (2, 64)])]),
     ])
 
 
@@ -109,8 +115,40 @@ def quickstart_fences():
     def line(points):
         return [[EAST0 + x, NORTH0 + y] for x, y in points]
     return geojson("fences", [
-        ([("name", "ditch")], "LineString", line([(42, 1), (44, 30), (42, 59)])),
-        ([("name", "fence")], "LineString", line([(70, 0), (70, 60)])),
+        ([("name", "ditch")], "LineString", line([(42, 41), (44, 70), (42, 99)])),
+        ([("name", "fence")], "LineString", line([(70, 40), (70, 100)])),
+    ])
+
+
+def quickstart_release_cells():
+    """Release cells of quickstart/dem.asc as a raster (ESRI ASCII, 2 m cells on the DEM's
+    grid, its first 10 m): density 1 on the cliff band from y = 46 to 94 m, 2 in the gully
+    (y 64-76 m), where the rock is more broken; 0 elsewhere."""
+    ncols, nrows, cell = 5, 70, 2.0
+    out = io.StringIO()
+    out.write("ncols %d\nnrows %d\nxllcorner %.1f\nyllcorner %.1f\ncellsize %.1f\nNODATA_value -9999\n"
+              % (ncols, nrows, EAST0, NORTH0, cell))
+    for j in range(nrows - 1, -1, -1):    # north row first
+        y = (j + 0.5) * cell
+        row = []
+        for i in range(ncols):
+            x = (i + 0.5) * cell
+            on_band = 2.0 < x < 8.0 and 46.0 < y < 94.0
+            row.append(0 if not on_band else 2 if 64.0 < y < 76.0 else 1)
+        out.write(" ".join(str(v) for v in row) + "\n")
+    return out.getvalue().encode()
+
+
+def quickstart_ground_zones():
+    """Ground material zones of quickstart/dem.asc as drawn in QGIS (field "material",
+    names of my-terrain.yaml): a rock outcrop in the talus, with a pocket of talus in it,
+    and a rock rib along the cliff foot south of the gully."""
+    def ring(points):
+        return [[EAST0 + x, NORTH0 + y] for x, y in points + points[:1]]
+    return geojson("ground-zones", [
+        ([("material", "rock")], "Polygon",
+         [ring([(22, 80), (30, 78), (32, 90), (26, 96), (20, 90)]), ring([(24, 84), (28, 84), (27, 89)])]),
+        ([("material", "rock")], "Polygon", [ring([(10, 40), (14, 40), (14, 60), (10, 60)])]),
     ])
 
 
@@ -130,24 +168,27 @@ def site_profile(north):
 def site_dem():
     """81 x 71 points, 10 m cells: the site of configs/terrain/dem-zones.yaml, with ribs
     and gullies across the slope."""
-    rng = random.Random(2056)
-    ncols, nrows, cell = 81, 71, 10.0
+    cell = 10.0
     west, north = EAST0 + 100.0 - cell / 2, NORTH0 + 1000.0 + cell / 2
-    rows = []
-    for j in range(nrows):                # north row first
-        n = north - (j + 0.5) * cell
-        row = []
-        for i in range(ncols):
-            e = west + (i + 0.5) * cell
-            z = site_profile(n) + 6.0 * math.sin((e - EAST0) / 70.0) * math.sin((n - NORTH0) / 110.0)
-            row.append(round(z + rng.uniform(-0.2, 0.2), 2))
-        rows.append(row)
+    rows = dem_rows(81, 71, cell, west, north, random.Random(2056), 0.2,
+                    lambda e, n: site_profile(n) + 6.0 * math.sin((e - EAST0) / 70.0) * math.sin((n - NORTH0) / 110.0))
     return geotiff(rows, west, north, cell)
 
 
-def geotiff(rows, west, north, cell):
+def dem_rows(ncols, nrows, cell, west, north, rng, noise, z_of):
+    """The rows of a north-up DEM, north row first: z_of(east, north) at each cell centre
+    plus survey noise uniform in +-noise (m), rounded to centimetres."""
+    rows = []
+    for j in range(nrows):
+        n = north - (j + 0.5) * cell
+        rows.append([round(z_of(west + (i + 0.5) * cell, n) + rng.uniform(-noise, noise), 2) for i in range(ncols)])
+    return rows
+
+
+def geotiff(rows, west, north, cell, epsg=2056):
     """A single-band float32 GeoTIFF, uncompressed (so that the bytes do not depend on a
-    compressor's version), pixel-is-area, EPSG:2056, nodata -9999."""
+    compressor's version), pixel-is-area, EPSG:`epsg` (default CH1903+ / LV95), nodata
+    -9999."""
     nrows, ncols = len(rows), len(rows[0])
     raw = b"".join(struct.pack("<%df" % ncols, *r) for r in rows)
     data = raw
@@ -156,7 +197,7 @@ def geotiff(rows, west, north, cell):
     keys = [1, 1, 0, 4,
             1024, 0, 1, 1,      # GTModelType: projected
             1025, 0, 1, 1,      # GTRasterType: pixel is area
-            3072, 0, 1, 2056,   # ProjectedCSType: CH1903+ / LV95
+            3072, 0, 1, epsg,   # ProjectedCSType: CH1903+ / LV95 by default
             3076, 0, 1, 9001]   # ProjLinearUnits: metre
     geokeys = struct.pack("<%dH" % len(keys), *keys)
     nodata = b"-9999\0"
@@ -191,6 +232,80 @@ def geotiff(rows, west, north, cell):
     for at in fixups:
         body = body[:at] + struct.pack("<I", strip_at) + body[at + 4:]
     return b"II*\0" + struct.pack("<I", 8) + body + extra + data
+
+
+# --- the site of docs/tutorial-site.md (WGS 84 / UTM zone 32N) ---------------------------
+
+SITE_E, SITE_N = 412000.0, 5140000.0   # the DEM's south-west corner (EPSG:32632, m)
+
+
+def tutorial_profile(t):
+    """Elevation (m) t metres north of the DEM's south edge: a counter-slope, the valley
+    floor with its road, 160 m of 35 degree talus, a 60 degree cliff band 40 m deep and
+    the plateau above it."""
+    t60, t35 = math.tan(math.radians(60.0)), math.tan(math.radians(35.0))
+    floor = 1180.0 + 50.0 * max(110.0 - t, 0.0) ** 2 / 12100.0
+    if t < 200.0:
+        return floor + 6.0 * math.exp(-(200.0 - t) / 15.0)
+    if t < 360.0:
+        return floor + 6.0 + (t - 200.0) * t35
+    if t < 400.0:
+        return floor + 6.0 + 160.0 * t35 + (t - 360.0) * t60
+    return floor + 6.0 + 160.0 * t35 + 40.0 * t60 + (t - 400.0) * 0.1
+
+
+def tutorial_dem():
+    """121 x 101 points, 5 m cells, EPSG:32632: a south-facing cliff and talus over a
+    valley floor, with ribs and gullies across the slope."""
+    cell = 5.0
+    west, north = SITE_E - cell / 2, SITE_N + 500.0 + cell / 2
+
+    def z_of(e, n):
+        t = n - SITE_N
+        return tutorial_profile(t) + 4.0 * math.sin((e - SITE_E) / 45.0) * min(max((t - 150.0) / 60.0, 0.0), 1.0)
+    rows = dem_rows(121, 101, cell, west, north, random.Random(32632), 0.1, z_of)
+    return geotiff(rows, west, north, cell, epsg=32632)
+
+
+def utm_geojson(name, features):
+    """A GeoJSON FeatureCollection in WGS 84 / UTM zone 32N, as QGIS writes one."""
+    text = geojson(name, features).decode()
+    return text.replace("urn:ogc:def:crs:EPSG::2056", "urn:ogc:def:crs:EPSG::32632").encode()
+
+
+def site_xy(points):
+    return [[SITE_E + x, SITE_N + y] for x, y in points]
+
+
+def tutorial_release():
+    """Two release zones drawn on the cliff band: the western one in a gully, twice as
+    active (field "weight")."""
+    def ring(points):
+        return site_xy(points + points[:1])
+    return utm_geojson("release", [
+        ([("zone", "west gully"), ("weight", 2.0)], "Polygon", [ring([(170, 375), (260, 370), (265, 395), (175, 398)])]),
+        ([("zone", "east face"), ("weight", 1.0)], "Polygon", [ring([(330, 370), (430, 375), (425, 396), (335, 396)])]),
+    ])
+
+
+def tutorial_barriers():
+    """A net across the talus (drawn east to west) and one above the road (west to east)."""
+    return utm_geojson("barriers", [
+        ([("name", "talus net")], "LineString", site_xy([(460, 282), (300, 275), (140, 282)])),
+        ([("name", "road net")], "LineString", site_xy([(100, 205), (300, 200), (500, 205)])),
+    ])
+
+
+def tutorial_ground():
+    """Ground materials drawn in QGIS (field "material"): the cliff band, the road and
+    the forest floor of the valley; the talus is the terrain's first material."""
+    def ring(points):
+        return [site_xy(points + points[:1])]
+    return utm_geojson("ground", [
+        ([("material", "rock")], "Polygon", ring([(-5, 355), (605, 355), (605, 405), (-5, 405)])),
+        ([("material", "forest floor")], "Polygon", ring([(-5, -5), (605, -5), (605, 160), (-5, 160)])),
+        ([("material", "road")], "Polygon", ring([(-5, 166), (605, 166), (605, 174), (-5, 174)])),
+    ])
 
 
 # --- surveyed quarry (TIN) ----------------------------------------------------------------
@@ -441,6 +556,12 @@ def boulder_scan():
 
 FILES = {
     "quickstart/dem.asc": quickstart_dem,
+    "site/dem.tif": tutorial_dem,
+    "site/release.geojson": tutorial_release,
+    "site/barriers.geojson": tutorial_barriers,
+    "site/ground.geojson": tutorial_ground,
+    "quickstart/ground-zones.geojson": quickstart_ground_zones,
+    "quickstart/release-cells.asc": quickstart_release_cells,
     "quickstart/rock-scan.ply": rock_scan,
     "quickstart/release-zones.geojson": quickstart_release_zones,
     "quickstart/fences.geojson": quickstart_fences,

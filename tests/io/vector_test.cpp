@@ -121,7 +121,7 @@ class VectorFiles : public ::testing::Test {
   }
   static mc::Scene build(const mc::SceneSettings& s) {
     const terrain::Terrain t = lv95_terrain();
-    const mc::SceneVectors v = read_scene_vectors(s, t.crs_wkt);
+    const mc::SceneVectors v = read_scene_vectors(s, t);
     return mc::Scene::build(s, t, mc::testing::library({block::SolidKind::cube}), "scene.yaml", v);
   }
   // The message of the InputError that reading and building `s` throws ("" if none).
@@ -254,6 +254,48 @@ TEST_F(VectorFiles, PolygonFeaturesAreDrawnInProportionToTheirWeights) {
   // Without a weight field, by area: 9, 36 − 4 = 32 and 4 + 16 = 20 m².
   s.release.weight_field.clear();
   expect_binomial(draw_counts(build(s), n), {9.0, 32.0, 20.0}, n);
+}
+
+TEST_F(VectorFiles, ReleaseCellsOfARasterAreDrawnByDensityTimesArea) {
+  // 2 m cells centred on local y = 0 and 2, x = 21, 23, 25 (LV95 as the terrain): values
+  // 1, 0, 2 / NODATA, 1, 0. The first row's cells hang half off the terrain (y < 0) and are
+  // cut to it: weights 1·2·1, 2·2·1 and 1·2·2 = 2, 4, 4.
+  terrain::DemGrid cells;
+  cells.spec = {21.0 + kShift.x(), 0.0 + kShift.y(), 2.0, 2.0, 3, 2};
+  cells.z = {1.0, 0.0, 2.0, std::nan(""), 1.0, 0.0};
+  const std::string path = file("release.asc");
+  write_esri_ascii(path, cells);
+  write_prj(file("release.prj"), resolve_crs("EPSG:2056", "test"));
+  mc::SceneSettings s = release_scene(path, "polygon");
+  const mc::Scene scene = build(s);
+  ASSERT_EQ(scene.release_features().size(), 3u);
+  constexpr std::uint32_t n = 4000;
+  expect_binomial(draw_counts(scene, n), {2.0, 4.0, 4.0}, n);
+  // Every release inside a cell of value > 0, on the terrain.
+  const terrain::Surface ground = scene.base_surface().realization(std::nullopt);
+  for (std::uint32_t i = 0; i < 300; ++i) {
+    const Eigen::Vector2d p = mc::draw_release(scene, ground, i).release.position.head<2>();
+    const bool first = p.y() >= 0.0 && p.y() <= 1.0 && ((p.x() >= 20.0 && p.x() <= 22.0) || (p.x() >= 24.0 && p.x() <= 26.0));
+    const bool second = p.y() >= 1.0 && p.y() <= 3.0 && p.x() >= 22.0 && p.x() <= 24.0;
+    EXPECT_TRUE(first || second) << p.transpose();
+  }
+
+  // Refused, naming the file: another CRS (with the command that reprojects it), a
+  // negative density, another release kind, no release cell.
+  write_prj(file("release.prj"), resolve_crs("EPSG:32632", "test"));
+  EXPECT_NE(error_of(s).find(path + ": is in CRS WGS 84 / UTM zone 32N (EPSG:32632), not in the terrain's CRS"),
+            std::string::npos)
+      << error_of(s);
+  EXPECT_NE(error_of(s).find("gdalwarp -t_srs EPSG:2056"), std::string::npos) << error_of(s);
+  fs::remove(file("release.prj"));
+  cells.z[4] = -1.0;
+  write_esri_ascii(path, cells);
+  EXPECT_NE(error_of(s).find(path + ": cell (i=1, j=1) at (x=2601023, y=1180002) has value -1"), std::string::npos)
+      << error_of(s);
+  cells.z = {0.0, 0.0, 0.0, std::nan(""), 0.0, 0.0};
+  write_esri_ascii(path, cells);
+  EXPECT_NE(error_of(s).find(path + ": holds no release cell"), std::string::npos) << error_of(s);
+  EXPECT_NE(error_of(release_scene(path, "line")).find("set release.kind: polygon"), std::string::npos);
 }
 
 TEST_F(VectorFiles, OverlappingPartsOfAMultiPolygonAreOneZone) {
@@ -468,7 +510,7 @@ TEST_F(VectorFiles, BadFilesAreRefusedWithOneLineNamingTheFile) {
   s.release.layer = "utm";
   terrain::Terrain t = lv95_terrain();
   t.crs_wkt.clear();
-  EXPECT_NO_THROW(mc::Scene::build(s, t, mc::testing::library({block::SolidKind::cube}), "s", read_scene_vectors(s, "")));
+  EXPECT_NO_THROW(mc::Scene::build(s, t, mc::testing::library({block::SolidKind::cube}), "s", read_scene_vectors(s, t)));
   // Nor does a GeoPackage layer in its "Undefined Cartesian SRS" (as stats writes for a
   // terrain without a CRS) against a terrain with one.
   VectorLayer line{"line", VectorGeometry::line_string_z, {}, {}};

@@ -73,6 +73,12 @@ TEST_F(RunFileTest, RoundTripsEveryTable) {
   EXPECT_EQ(f.info.barriers, (std::vector<std::string>{"lower slope", "toe"}));
   EXPECT_EQ(f.info.barrier_lines[1][1][1], 20.0);
   EXPECT_EQ(f.info.hazard.nx, scene_->hazard_grid().nx);
+  // The release zone as drawn from: bench_scene's one point, probability 1.
+  EXPECT_EQ(f.info.release_kind, "point");
+  ASSERT_EQ(f.info.release.size(), 1u);
+  EXPECT_EQ(f.info.release[0].probability, 1.0);
+  ASSERT_EQ(f.info.release[0].parts.size(), 1u);
+  EXPECT_EQ(f.info.release[0].parts[0], (std::vector<std::vector<std::array<double, 2>>>{{{26.0, 10.0}}}));
   EXPECT_TRUE(fs::exists(dir_ / "run.xmf"));
   // Not a run file: a journal, and a file of another kind.
   RunJournal::create((dir_ / "j.journal").string(), info());

@@ -112,6 +112,43 @@ TEST_F(PlotFigure, ImageCellsLandWhereTheirCoordinatesSay) {
   EXPECT_TRUE(near(pw.at(150, 120), map.at(1.0)));
 }
 
+TEST_F(PlotFigure, MapsGiveWholeCoordinatesClassColoursAndSeeThroughRasters) {
+  // Class k of a listed map gets colour k exactly; the gray map runs black to white.
+  const Colormap classes = Colormap::listed("classes", {Rgba::hex(0xffd700), Rgba::hex(0x2f6fdf), Rgba::hex(0xe0201b)});
+  EXPECT_TRUE(near(classes.at(0.5), Rgba::hex(0x2f6fdf)));
+  EXPECT_TRUE(near(classes.at(1.0), Rgba::hex(0xe0201b)));
+  EXPECT_TRUE(near(Colormap::named("gray").at(0.0), Rgba{0, 0, 0, 1}));
+  EXPECT_TRUE(near(Colormap::named("gray").at(1.0), Rgba{1, 1, 1, 1}));
+
+  // Projected coordinates (2 601 000 … 2 601 100 m): the default ticks set the shared
+  // digits apart in a line under the tick labels; whole tick labels leave that line empty.
+  // A 2.5 in high figure, the panel's bottom at 1.5 in (pixel 180), its tick labels from
+  // about pixel 192 to 211.
+  const auto ink_below_labels = [&](bool whole) {
+    Figure fig(3.0, 2.5);
+    Axes& ax = fig.add_axes(0.5, 0.5, 2.0, 1.0);
+    ax.line({2601000.0, 2601100.0}, {1180000.0, 1180050.0}, {Rgba{0, 0, 0, 1}, 1.0, Dash::solid});
+    if (whole) ax.set_whole_tick_labels();
+    const fs::path png = dir_ / (whole ? "whole.png" : "offset.png");
+    fig.save(png.string(), Format::png);
+    const Pixels p = read_png(png);
+    int ink = 0;
+    for (std::uint32_t y = 214; y < 245; ++y)
+      for (std::uint32_t x = 0; x < p.width; ++x) ink += p.at(x, y).r < 0.5;
+    return ink;
+  };
+  EXPECT_GT(ink_below_labels(false), 20);
+  EXPECT_EQ(ink_below_labels(true), 0);
+
+  // A raster at 50 % over white: half way from white to its colour.
+  Figure fig(2.0, 2.0);
+  Axes& ax = fig.add_axes(0.5, 0.5, 1.0, 1.0);
+  ax.image({1.0}, 1, 1, 0.5, 0.5, 1.0, 1.0, Colormap::named("gray"), 0.0, 2.0, 0.5);
+  const fs::path png = dir_ / "alpha.png";
+  fig.save(png.string(), Format::png);
+  EXPECT_TRUE(near(read_png(png).at(120, 120), Rgba{0.75, 0.75, 0.75, 1}));
+}
+
 TEST_F(PlotFigure, LinesAndMarkersFollowLinearAndLogScales) {
   Figure fig(2.0, 2.0);
   Axes& lin = fig.add_axes(0.5, 0.5, 1.0, 1.0);

@@ -246,6 +246,8 @@ CASES = [
     (["terrain-gen", "-c", "plane.yaml", "-o", "plane.yaml"], USAGE, ["-o plane.yaml", "settings file"]),
     (["terrain-gen", "dem.asc", "-o", "x.h5", "--export-mesh", "./dem.asc"], USAGE, ["--export-mesh"]),
     (["terrain-gen", "dem.asc", "--set", "material_raster=ids.asc", "-o", "ids.asc"], USAGE, ["-o ids.asc", "material_raster"]),
+    (["terrain-gen", "dem.asc", "--set", "zone_file.file=zones.geojson", "-o", "zones.geojson"], USAGE,
+     ["-o zones.geojson", "zone_file.file"]),
     (["terrain-gen", "dem.asc", "-o", "x.h5", "--export-mesh", "x.xmf"], USAGE, ["x.xmf"]),
     (["block-gen", "cube.obj", "-o", "cube.obj"], USAGE, ["-o cube.obj", "the input cube.obj"]),
     (["block-gen", "cube.obj", "-o", "x.h5", "--export-mesh", "./cube.obj"], USAGE, ["--export-mesh", "cube.obj"]),

@@ -42,7 +42,7 @@ EXCLUDED = [
     (r"^\./scripts/install-deps\.sh\b", "installs Debian packages (root)"),
     (r"^(cmake|ctest)\b", "builds or tests the tree this test is part of"),
     (r"^scripts/study\.sh\b",
-     "the whole reference study (3 x 1000 realizations and 20 figures, about 10 s on 2 cores); its steps are "
+     "the whole reference study (3 x 1000 realizations and 68 figures, about 10 s on 2 cores); its steps are "
      "dda-run.md's and stats.md's commands, run here with fewer realizations"),
     (r"^bench/stress/stress\.sh\b",
      "the stress suite (minutes to hours); its CI subset is the dda_stress_quick test"),
@@ -64,6 +64,7 @@ EXCLUDED = [
      "instruction counts: the run under valgrind takes minutes; the same run without it is the whole-run law's "
      "command in the same document"),
     (r"^callgrind_annotate\b", "reads the counts of the valgrind command before it"),
+    (r"^sbatch\b", "needs a Slurm cluster; the page runs the same script task by task with bash"),
 ]
 
 # Commands that need a part of the build that is optional: run when it is there.
@@ -92,6 +93,10 @@ OVERRIDES = [
     # prediction of 3 draws, every simulation of N realizations; the observed drop tests
     # shortened like every run.
     ("docs/calibration.md", r"^dda-run -c samples/calibration/drop\.yaml", "--set realizations={n}"),
+    # The tutorial's run, whole and as the four tasks of its Slurm array (the script passes
+    # its arguments to dda-run), shortened alike so that the merge equals the whole run.
+    ("docs/tutorial-site.md", r"^\s*dda-run -c ", "--set realizations={n}"),
+    ("docs/tutorial-site.md", r"bash samples/site/run-array\.sbatch", "--set realizations={n}"),
     ("docs/calibration.md", r"^calibrate -c samples/calibration/calibrate\.yaml",
      "--set particles=6 --set generations=1 --set realizations={n}"),
     ("docs/calibration.md", r"^calibrate -c samples/calibration/predict\.yaml",

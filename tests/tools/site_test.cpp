@@ -217,6 +217,37 @@ outputs:
     OGR_F_Destroy(f);
   }
   EXPECT_GT(crossed, 0);  // a 35° slope: blocks from the zone reach the fence
+  // Every first crossing goes down the slope (+x), and the fence, drawn from south to
+  // north, faces downslope on its right.
+  OGR_L_ResetReading(crossings);
+  while (OGRFeatureH f = OGR_L_GetNextFeature(crossings)) {
+    EXPECT_EQ(OGR_F_GetFieldAsInteger(f, OGR_F_GetFieldIndex(f, "direction")), 1);
+    OGR_F_Destroy(f);
+  }
+  OGRLayerH fences = GDALDatasetGetLayerByName(vec, "barriers");
+  ASSERT_NE(fences, nullptr);
+  OGR_L_ResetReading(fences);
+  OGRFeatureH fence = OGR_L_GetNextFeature(fences);
+  ASSERT_NE(fence, nullptr);
+  EXPECT_STREQ(OGR_F_GetFieldAsString(fence, OGR_F_GetFieldIndex(fence, "downslope_side")), "right");
+  EXPECT_EQ(OGR_F_GetFieldAsInteger(fence, OGR_F_GetFieldIndex(fence, "crossings")), crossed);
+  EXPECT_EQ(OGR_G_GetY(OGR_F_GetGeometryRef(fence), 1), 1200140.75);
+  OGR_F_Destroy(fence);
+  // The release zone as drawn in the GIS, in its coordinates.
+  OGRLayerH zones = GDALDatasetGetLayerByName(vec, "release");
+  ASSERT_NE(zones, nullptr);
+  ASSERT_EQ(OGR_L_GetFeatureCount(zones, 1), 1);
+  OGR_L_ResetReading(zones);
+  OGRFeatureH zone = OGR_L_GetNextFeature(zones);
+  ASSERT_NE(zone, nullptr);
+  OGREnvelope box;
+  OGR_G_GetEnvelope(OGR_F_GetGeometryRef(zone), &box);
+  EXPECT_EQ(box.MinX, 2600012.0);
+  EXPECT_EQ(box.MaxX, 2600030.0);
+  EXPECT_EQ(box.MinY, 1200050.0);
+  EXPECT_EQ(box.MaxY, 1200100.0);
+  EXPECT_EQ(OGR_F_GetFieldAsDouble(zone, OGR_F_GetFieldIndex(zone, "probability")), 1.0);
+  OGR_F_Destroy(zone);
   GDALClose(vec);
 }
 

@@ -770,24 +770,36 @@ TEST_F(Stats, ValidatesASeriesAgainstObservedStopPoints) {
 TEST_F(Stats, DrawsPlots) {
   // Three threads draw the figures, whatever the machine's core count.
   const Outcome o = run({"whole.h5", "-o", "out-plots", "--set", "bootstrap_resamples=50", "--set", "plot_jobs=3",
-                         "--set", "plot_formats=[png,svg]"});
+                         "--set", "plot_formats=[png,svg]", "--set", "plot_hazard_summary=true"});
   ASSERT_EQ(o.code, 0) << o.err;
   for (const char* stem : {"cdf-runout", "cdf-max_kinetic_energy", "convergence-runout", "barrier-toe", "plan-whole",
-                           "hazard-whole"})
+                           "hazard-whole", "map-whole-reach_probability", "map-whole-passage_count",
+                           "map-whole-energy_p95", "map-whole-speed_max", "sheet-whole-toe"})
     for (const char* ext : {".png", ".svg"}) {
       const fs::path file = dir_ / "out-plots" / "plots" / (std::string(stem) + ext);
       ASSERT_TRUE(fs::exists(file)) << file;
       EXPECT_GT(fs::file_size(file), 1000u) << file;
     }
-  // One run, so one panel of 4.6 × 3.6 in; the plan view is 9 × 6 in; SVG in points.
+  // One run, so one panel of 4.6 × 3.6 in; maps are 10 in wide, as high as the terrain's
+  // extent asks within 3.4–8.9 in; SVG in points.
   EXPECT_EQ(png_size(dir_ / "out-plots" / "plots" / "cdf-runout.png"), (std::pair<std::uint32_t, std::uint32_t>{552, 432}));
-  EXPECT_EQ(png_size(dir_ / "out-plots" / "plots" / "plan-whole.png"), (std::pair<std::uint32_t, std::uint32_t>{1080, 720}));
+  for (const char* map : {"plan-whole.png", "map-whole-energy_p95.png"}) {
+    const auto [width, height] = png_size(dir_ / "out-plots" / "plots" / map);
+    EXPECT_EQ(width, 1200u) << map;
+    EXPECT_GE(height, 408u) << map;
+    EXPECT_LE(height, 1068u) << map;
+  }
   const std::string svg = read_text(dir_ / "out-plots" / "plots" / "plan-whole.svg");
-  EXPECT_NE(svg.find("width=\"648pt\" height=\"432pt\""), std::string::npos) << svg.substr(0, 300);
+  EXPECT_NE(svg.find("width=\"720pt\""), std::string::npos) << svg.substr(0, 300);
   EXPECT_NE(svg.rfind("</svg>"), std::string::npos);
+  // Without plot_hazard_summary, one map per raster and no compact figure.
+  const Outcome maps = run({"whole.h5", "-o", "out-maps", "--set", "bootstrap_resamples=0"});
+  ASSERT_EQ(maps.code, 0) << maps.err;
+  EXPECT_FALSE(fs::exists(dir_ / "out-maps" / "plots" / "hazard-whole.png"));
+  EXPECT_TRUE(fs::exists(dir_ / "out-maps" / "plots" / "map-whole-height_mean.png"));
   // Drawn again by one thread, every file has the same bytes, and no temporary file is left.
   const Outcome serial = run({"whole.h5", "-o", "out-plots-serial", "--set", "bootstrap_resamples=50", "--set",
-                              "plot_jobs=1", "--set", "plot_formats=[png,svg]"});
+                              "plot_jobs=1", "--set", "plot_formats=[png,svg]", "--set", "plot_hazard_summary=true"});
   ASSERT_EQ(serial.code, 0) << serial.err;
   std::size_t compared = 0;
   for (const auto& entry : fs::directory_iterator(dir_ / "out-plots" / "plots")) {
@@ -946,7 +958,7 @@ TEST_F(Stats, VectorLayersInTerrainCoordinatesWithTheTerrainsCrs) {
   // GeoJSON: one file per layer, the same coordinates to the last bit.
   ASSERT_EQ(run_fast({"whole.h5", "-o", "out-vector", "--set", "vector_format=geojson"}).code, 0);
   EXPECT_FALSE(fs::exists(gpkg));  // this run's outputs only
-  for (const char* layer : {"stop_points", "barrier_crossings", "trajectories"}) {
+  for (const char* layer : {"stop_points", "barrier_crossings", "barriers", "trajectories"}) {
     const OgrLayer json(dir_ / "out-vector" / "vector" / ("whole-" + std::string(layer) + ".geojson"), "");
     ASSERT_NE(json.get(), nullptr) << layer;
     expect_terrain_crs(json, layer);
@@ -959,6 +971,77 @@ TEST_F(Stats, VectorLayersInTerrainCoordinatesWithTheTerrainsCrs) {
   }
   ASSERT_EQ(run_fast({"whole.h5", "-o", "out-vector", "--set", "vector_format=none"}).code, 0);
   EXPECT_FALSE(fs::exists(dir_ / "out-vector" / "vector" / "whole-stop_points.geojson"));
+}
+
+// A run whose toe line is digitised from `from` to `to` (x = 36, across the slope that
+// falls towards +x), with a polygon release zone; the blocks cross it moving +x, but for
+// realization 2, which crosses it moving back up (−x). The recorded direction is +1 from
+// the line's right to its left, as dda-run writes it.
+void write_fence_run(const fs::path& path, std::array<double, 2> from, std::array<double, 2> to) {
+  io::RunInfo info = run_info("0/1");
+  info.barrier_lines = {{from, to}};
+  info.release_kind = "polygon";
+  info.release = {{{{{{2.0, 8.0}, {6.0, 8.0}, {6.0, 12.0}, {2.0, 12.0}}}}, 0.75},
+                  {{{{{2.0, 14.0}, {4.0, 14.0}, {4.0, 16.0}}}}, 0.25}};
+  mc::RunData data;
+  data.hazard = mc::HazardAccumulator(info.hazard, info.hazard_relative_accuracy);
+  // Moving +x across a line digitised towards +y is moving from its left to its right.
+  const int plus_x = to[1] > from[1] ? -1 : 1;
+  for (std::uint32_t i = 0; i < kRealizations; ++i) {
+    mc::RealizationResult r = realization(i);
+    for (auto& c : r.crossings) c.direction = i == 2 ? -plus_x : plus_x;
+    data.add(std::move(r));
+  }
+  data.sort("test");
+  io::write_run_file(path.string(), info, data);
+}
+
+TEST_F(Stats, CrossingDirectionIsDownslopeWhicheverWayTheLineWasDigitised) {
+  write_fence_run(dir_ / "north.h5", {36.0, 0.0}, {36.0, 20.0});
+  write_fence_run(dir_ / "south.h5", {36.0, 20.0}, {36.0, 0.0});
+  const Outcome o = run_fast({"north.h5", "south.h5", "-o", "out-fence"});
+  ASSERT_EQ(o.code, 0) << o.err;
+  for (const char* name : {"north", "south"}) {
+    const fs::path gpkg = dir_ / "out-fence" / "vector" / (std::string(name) + ".gpkg");
+    const auto hits = OgrLayer(gpkg, "barrier_crossings").features();
+    ASSERT_EQ(hits.size(), kRealizations / 2) << name;
+    for (const auto& f : hits)
+      EXPECT_EQ(f.real.at("direction"), f.real.at("realization") == 2 ? -1.0 : 1.0) << name;
+
+    // The line as the run had it, the side it faces downslope (+x) and its crossings.
+    const OgrLayer barriers(gpkg, "barriers");
+    ASSERT_NE(barriers.get(), nullptr) << name;
+    expect_terrain_crs(barriers, "barriers");
+    EXPECT_EQ(wkbFlatten(OGR_L_GetGeomType(barriers.get())), wkbLineString);
+    const auto lines = barriers.features();
+    ASSERT_EQ(lines.size(), 1u);
+    EXPECT_EQ(lines[0].text.at("barrier"), "toe");
+    EXPECT_EQ(lines[0].real.at("length"), 20.0);
+    EXPECT_EQ(lines[0].real.at("crossings"), 6.0);
+    EXPECT_EQ(lines[0].text.at("downslope_side"), std::string(name) == "north" ? "right" : "left");
+    ASSERT_EQ(lines[0].vertices.size(), 2u);
+    EXPECT_EQ(lines[0].vertices[0][0], 36.0 + kShift.x());
+    EXPECT_EQ(lines[0].vertices[0][1], (std::string(name) == "north" ? 0.0 : 20.0) + kShift.y());
+
+    // The release zone: two polygons with their probabilities, in terrain coordinates.
+    const OgrLayer release(gpkg, "release");
+    ASSERT_NE(release.get(), nullptr) << name;
+    expect_terrain_crs(release, "release");
+    EXPECT_EQ(wkbFlatten(OGR_L_GetGeomType(release.get())), wkbMultiPolygon);
+    const auto zones = release.features();
+    ASSERT_EQ(zones.size(), 2u);
+    EXPECT_EQ(zones[0].real.at("probability"), 0.75);
+    EXPECT_EQ(zones[1].real.at("feature"), 2.0);
+    OGR_L_ResetReading(release.get());
+    OGRFeatureH f = OGR_L_GetNextFeature(release.get());
+    ASSERT_NE(f, nullptr);
+    OGREnvelope box;
+    OGR_G_GetEnvelope(OGR_F_GetGeometryRef(f), &box);
+    EXPECT_EQ(box.MinX, 2.0 + kShift.x());
+    EXPECT_EQ(box.MaxY, 12.0 + kShift.y());
+    EXPECT_EQ(OGR_G_Area(OGR_F_GetGeometryRef(f)), 16.0);
+    OGR_F_Destroy(f);
+  }
 }
 
 TEST_F(Stats, BadInputsGiveOneLineErrors) {

@@ -347,6 +347,62 @@ TEST_F(TerrainGen, MaterialRasterAssignsIdsByNearestCell) {
       << far.err;
 }
 
+TEST_F(TerrainGen, ZoneFileGivesEachPolygonTheMaterialItNames) {
+  // A 10 × 10 m flat DEM in LV95 (1 m cells) and two zones drawn in a GIS: a scree square
+  // of 8 m with a 4 m hole, then a rock square that overlaps it (the later feature wins).
+  terrain::DemGrid dem;
+  dem.spec = {2600000.5, 1200000.5, 1.0, 1.0, 11, 11};
+  dem.z.assign(121, 500.0);
+  io::write_esri_ascii((dir_ / "flat.asc").string(), dem);
+  const std::string crs = R"("crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::2056"}})";
+  const auto square = [](double x0, double y0, double size) {
+    const auto at = [](double x, double y) { return "[" + std::to_string(x) + ", " + std::to_string(y) + "]"; };
+    return "[" + at(x0, y0) + ", " + at(x0 + size, y0) + ", " + at(x0 + size, y0 + size) + ", " + at(x0, y0 + size) +
+           ", " + at(x0, y0) + "]";
+  };
+  const auto zones = [&](const std::string& first_material, const std::string& collection_crs) {
+    return R"({"type": "FeatureCollection", )" + collection_crs + R"(, "features": [
+      {"type": "Feature", "properties": {"kind": ")" + first_material + R"("}, "geometry": {"type": "Polygon",
+        "coordinates": [)" + square(2600001.5, 1200001.5, 8) + ", " + square(2600003.5, 1200003.5, 4) + R"(]}},
+      {"type": "Feature", "properties": {"kind": "rock"}, "geometry": {"type": "MultiPolygon",
+        "coordinates": [[)" + square(2600007.5, 1200007.5, 3) + R"(]]}}]})";
+  };
+  write_text(dir_ / "zones.geojson", zones("scree", crs));
+  write_text(dir_ / "t.yaml",
+             "crs: EPSG:2056\nmaterials: [{name: talus}, {name: scree}, {name: rock}]\n"
+             "zone_file: {file: zones.geojson, material_field: kind}\n");
+  const Outcome r = run({"flat.asc", "-c", "t.yaml", "-o", "z.h5"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const terrain::Terrain t = io::read_terrain_file((dir_ / "z.h5").string());
+  const auto inside = [](double x, double y, double x0, double y0, double size) {
+    return x > x0 && x < x0 + size && y > y0 && y < y0 + size;
+  };
+  int counted[3] = {0, 0, 0};
+  for (std::size_t k = 0; k < t.mesh.triangles.size(); ++k) {
+    geometry::Vec3 c = geometry::Vec3::Zero();
+    for (auto v : t.mesh.triangles[k]) c += t.mesh.vertices[v] / 3.0;
+    const double x = c.x() + t.origin_shift.x() - 2600000.0, y = c.y() + t.origin_shift.y() - 1200000.0;
+    const int expected = inside(x, y, 7.5, 7.5, 3)                                       ? 2
+                         : inside(x, y, 1.5, 1.5, 8) && !inside(x, y, 3.5, 3.5, 4) ? 1
+                                                                                     : 0;
+    EXPECT_EQ(t.material_of_triangle[k], expected) << x << " " << y;
+    ++counted[expected];
+  }
+  EXPECT_GT(counted[0], 0);
+  EXPECT_GT(counted[1], 0);
+  EXPECT_GT(counted[2], 0);
+
+  // A material the terrain does not have, and a layer in another CRS, are refused naming
+  // the file.
+  write_text(dir_ / "ice.geojson", zones("ice", crs));
+  expect_error(run({"flat.asc", "-c", "t.yaml", "--set", "zone_file.file=ice.geojson", "-o", "out.h5"}), 3,
+               "ice.geojson: feature 0: material 'ice' (field 'kind') is not one of the materials (talus, scree, rock)");
+  write_text(dir_ / "wgs.geojson",
+             zones("scree", R"("crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:OGC:1.3:CRS84"}})"));
+  expect_error(run({"flat.asc", "-c", "t.yaml", "--set", "zone_file.file=wgs.geojson", "-o", "out.h5"}), 3,
+               "wgs.geojson");
+}
+
 TEST_F(TerrainGen, SurveyedTinYUpOneFilePerMaterial) {
   // y-up OBJ files (as meshing tools write them): a ground strip and a vertical wall.
   write_text(dir_ / "ground.obj", "v 0 0 0\nv 10 0 0\nv 10 0 -4\nv 0 0 -4\nf 1 2 3\nf 1 3 4\n");

@@ -186,7 +186,7 @@ Problem::Problem(const Settings& settings, const std::string& source, unsigned t
     if (!library) library = std::make_unique<std::vector<block::Block>>(io::read_block_file(c.scene.block_file));
     c.terrain = terrain.get();
     c.library = library.get();
-    c.vectors = io::read_scene_vectors(c.scene, terrain->crs_wkt);
+    c.vectors = io::read_scene_vectors(c.scene, *terrain);
     // Validates the case as dda-run would (names, points, the fitted materials), and its
     // releases at the scene's own seed: a block released into the ground is refused now,
     // not hours into the calibration.

@@ -259,7 +259,7 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
                                                           settings.block_file + " (it has: " + names + ")");
     }
   // Release zones and barrier lines from vector files, checked against the terrain's CRS.
-  const mc::SceneVectors vectors = io::read_scene_vectors(settings, terrain.crs_wkt);
+  const mc::SceneVectors vectors = io::read_scene_vectors(settings, terrain);
   const mc::Scene scene = mc::Scene::build(settings, std::move(terrain), library, source, vectors);
 
   io::Provenance provenance = inv.provenance("dda-run", settings.seed);

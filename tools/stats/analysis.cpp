@@ -167,6 +167,7 @@ void pool_runs(std::vector<Run>& runs, const Settings& settings) {
     info.barrier_lines.clear();
     info.hazard = mc::HazardGridSpec{};
     info.shard = "0/1";
+    info.release.clear();
     mc::RunData& data = pooled.file.data;
     std::uint32_t offset = 0;
     for (const Run* m : members) {
@@ -197,9 +198,18 @@ void pool_runs(std::vector<Run>& runs, const Settings& settings) {
         t.realization += offset;
         data.trajectories.push_back(t);
       }
+      // A member's release features, weighted by its share of the pool's realizations;
+      // members released from zones of another kind (points and polygons) have no one layer.
+      if (mi.release_kind != info.release_kind) info.release_kind.clear();
+      for (io::ReleaseArea area : mi.release) {
+        area.probability *= count;
+        info.release.push_back(std::move(area));
+      }
       offset += count;
     }
     info.realizations = offset;
+    if (info.release_kind.empty()) info.release.clear();
+    for (io::ReleaseArea& area : info.release) area.probability /= std::max<std::uint32_t>(offset, 1);
     runs.push_back(std::move(pooled));
   }
 }
@@ -468,10 +478,85 @@ RunResult run_result(const Run& run, const Settings& settings, std::optional<dou
     auto& shifted = plan.barrier_lines.emplace_back();
     for (const auto& v : line) shifted.push_back({v[0] + shift[0], v[1] + shift[1]});
   }
+  plan.barrier_downslope.assign(info.barrier_lines.size(), 0);
+  if (ground) {
+    const terrain::Surface smooth = terrain::Surface::realize(*ground, std::nullopt);
+    const double cell = ground->grid ? std::max(ground->grid->dx, ground->grid->dy) : 0.0;
+    // Two DEM cells either side, at least 2 m: past the roughness of single cells.
+    const double offset = std::max(2.0, 2.0 * cell);
+    for (std::size_t b = 0; b < info.barrier_lines.size(); ++b)
+      plan.barrier_downslope[b] = downslope_side(smooth, info.barrier_lines[b], offset);
+    if (settings.plots) plan.hillshade = hillshade(smooth, cell, shift);
+  }
+  plan.release_kind = info.release_kind;
+  for (const auto& area : info.release)
+    for (const auto& part : area.parts)
+      for (const auto& ring : part) {
+        auto& shifted = plan.release_rings.emplace_back();
+        for (const auto& v : ring) shifted.push_back({v[0] + shift[0], v[1] + shift[1]});
+      }
+  if (!out.crs_wkt.empty()) plan.crs_name = io::crs_name(out.crs_wkt);
   return out;
 }
 
 }  // namespace
+
+int downslope_side(const terrain::Surface& ground, const std::vector<std::array<double, 2>>& line, double offset) {
+  double rise_right = 0.0;  // Σ (z right − z left) · length along the line
+  for (std::size_t k = 1; k < line.size(); ++k) {
+    const double dx = line[k][0] - line[k - 1][0], dy = line[k][1] - line[k - 1][1];
+    const double length = std::hypot(dx, dy);
+    if (!(length > 0.0)) continue;
+    const double lx = -dy / length * offset, ly = dx / length * offset;  // towards the left
+    const auto pieces = static_cast<int>(std::ceil(length / (0.5 * offset)));
+    for (int i = 0; i < pieces; ++i) {
+      const double t = (i + 0.5) / pieces;
+      const double x = line[k - 1][0] + t * dx, y = line[k - 1][1] + t * dy;
+      const auto left = ground.height_at(x + lx, y + ly), right = ground.height_at(x - lx, y - ly);
+      if (left && right) rise_right += (right->z - left->z) * length / pieces;
+    }
+  }
+  return rise_right > 0.0 ? 1 : rise_right < 0.0 ? -1 : 0;
+}
+
+terrain::DemGrid hillshade(const terrain::Surface& ground, double finest, const std::array<double, 3>& shift) {
+  const geometry::Aabb& b = ground.bounds();
+  terrain::DemGrid out;
+  const double wide = std::max(b.hi.x() - b.lo.x(), b.hi.y() - b.lo.y());
+  if (!(wide > 0.0)) return out;
+  const double h = std::max(finest, wide / 800.0);
+  const auto nx = static_cast<std::int32_t>(std::max(1.0, std::round((b.hi.x() - b.lo.x()) / h)));
+  const auto ny = static_cast<std::int32_t>(std::max(1.0, std::round((b.hi.y() - b.lo.y()) / h)));
+  const double dx = (b.hi.x() - b.lo.x()) / nx, dy = (b.hi.y() - b.lo.y()) / ny;
+  out.spec = {b.lo.x() + 0.5 * dx + shift[0], b.lo.y() + 0.5 * dy + shift[1], dx, dy, nx, ny};
+  std::vector<double> z(out.spec.point_count(), kNaN);
+  for (std::int32_t j = 0; j < ny; ++j)
+    for (std::int32_t i = 0; i < nx; ++i)
+      if (const auto hit = ground.height_at(b.lo.x() + (i + 0.5) * dx, b.lo.y() + (j + 0.5) * dy))
+        z[out.spec.index(i, j)] = hit->z;
+  // Light from azimuth 315° (clockwise from north), 45° up: the GIS default.
+  const double up = std::sin(M_PI / 4), across = std::cos(M_PI / 4);
+  const double lx = across * std::sin(-M_PI / 4), ly = across * std::cos(-M_PI / 4);
+  out.z.assign(z.size(), kNaN);
+  const auto at = [&](std::int32_t i, std::int32_t j) {
+    return i < 0 || j < 0 || i >= nx || j >= ny ? kNaN : z[out.spec.index(i, j)];
+  };
+  // A central difference, one-sided at the edge of the ground.
+  const auto slope = [](double below, double here, double above, double step) {
+    if (!std::isnan(below) && !std::isnan(above)) return (above - below) / (2 * step);
+    if (!std::isnan(above)) return (above - here) / step;
+    if (!std::isnan(below)) return (here - below) / step;
+    return 0.0;
+  };
+  for (std::int32_t j = 0; j < ny; ++j)
+    for (std::int32_t i = 0; i < nx; ++i) {
+      const double c = at(i, j);
+      if (std::isnan(c)) continue;
+      const double p = slope(at(i - 1, j), c, at(i + 1, j), dx), q = slope(at(i, j - 1), c, at(i, j + 1), dy);
+      out.z[out.spec.index(i, j)] = std::max(0.0, (-p * lx - q * ly + up) / std::sqrt(p * p + q * q + 1.0));
+    }
+  return out;
+}
 
 std::optional<double> VariableSummary::censored_share() const {
   if (!censored) return std::nullopt;
@@ -518,11 +603,11 @@ void add_intensity_layers(HazardMaps& maps, const io::RunFile& run, const std::a
   // Exceedance frequency of each intensity class's lower bound: any passage, E ≥ e1, E ≥ e2.
   const std::array<double, 3> bounds = {0.0, e[0], e[1]};
   const std::array<std::size_t, 3> frequency = {
-      add("frequency_low", "frequency of a passage (1/yr)",
+      add("frequency_low", "frequency of a passage",
           "exceedance frequency of a passage of any energy: release frequency × passages / realizations", "1/yr", false),
-      add("frequency_medium", "frequency of E ≥ " + e1 + " (1/yr)",
+      add("frequency_medium", "frequency of E ≥ " + e1,
           "exceedance frequency of a passage with kinetic energy ≥ " + e1, "1/yr", false),
-      add("frequency_high", "frequency of E ≥ " + e2 + " (1/yr)",
+      add("frequency_high", "frequency of E ≥ " + e2,
           "exceedance frequency of a passage with kinetic energy ≥ " + e2, "1/yr", false)};
   std::vector<std::size_t> intensity;
   for (double period : t) {

@@ -117,6 +117,19 @@ struct PlanView {
   std::vector<std::array<double, 3>> trajectory_position;  ///< m
   std::vector<std::vector<std::array<double, 2>>> barrier_lines;  ///< m
   std::vector<std::string> barrier_names;
+  /// Per barrier, the side of the line (from its first vertex) the terrain falls to:
+  /// +1 left, −1 right, 0 unknown (level, off the terrain, or no terrain read).
+  std::vector<int> barrier_downslope;
+  /// The map background: a hillshade of the smooth terrain, 0 (shadow) … 1 (lit), grid
+  /// points at cell centres in input coordinates, NaN off the terrain; empty without
+  /// terrain or plots.
+  terrain::DemGrid hillshade;
+  /// The release zone: "point", "line" or "polygon", and each feature's rings (m, input
+  /// coordinates; a point is a ring of one vertex).
+  std::string release_kind;
+  std::vector<std::vector<std::array<double, 2>>> release_rings;
+  /// The name of the terrain's CRS ("CH1903+ / LV95 (EPSG:2056)"), "" when it has none.
+  std::string crs_name;
 };
 
 /// One segment of a barrier line (or the whole line) in the design sheet: the first
@@ -186,6 +199,19 @@ VariableSummary summarize(std::string name, std::string unit, std::vector<double
 /// layers follow (add_intensity_layers).
 HazardMaps hazard_maps(const io::RunFile& run, const std::array<double, 3>& origin_shift, const Settings& settings,
                        std::optional<double> release_frequency = std::nullopt);
+
+/// The side of a barrier line (plan vertices, the terrain's local frame, m) the terrain
+/// falls to: +1 left of the line as digitised, −1 right, 0 when its two sides are level or
+/// off the terrain. Sums, along the line, the elevation difference between points
+/// `offset` m right and left of it, so a bent line still has one downslope side.
+int downslope_side(const terrain::Surface& ground, const std::vector<std::array<double, 2>>& line, double offset);
+
+/// A hillshade of `ground` (the smooth surface, local frame) on cells of about 1/800 of
+/// the longer side of its plan extent (no finer than `finest`, m), lit from the
+/// north-west 45° above the horizon as GIS software draws them: the cosine of the angle
+/// between the surface normal and the light, 0 … 1, NaN where there is no ground. Grid
+/// points are cell centres shifted by `shift` (x, y).
+terrain::DemGrid hillshade(const terrain::Surface& ground, double finest, const std::array<double, 3>& shift);
 
 /// Appends to `maps` the layers of Settings::intensity_thresholds and return_periods for a
 /// run whose zone releases `release_frequency` events per year (docs/stats.md,

@@ -559,11 +559,64 @@ std::vector<io::VectorLayer> vector_layers(const Run& run, const RunResult& resu
     std::array<double, 2> xy = {kNaN, kNaN};
     if (c.barrier >= 0 && static_cast<std::size_t>(c.barrier) < info.barrier_lines.size())
       xy = point_along(info.barrier_lines[static_cast<std::size_t>(c.barrier)], c.position);
+    // The run records +1 for a crossing from the line's right to its left; the side the
+    // terrain falls to makes it +1 downslope whichever way the line was digitised.
+    io::FieldValue direction;
+    const auto& downslope = result.plan.barrier_downslope;
+    if (c.barrier >= 0 && static_cast<std::size_t>(c.barrier) < downslope.size() && downslope[static_cast<std::size_t>(c.barrier)] != 0)
+      direction = static_cast<std::int64_t>(c.direction * downslope[static_cast<std::size_t>(c.barrier)]);
     crossings.features.push_back({{{xy[0] + shift[0], xy[1] + shift[1], 0.0}},
                                   {static_cast<std::int64_t>(c.realization), block_of(c.realization),
                                    end_of(c.realization), name_at(info.barriers, c.barrier), c.position, c.time,
-                                   c.height, c.velocity.norm(), c.kinetic_energy,
-                                   static_cast<std::int64_t>(c.direction)}});
+                                   c.height, c.velocity.norm(), c.kinetic_energy, direction}});
+  }
+
+  // The barrier lines, with the side they face downslope and their first crossings.
+  io::VectorLayer& barriers = layers.emplace_back();
+  barriers.name = "barriers";
+  barriers.geometry = io::VectorGeometry::line_string;
+  barriers.fields = {{"barrier", FieldType::text},
+                     {"length", FieldType::real},
+                     {"downslope_side", FieldType::text},
+                     {"crossings", FieldType::integer}};
+  for (std::size_t b = 0; b < result.plan.barrier_lines.size(); ++b) {
+    io::VectorFeature f;
+    double length = 0.0;
+    const auto& line = result.plan.barrier_lines[b];
+    for (std::size_t k = 0; k < line.size(); ++k) {
+      f.vertices.push_back({line[k][0], line[k][1], 0.0});
+      if (k > 0) length += std::hypot(line[k][0] - line[k - 1][0], line[k][1] - line[k - 1][1]);
+    }
+    const int side = b < result.plan.barrier_downslope.size() ? result.plan.barrier_downslope[b] : 0;
+    std::int64_t count = 0;
+    for (const BarrierSegment& s : result.barrier_sheet)
+      if (s.segment == "all" && s.barrier == name_at(info.barriers, static_cast<std::int64_t>(b)))
+        count = static_cast<std::int64_t>(s.crossings);
+    f.values = {name_at(info.barriers, static_cast<std::int64_t>(b)), length,
+                std::string(side > 0 ? "left" : side < 0 ? "right" : "unknown"), count};
+    barriers.features.push_back(std::move(f));
+  }
+
+  // The release zone as the run drew from it: one feature per point, line or polygon.
+  if (!info.release.empty()) {
+    io::VectorLayer& release = layers.emplace_back();
+    release.name = "release";
+    release.geometry = info.release_kind == "point"  ? io::VectorGeometry::multi_point
+                       : info.release_kind == "line" ? io::VectorGeometry::multi_line_string
+                                                     : io::VectorGeometry::multi_polygon;
+    release.fields = {{"feature", FieldType::integer}, {"probability", FieldType::real}};
+    for (std::size_t k = 0; k < info.release.size(); ++k) {
+      io::VectorFeature f;
+      for (const auto& part : info.release[k].parts) {
+        auto& rings = f.parts.emplace_back();
+        for (const auto& ring : part) {
+          auto& out = rings.emplace_back();
+          for (const auto& p : ring) out.push_back({p[0] + shift[0], p[1] + shift[1], 0.0});
+        }
+      }
+      f.values = {static_cast<std::int64_t>(k + 1), info.release[k].probability};
+      release.features.push_back(std::move(f));
+    }
   }
 
   // One 3-D polyline per realization of its sampled centroid positions.

@@ -75,10 +75,14 @@ void Settings::visit(core::SettingsVisitor& v) {
             "length of the segments of each barrier line in the design sheet (barrier-sheet.csv)",
             core::Range{0.0, kInf, true, false});
   v.choice("vector_format", vector_format, {"gpkg", "geojson", "none"},
-           "vector layers of each run (stop points, first barrier crossings, trajectories; m, m/s, J, s): "
+           "vector layers of each run (stop points, first barrier crossings, barrier lines, release zone, "
+           "trajectories; m, m/s, J, s): "
            "gpkg = one GeoPackage per run, geojson = one GeoJSON file per layer, none");
   v.field("plots", plots, "draw plots (PNG or SVG figures, drawn with Cairo)");
   v.field("plot_formats", plot_formats, "plot formats: png, svg");
+  v.field("plot_hazard_summary", plot_hazard_summary,
+          "also draw each run's hazard rasters as one compact figure of small panels (hazard-RUN), besides one "
+          "map per raster (map-RUN-LAYER)");
   v.bounded("plot_trajectories", plot_trajectories, "", "trajectories drawn in a plan view at most",
             core::Range{0.0, kInf});
   v.bounded("plot_jobs", plot_jobs, "", "figures drawn at once, one thread each (0 = one per available core)",

@@ -85,13 +85,17 @@ struct Settings {
   std::vector<double> release_frequencies;
   /// Length of the segments of a barrier line in the design sheet (m).
   double barrier_segment_length = 10.0;
-  /// Vector layers of each run (stop points, first barrier crossings, trajectories):
+  /// Vector layers of each run (stop points, first barrier crossings, barrier lines,
+  /// release zone, trajectories):
   /// "gpkg" (one GeoPackage per run), "geojson" (one GeoJSON file per layer) or "none".
   std::string vector_format = "gpkg";
   /// Plots (figures.hpp), drawn with Cairo.
   bool plots = true;
   /// Plot formats among "png" and "svg" (PNG only by default).
   std::vector<std::string> plot_formats = {"png"};
+  /// Besides one map per hazard raster, the compact figure of all of a run's rasters as
+  /// small panels (hazard-RUN).
+  bool plot_hazard_summary = false;
   /// Trajectories drawn in each plan view at most (the first by realization index).
   std::int64_t plot_trajectories = 200;
   /// Figures drawn at once, each in its own process (0 = one per available core).

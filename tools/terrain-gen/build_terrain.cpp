@@ -16,6 +16,7 @@
 #include "talus/io/point_cloud.hpp"
 #include "talus/io/raster.hpp"
 #include "talus/io/terrain_file.hpp"
+#include "talus/io/vector.hpp"
 #include "talus/terrain/build.hpp"
 #include "talus/terrain/roughness.hpp"
 
@@ -467,13 +468,56 @@ Terrain terrain_from_points(const Settings& s, const std::vector<std::string>& i
   return t;
 }
 
-// Material raster, then zones (both in input coordinates), over what the source gave.
-void assign_materials(Terrain& t, const Settings& s, const std::string& settings_source) {
+// The polygons of zone_file: each triangle whose plan centroid lies in a feature's polygon
+// (outside its holes) takes the material the feature names; later features win. `crs` is
+// the terrain's: a layer in another is refused (read_plan_features).
+void assign_zone_file(Terrain& t, const Settings::ZoneFile& z, const std::string& crs) {
+  io::VectorRequest request;
+  request.path = z.file;
+  request.layer = z.layer;
+  request.name_field = z.material_field;
+  request.kind = "polygon";
+  request.key = "zone_file.file";
+  const std::vector<mc::PlanFeature> features = io::read_plan_features(request, crs);
+  std::vector<Vec3> centroids;
+  for (const auto& tri : t.mesh.triangles)
+    centroids.push_back((t.mesh.vertices[tri[0]] + t.mesh.vertices[tri[1]] + t.mesh.vertices[tri[2]]) / 3.0);
+  const Eigen::Vector2d shift(t.origin_shift.x(), t.origin_shift.y());
+  for (const mc::PlanFeature& f : features) {
+    const auto named = std::find_if(t.materials.begin(), t.materials.end(),
+                                    [&](const terrain::Material& m) { return m.name == f.name; });
+    if (named == t.materials.end()) {
+      std::string known;
+      for (const auto& m : t.materials) known += (known.empty() ? "" : ", ") + m.name;
+      throw InputError(z.file, f.label + ": material '" + f.name + "' (field '" + z.material_field +
+                                   "') is not one of the materials (" + known + ")");
+    }
+    const auto id = static_cast<std::int32_t>(named - t.materials.begin());
+    for (auto rings : f.parts) {
+      Eigen::Vector2d lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+      for (auto& ring : rings)
+        for (auto& p : ring) {
+          p -= shift;
+          lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+        }
+      // The box first: most triangles lie far from most polygons.
+      for (std::size_t k = 0; k < centroids.size(); ++k) {
+        const Eigen::Vector2d c = centroids[k].head<2>();
+        if ((c.array() < lo.array()).any() || (c.array() > hi.array()).any()) continue;
+        if (mc::point_in_rings(rings, c)) t.material_of_triangle[k] = id;
+      }
+    }
+  }
+}
+
+// Material raster, zone file, then zones (all in input coordinates), over what the source gave.
+void assign_materials(Terrain& t, const Settings& s, const std::string& settings_source, const std::string& crs) {
   if (!s.material_raster.empty()) {
     DemGrid ids = io::read_dem(s.material_raster);
     shift_dem(ids, Vec3(t.origin_shift.x(), t.origin_shift.y(), 0.0));
     terrain::assign_material_raster(t, ids, s.material_raster);
   }
+  if (!s.zone_file.file.empty()) assign_zone_file(t, s.zone_file, crs);
   if (!s.zones.empty()) terrain::assign_zones(t, shifted_zones(s.zones, t.origin_shift), settings_source);
 }
 
@@ -527,7 +571,7 @@ Built build_terrain(const Settings& s, const std::vector<std::string>& inputs, c
                    (t.grid ? format_number(t.grid->dx) + " x " + format_number(t.grid->dy) + " m cells"
                            : std::string("no cells (TIN)")) +
                    ": give roughness.sigma to choose sigma for it");
-  assign_materials(t, s, settings_source);
+  assign_materials(t, s, settings_source, crs);
   t.roughness.sigma = sigma;
   t.roughness.seed = s.seed;
   t.name = s.name.empty() ? default_name(s, built.kind, inputs) : s.name;

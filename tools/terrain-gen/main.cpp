@@ -86,6 +86,7 @@ int main(int argc, char** argv) {
     }
     std::vector<io::NamedPath> inputs = inv.named_inputs();
     if (!settings.material_raster.empty()) inputs.push_back({"material_raster", settings.material_raster});
+    if (!settings.zone_file.file.empty()) inputs.push_back({"zone_file.file", settings.zone_file.file});
     io::check_outputs_distinct(
         inputs, {{"-o", inv.output},
                  {"XDMF sidecar of -o", inv.output.empty() ? "" : io::xdmf_sidecar_path(inv.output)},

@@ -29,6 +29,14 @@ void Settings::Origin::visit(core::SettingsVisitor& v) {
             core::Range::symmetric(1e9));
 }
 
+void Settings::ZoneFile::visit(core::SettingsVisitor& v) {
+  v.field("file", file,
+          "vector file of material zones (GeoPackage, GeoJSON, Shapefile ...: Polygon and MultiPolygon features, "
+          "holes kept) in the DEM's CRS and coordinates; empty: none");
+  v.field("layer", layer, "layer of the file; empty: its only layer");
+  v.field("material_field", material_field, "text field naming the material of each polygon (a materials name)");
+}
+
 void Settings::Roughness::visit(core::SettingsVisitor& v) {
   v.bounded("sigma", sigma, "m", "standard deviation of the grid-point elevation shifts; null = smooth",
             core::Range::closed(0.0, 100.0));
@@ -62,6 +70,9 @@ void Settings::visit(core::SettingsVisitor& v) {
             "ground materials; material 0 covers everything no zone, raster or mesh file assigns. With meshes, "
             "each file takes the material named like the file (scree.stl: 'scree')",
             materials);
+  v.section("zone_file",
+            "material zones from a vector file, applied after material_raster and before zones (later polygons win)",
+            [this](core::SettingsVisitor& s) { zone_file.visit(s); });
   // Zones are read in input coordinates (the library's MaterialZone speaks of local ones):
   // users draw them on the map, before any origin shift.
   v.list("zones", "plan polygons assigning a material; later zones win",

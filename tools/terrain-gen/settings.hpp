@@ -53,6 +53,14 @@ struct Settings {
   } roughness;
 
   std::vector<terrain::Material> materials = {terrain::Material{}};
+  /// Material zones drawn in a GIS: the polygons of a vector layer (holes kept), in the
+  /// DEM's CRS, each naming its material in a text field.
+  struct ZoneFile {
+    std::string file;                         ///< GeoPackage, GeoJSON, Shapefile …; empty: none
+    std::string layer;                        ///< the file's layer; empty: its only layer
+    std::string material_field = "material";  ///< text field naming each polygon's material
+    void visit(core::SettingsVisitor& v);
+  } zone_file;
   std::vector<terrain::MaterialZone> zones;
   std::string material_raster;  ///< .asc/.tif of material ids (indices into the materials)
 

@@ -379,6 +379,62 @@ Table load_hazard(const h5::Group& g, bool torn = false) {
   return out;
 }
 
+// The release zone as flat arrays: vertices, then offsets of rings (into vertices), parts
+// (into rings) and features (into parts), and each feature's probability.
+void write_release(const h5::Group& run, const RunInfo& info) {
+  const h5::Group g = run.create_group("release");
+  g.set_attr("kind", info.release_kind);
+  std::vector<double> vertices, probability;
+  std::vector<std::int64_t> rings = {0}, parts = {0}, features = {0};
+  for (const ReleaseArea& area : info.release) {
+    for (const auto& part : area.parts) {
+      for (const auto& ring : part) {
+        for (const auto& p : ring) vertices.insert(vertices.end(), {p[0], p[1]});
+        rings.push_back(static_cast<std::int64_t>(vertices.size() / 2));
+      }
+      parts.push_back(static_cast<std::int64_t>(rings.size() - 1));
+    }
+    features.push_back(static_cast<std::int64_t>(parts.size() - 1));
+    probability.push_back(area.probability);
+  }
+  g.write("vertices", vertices.data(), {vertices.size() / 2, 2}, "m");
+  g.write("ring_offsets", rings.data(), {rings.size()});
+  g.write("part_offsets", parts.data(), {parts.size()});
+  g.write("feature_offsets", features.data(), {features.size()});
+  g.write("probability", probability.data(), {probability.size()}, "-");
+}
+
+void read_release(const h5::Group& run, RunInfo& info) {
+  const h5::Group g = run.open_group("release");
+  info.release_kind = g.attr_string("kind");
+  const auto vertices = g.read_doubles("vertices", {0, 2});
+  const auto rings = g.read_int64("ring_offsets", {0});
+  const auto parts = g.read_int64("part_offsets", {0});
+  const auto features = g.read_int64("feature_offsets", {0});
+  // Each offset list starts at 0, never decreases and ends within what it indexes.
+  const auto valid = [](const std::vector<std::int64_t>& o, std::size_t end) {
+    if (o.empty() || o.front() != 0 || static_cast<std::uint64_t>(o.back()) > end) return false;
+    return std::is_sorted(o.begin(), o.end());
+  };
+  if (!valid(rings, vertices.size() / 2) || !valid(parts, rings.size() - 1) || !valid(features, parts.size() - 1))
+    throw InputError(run.file_name(), "/run/release offsets are inconsistent");
+  const auto probability = g.read_doubles("probability", {features.size() - 1});
+  if (features.size() == 1 && !probability.empty())
+    throw InputError(run.file_name(), "/run/release/probability does not match its features");
+  const auto at = [](const std::vector<std::int64_t>& o, std::size_t k) { return static_cast<std::size_t>(o[k]); };
+  for (std::size_t f = 0; f + 1 < features.size(); ++f) {
+    ReleaseArea& area = info.release.emplace_back();
+    area.probability = probability[f];
+    for (std::size_t p = at(features, f); p < at(features, f + 1); ++p) {
+      auto& part = area.parts.emplace_back();
+      for (std::size_t r = at(parts, p); r < at(parts, p + 1); ++r) {
+        auto& ring = part.emplace_back();
+        for (std::size_t v = at(rings, r); v < at(rings, r + 1); ++v) ring.push_back({vertices[2 * v], vertices[2 * v + 1]});
+      }
+    }
+  }
+}
+
 void write_info(const h5::Group& root, const RunInfo& info) {
   const h5::Group run = root.create_group("run");
   run.set_attr("realizations", static_cast<std::int64_t>(info.realizations));
@@ -403,6 +459,7 @@ void write_info(const h5::Group& root, const RunInfo& info) {
   if (!info.terrain_fingerprint.empty()) run.set_attr("terrain_fingerprint", info.terrain_fingerprint);
   if (!info.terrain_file.empty()) run.set_attr("terrain_file", info.terrain_file);
   run.write("origin_shift", info.origin_shift.data(), {3}, "m");
+  if (!info.release.empty()) write_release(run, info);
 }
 
 RunInfo read_info(const h5::Group& root) {
@@ -460,6 +517,7 @@ RunInfo read_info(const h5::Group& root) {
     const auto shift = run.read_doubles("origin_shift", {3});
     info.origin_shift = {shift[0], shift[1], shift[2]};
   }
+  if (run.has("release")) read_release(run, info);
   if (info.hazard.size < 0.0 || info.hazard.nx < 0 || info.hazard.ny < 0 ||
       !(info.hazard_relative_accuracy > 0.0 && info.hazard_relative_accuracy < 0.5))
     throw InputError(root.file_name(), "/run: invalid hazard grid");
@@ -552,6 +610,20 @@ RunInfo make_run_info(const mc::Scene& scene, const Provenance& provenance, cons
   const auto& shift = scene.terrain().origin_shift;
   info.origin_shift = {shift.x(), shift.y(), shift.z()};
   info.hazard_relative_accuracy = scene.settings().outputs.hazard_relative_accuracy;
+  info.release_kind = scene.settings().release.kind;
+  double total = 0.0;
+  for (const auto& f : scene.release_features()) total += f.weight;
+  for (const auto& f : scene.release_features()) {
+    ReleaseArea& area = info.release.emplace_back();
+    area.probability = total > 0.0 ? f.weight / total : 0.0;
+    for (const auto& part : f.parts) {
+      auto& rings = area.parts.emplace_back();
+      for (const auto& ring : part) {
+        auto& out = rings.emplace_back();
+        for (const auto& p : ring) out.push_back({p.x(), p.y()});
+      }
+    }
+  }
   return info;
 }
 

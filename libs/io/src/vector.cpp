@@ -3,15 +3,18 @@
 #include <cpl_string.h>
 #include <ogr_api.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <set>
 
 #include "gdal_support.hpp"
 #include "talus/core/error.hpp"
 #include "talus/core/log.hpp"
 #include "talus/io/atomic_output.hpp"
+#include "talus/io/raster.hpp"
 
 namespace talus::io {
 namespace {
@@ -37,7 +40,11 @@ OGRwkbGeometryType geometry_type(VectorGeometry g) {
   switch (g) {
     case VectorGeometry::point: return wkbPoint;
     case VectorGeometry::point_z: return wkbPoint25D;
+    case VectorGeometry::line_string: return wkbLineString;
     case VectorGeometry::line_string_z: return wkbLineString25D;
+    case VectorGeometry::multi_point: return wkbMultiPoint;
+    case VectorGeometry::multi_line_string: return wkbMultiLineString;
+    case VectorGeometry::multi_polygon: return wkbMultiPolygon;
   }
   return wkbUnknown;
 }
@@ -51,18 +58,57 @@ OGRFieldType field_type(FieldType t) {
   return OFTString;
 }
 
+bool planar(VectorGeometry kind) { return kind != VectorGeometry::point_z && kind != VectorGeometry::line_string_z; }
+
+bool finite_vertices(VectorGeometry kind, const std::vector<std::array<double, 3>>& vertices) {
+  return std::all_of(vertices.begin(), vertices.end(), [&](const auto& v) {
+    return std::isfinite(v[0]) && std::isfinite(v[1]) && (planar(kind) || std::isfinite(v[2]));
+  });
+}
+
+// A multi-geometry of `feature.parts`: points, polylines or polygons (rings closed here).
+OGRGeometryH make_multi_geometry(VectorGeometry kind, const VectorFeature& feature) {
+  GeometryPtr multi(OGR_G_CreateGeometry(geometry_type(kind)));
+  for (const auto& part : feature.parts) {
+    if (part.empty()) return nullptr;
+    for (const auto& list : part)
+      if (list.empty() || !finite_vertices(kind, list)) return nullptr;
+    OGRGeometryH g = nullptr;
+    if (kind == VectorGeometry::multi_point) {
+      g = OGR_G_CreateGeometry(wkbPoint);
+      OGR_G_SetPoint_2D(g, 0, part[0][0][0], part[0][0][1]);
+    } else if (kind == VectorGeometry::multi_line_string) {
+      g = OGR_G_CreateGeometry(wkbLineString);
+      for (const auto& v : part[0]) OGR_G_AddPoint_2D(g, v[0], v[1]);
+    } else {
+      g = OGR_G_CreateGeometry(wkbPolygon);
+      for (const auto& ring : part) {
+        OGRGeometryH r = OGR_G_CreateGeometry(wkbLinearRing);
+        for (const auto& v : ring) OGR_G_AddPoint_2D(r, v[0], v[1]);
+        OGR_G_CloseRings(r);
+        OGR_G_AddGeometryDirectly(g, r);
+      }
+    }
+    OGR_G_AddGeometryDirectly(multi.get(), g);
+  }
+  return feature.parts.empty() ? nullptr : multi.release();
+}
+
 // The geometry of a written feature; null when it has no vertex or a non-finite one (a
 // realization that failed numerically ends at NaN).
-OGRGeometryH make_geometry(VectorGeometry kind, const std::vector<std::array<double, 3>>& vertices) {
-  if (vertices.empty()) return nullptr;
-  for (const auto& v : vertices)
-    if (!std::isfinite(v[0]) || !std::isfinite(v[1]) || (kind != VectorGeometry::point && !std::isfinite(v[2])))
-      return nullptr;
+OGRGeometryH make_geometry(VectorGeometry kind, const VectorFeature& feature) {
+  if (kind == VectorGeometry::multi_point || kind == VectorGeometry::multi_line_string ||
+      kind == VectorGeometry::multi_polygon)
+    return make_multi_geometry(kind, feature);
+  const auto& vertices = feature.vertices;
+  if (vertices.empty() || !finite_vertices(kind, vertices)) return nullptr;
   OGRGeometryH g = OGR_G_CreateGeometry(geometry_type(kind));
   if (kind == VectorGeometry::point) {
     OGR_G_SetPoint_2D(g, 0, vertices[0][0], vertices[0][1]);
   } else if (kind == VectorGeometry::point_z) {
     OGR_G_SetPoint(g, 0, vertices[0][0], vertices[0][1], vertices[0][2]);
+  } else if (kind == VectorGeometry::line_string) {
+    for (const auto& v : vertices) OGR_G_AddPoint_2D(g, v[0], v[1]);
   } else {
     for (const auto& v : vertices) OGR_G_AddPoint(g, v[0], v[1], v[2]);
   }
@@ -126,7 +172,7 @@ void write_vector_file(const std::string& path, const std::string& format, const
                                  std::to_string(layer.fields.size()) + " fields");
       FeaturePtr f(OGR_F_Create(defn));
       for (std::size_t k = 0; k < feature.values.size(); ++k) set_value(f.get(), static_cast<int>(k), feature.values[k]);
-      if (OGRGeometryH g = make_geometry(layer.geometry, feature.vertices)) OGR_F_SetGeometryDirectly(f.get(), g);
+      if (OGRGeometryH g = make_geometry(layer.geometry, feature)) OGR_F_SetGeometryDirectly(f.get(), g);
       if (OGR_L_CreateFeature(l, f.get()) != OGRERR_NONE) throw fail("cannot write a feature of layer '" + layer.name + "'");
     }
     if (transaction && GDALDatasetCommitTransaction(h) != OGRERR_NONE) throw fail("cannot write layer '" + layer.name + "'");
@@ -392,7 +438,53 @@ std::vector<mc::PlanFeature> read_plan_features(const VectorRequest& request, co
   return features;
 }
 
-mc::SceneVectors read_scene_vectors(const mc::SceneSettings& settings, const std::string& terrain_crs_wkt) {
+bool is_raster_path(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  return ext == ".asc" || ext == ".tif" || ext == ".tiff";
+}
+
+std::vector<mc::PlanFeature> read_release_raster(const std::string& path, const std::string& terrain_crs_wkt,
+                                                 const std::array<double, 4>& extent) {
+  const terrain::DemGrid cells = read_dem(path);
+  // Cells in another CRS would release blocks in the wrong place: refused, as a vector layer.
+  if (const DemCrs declared = dem_crs(path); !declared.text.empty() && !terrain_crs_wkt.empty()) {
+    gdal::Quiet quiet;
+    const gdal::SrsPtr terrain = gdal::parse_srs(terrain_crs_wkt), mine = gdal::parse_srs(declared.text);
+    if (terrain && mine && !OSRIsSame(terrain.get(), mine.get()))
+      throw InputError(path, "is in CRS " + gdal::name_of(mine.get()) + ", not in the terrain's CRS " +
+                                 gdal::name_of(terrain.get()) + ": reproject it, e.g. gdalwarp -t_srs " +
+                                 crs_argument(terrain.get()) + " -r near " + path + " out.tif");
+  }
+  const auto& g = cells.spec;
+  std::vector<mc::PlanFeature> out;
+  for (std::int32_t j = 0; j < g.ny; ++j)
+    for (std::int32_t i = 0; i < g.nx; ++i) {
+      const double v = cells.z[g.index(i, j)];
+      if (std::isnan(v) || v == 0.0) continue;  // NODATA and 0: no release
+      const double x = g.x0 + i * g.dx, y = g.y0 + j * g.dy;
+      const std::string at = "cell (i=" + std::to_string(i) + ", j=" + std::to_string(j) + ") at (x=" +
+                             format_number(x) + ", y=" + format_number(y) + ")";
+      if (!(v > 0.0) || !std::isfinite(v))
+        throw InputError(path, at + " has value " + format_number(v) +
+                                   ": release densities must be finite and >= 0 (0 or NODATA: no release)");
+      // The cell's square, cut to the terrain's plan box (a DEM's border points are cell
+      // centres: half their cell lies off the terrain).
+      const double x0 = std::max(x - 0.5 * g.dx, extent[0]), x1 = std::min(x + 0.5 * g.dx, extent[1]);
+      const double y0 = std::max(y - 0.5 * g.dy, extent[2]), y1 = std::min(y + 0.5 * g.dy, extent[3]);
+      if (!(x1 > x0 && y1 > y0)) continue;
+      mc::PlanFeature f;
+      f.label = at;
+      f.weight = v * (x1 - x0) * (y1 - y0);
+      f.parts = {{{Eigen::Vector2d(x0, y0), Eigen::Vector2d(x1, y0), Eigen::Vector2d(x1, y1), Eigen::Vector2d(x0, y1)}}};
+      out.push_back(std::move(f));
+    }
+  if (out.empty()) throw InputError(path, "holds no release cell (value > 0) on the terrain");
+  return out;
+}
+
+mc::SceneVectors read_scene_vectors(const mc::SceneSettings& settings, const terrain::Terrain& terrain) {
+  const std::string& terrain_crs_wkt = terrain.crs_wkt;
   mc::SceneVectors out;
   auto record = [&out](const VectorRequest& r, const std::vector<mc::PlanFeature>& features) {
     out.inputs += r.path + " (" + r.key + ", " + (r.layer.empty() ? std::string("its only layer") : "layer '" + r.layer + "'") +
@@ -400,7 +492,22 @@ mc::SceneVectors read_scene_vectors(const mc::SceneSettings& settings, const std
                   " features, fingerprint " + fingerprint(features) + ")\n";
   };
   const mc::ReleaseSettings& rel = settings.release;
-  if (!rel.file.empty()) {
+  if (!rel.file.empty() && is_raster_path(rel.file)) {
+    if (rel.kind != "polygon")
+      throw InputError(rel.file, "a raster of release cells gives release areas: set release.kind: polygon");
+    if (!rel.layer.empty() || !rel.weight_field.empty())
+      throw InputError(rel.file, "release.layer and release.weight_field are for vector files: a raster's "
+                                 "values are the release densities");
+    std::array<double, 4> extent = {std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(),
+                                    std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
+    for (const auto& v : terrain.mesh.vertices) {
+      extent = {std::min(extent[0], v.x() + terrain.origin_shift.x()), std::max(extent[1], v.x() + terrain.origin_shift.x()),
+                std::min(extent[2], v.y() + terrain.origin_shift.y()), std::max(extent[3], v.y() + terrain.origin_shift.y())};
+    }
+    out.release = read_release_raster(rel.file, terrain_crs_wkt, extent);
+    out.inputs += rel.file + " (release.file, raster, " + std::to_string(out.release.size()) +
+                  " release cells, fingerprint " + fingerprint(out.release) + ")\n";
+  } else if (!rel.file.empty()) {
     const VectorRequest r{rel.file, rel.layer, rel.weight_field, "", rel.kind, "release.file"};
     out.release = read_plan_features(r, terrain_crs_wkt);
     record(r, out.release);

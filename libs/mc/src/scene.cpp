@@ -32,7 +32,9 @@ void ReleaseSettings::visit(core::SettingsVisitor& v) {
   v.field("points", points, "m", "plan [x, y] of the points, the line's vertices or the polygon's");
   v.field("file", file,
           "vector file of release features instead of points (GeoPackage, GeoJSON, Shapefile …; points, lines or "
-          "polygons as kind says, in the terrain's input coordinates and CRS); empty = points");
+          "polygons as kind says, in the terrain's input coordinates and CRS), or a raster of release cells (.asc, "
+          ".tif; kind polygon; a cell's value > 0 is its relative release density per m2, 0 or NODATA none); "
+          "empty = points");
   v.field("layer", layer, "layer of the vector file; empty = its only layer");
   v.field("weight_field", weight_field,
           "numeric field of the features' relative weights (-, >= 0): each realization draws a feature with "
@@ -390,7 +392,9 @@ void check_release(const SceneSettings& s, const terrain::Surface& base, const E
                    const std::string& source) {
   const ReleaseSettings& r = s.release;
   if (!r.file.empty()) {
-    if (r.points != ReleaseSettings{}.points)
+    // Points left at their default, or emptied (--set 'release.points=[]' over a scene
+    // that gives some), leave the file alone.
+    if (!r.points.empty() && r.points != ReleaseSettings{}.points)
       throw InputError(source, "release: give release.points or release.file, not both");
   } else if (!r.layer.empty() || !r.weight_field.empty()) {
     throw InputError(source, "release.layer and release.weight_field need release.file");

@@ -105,11 +105,21 @@ const Colormap& Colormap::named(std::string_view name) {
                                        {0.50, {1.0, 1.0, 0.6, 1.0}},
                                        {0.75, {0.5, 0.36, 0.33, 1.0}},
                                        {1.00, {1.0, 1.0, 1.0, 1.0}}}));
+    out.push_back(Colormap("gray", {{0.0, {0.0, 0.0, 0.0, 1.0}}, {1.0, {1.0, 1.0, 1.0, 1.0}}}));
     return out;
   }();
   for (const Colormap& m : maps)
     if (m.name_ == name) return m;
   throw std::invalid_argument("unknown colour map '" + std::string(name) + "'");
+}
+
+Colormap Colormap::listed(std::string name, const std::vector<Rgba>& colors) {
+  std::vector<std::pair<double, Rgba>> stops;
+  const double last = static_cast<double>(std::max<std::size_t>(colors.size(), 2) - 1);
+  for (std::size_t k = 0; k < colors.size(); ++k) stops.emplace_back(static_cast<double>(k) / last, colors[k].with_alpha(1.0));
+  if (stops.size() == 1) stops.emplace_back(1.0, stops.front().second);
+  if (stops.empty()) stops = {{0.0, Rgba{}}, {1.0, Rgba{}}};
+  return Colormap(std::move(name), std::move(stops));
 }
 
 Rgba Colormap::at(double t) const {
@@ -199,7 +209,7 @@ void Axes::hline(double y, LineStyle style) {
 }
 
 void Axes::image(const std::vector<double>& values, std::size_t nx, std::size_t ny, double x0, double y0, double dx,
-                 double dy, const Colormap& map, double lo, double hi) {
+                 double dy, const Colormap& map, double lo, double hi, double alpha) {
   if (nx == 0 || ny == 0) return;
   // Rasters wider than any panel's pixels (and Cairo's 32 767-pixel limit) keep every
   // stride-th cell along each side: the panel shows one pixel for many cells either way.
@@ -216,7 +226,7 @@ void Axes::image(const std::vector<double>& values, std::size_t nx, std::size_t 
     for (std::size_t i = 0; i < mx; ++i) {
       const double v = values[j * stride * nx + i * stride];
       if (!std::isfinite(v)) continue;
-      item.pixels[(my - 1 - j) * mx + i] = argb(map.at((v - lo) / span));
+      item.pixels[(my - 1 - j) * mx + i] = argb(map.at((v - lo) / span).with_alpha(alpha));
     }
   items_.push_back(std::move(item));
 }
@@ -403,6 +413,9 @@ void Axes::text(double x, double y, std::string s, Rgba color, double size_pt) {
 }
 
 void Axes::legend_entry(LineStyle style, std::string label) { entries_.push_back({Entry::Kind::line, style, 0.0, label}); }
+void Axes::legend_patch(Rgba fill, std::string label) {
+  entries_.push_back({Entry::Kind::band, LineStyle{fill, 1.3, Dash::solid}, 0.0, std::move(label)});
+}
 
 void Axes::colorbar(const Colormap& map, double lo, double hi, std::string label) {
   bar_ = Bar{&map, lo, hi, std::move(label)};
@@ -558,8 +571,9 @@ struct Scaling {
   }
 };
 
-// Ticks of a linear axis over [lo, hi] and what their labels leave out.
-std::vector<Tick> linear_ticks(double lo, double hi, int intervals, Scaling& scaling) {
+// Ticks of a linear axis over [lo, hi] and what their labels leave out (nothing when
+// `whole`: the labels give the values themselves).
+std::vector<Tick> linear_ticks(double lo, double hi, int intervals, Scaling& scaling, bool whole = false) {
   const double step = nice_step(lo, hi, intervals);
   std::vector<double> at;
   for (double t = std::ceil(lo / step - 1e-9) * step; t <= hi + 1e-9 * step; t += step)
@@ -570,13 +584,13 @@ std::vector<Tick> linear_ticks(double lo, double hi, int intervals, Scaling& sca
   for (double t : at) biggest = std::max(biggest, std::abs(t));
   // An offset when the ticks share their leading digits: the range is under 1 % of them.
   const double span = at.back() - at.front() + step;
-  if (biggest >= 1e4 && span < 1e-2 * biggest) {
+  if (!whole && biggest >= 1e4 && span < 1e-2 * biggest) {
     const double unit = std::pow(10.0, std::ceil(std::log10(span)));
     scaling.offset = std::floor(at.front() / unit) * unit;
     biggest = 0.0;
     for (double t : at) biggest = std::max(biggest, std::abs(t - scaling.offset));
   }
-  if (biggest >= 1e4 || (biggest > 0.0 && biggest < 1e-3))
+  if (!whole && (biggest >= 1e4 || (biggest > 0.0 && biggest < 1e-3)))
     scaling.exponent = static_cast<int>(std::floor(std::log10(biggest)));
   const double unit = std::pow(10.0, scaling.exponent);
   const double scaled = step / unit;
@@ -713,7 +727,9 @@ void draw_item(const Canvas& c, const Frame& f, const Axes::Item& item) {
   }
 }
 
-void draw_legend(const Canvas& c, const Frame& f, const std::vector<Axes::Entry>& entries, Place place, double size) {
+// `beside`: what lies right of the panel before an outside legend (its colour bar, pixels).
+void draw_legend(const Canvas& c, const Frame& f, const std::vector<Axes::Entry>& entries, Place place, double size,
+                 double beside) {
   if (entries.empty()) return;
   const double em = size * kPt;
   double text_w = 0.0;
@@ -727,7 +743,7 @@ void draw_legend(const Canvas& c, const Frame& f, const std::vector<Axes::Entry>
     case Place::lower_right: x = f.px + f.pw - out - w, y = f.py + f.ph - out - h; break;
     case Place::upper_right: x = f.px + f.pw - out - w, y = f.py + out; break;
     case Place::upper_left: x = f.px + out, y = f.py + out; break;
-    case Place::outside_right: x = f.px + f.pw + out, y = f.py; break;
+    case Place::outside_right: x = f.px + f.pw + beside + out, y = f.py; break;
   }
   cairo_t* cr = c.cr;
   cairo_rectangle(cr, x, y, w, h);
@@ -785,7 +801,7 @@ double vertical_ticks(const Canvas& c, double x, const std::vector<Tick>& ticks,
   return widest;
 }
 
-void draw_colorbar(const Canvas& c, const Frame& f, const Axes::Bar& bar) {
+void draw_colorbar(const Canvas& c, const Frame& f, const Axes::Bar& bar, bool whole) {
   cairo_t* cr = c.cr;
   const double pad = 0.1 * kDpi, w = std::clamp(f.ph / 20.0, 0.08 * kDpi, 0.16 * kDpi);
   const double h = f.ph * 0.9, x = f.px + f.pw + pad, y = f.py + (f.ph - h) / 2;
@@ -804,7 +820,7 @@ void draw_colorbar(const Canvas& c, const Frame& f, const Axes::Bar& bar) {
   cairo_set_line_width(cr, 0.8 * kPt);
   cairo_stroke(cr);
   Scaling scaling;
-  const auto ticks = linear_ticks(lo, hi, std::max(2, static_cast<int>(h / kPt / (2 * kFont))), scaling);
+  const auto ticks = linear_ticks(lo, hi, std::max(2, static_cast<int>(h / kPt / (2 * kFont))), scaling, whole);
   const double widest =
       vertical_ticks(c, x + w, ticks, [&](double t) { return y + h - (t - lo) / (hi - lo) * h; }, true);
   if (scaling.any()) c.text(scaling.text(), x, y - 0.3 * kFont * kPt, kFont, {0, 0, 0, 1}, 0.0, 1.0);
@@ -814,11 +830,12 @@ void draw_colorbar(const Canvas& c, const Frame& f, const Axes::Bar& bar) {
 }
 
 // The width a colour bar takes right of its panel, labels included (pixels).
-double colorbar_width(const Canvas& c, const Axes::Bar& bar, double panel_height) {
+double colorbar_width(const Canvas& c, const Axes::Bar& bar, double panel_height, bool whole) {
   const double lo = bar.lo, hi = bar.hi > bar.lo ? bar.hi : bar.lo + 1.0;
   Scaling scaling;
   double widest = 0.0;
-  for (const auto& t : linear_ticks(lo, hi, std::max(2, static_cast<int>(0.9 * panel_height / kPt / (2 * kFont))), scaling))
+  for (const auto& t :
+       linear_ticks(lo, hi, std::max(2, static_cast<int>(0.9 * panel_height / kPt / (2 * kFont))), scaling, whole))
     widest = std::max(widest, c.width(t.label, kFont));
   return 0.1 * kDpi + std::clamp(panel_height / 20.0, 0.08 * kDpi, 0.16 * kDpi) + 2 * kTick * kPt + widest +
          (bar.label.empty() ? 0.0 : 0.4 * kFont * kPt + c.ascent(kFont) + c.descent(kFont));
@@ -846,7 +863,7 @@ class Renderer {
     }
     Frame f{a.box_[0] * kDpi, a.box_[1] * kDpi, a.box_[2] * kDpi, a.box_[3] * kDpi,
             limits(xl, xs, a.xlim_, a.xscale_), limits(yl, ys, a.ylim_, a.yscale_), a.xscale_, a.yscale_};
-    if (a.bar_) f.pw = std::max(f.pw - colorbar_width(c, *a.bar_, f.ph), 0.3 * f.pw);
+    if (a.bar_) f.pw = std::max(f.pw - colorbar_width(c, *a.bar_, f.ph, a.whole_ticks_), 0.3 * f.pw);
     if (a.equal_) {
       const double scale = std::min(f.pw / (f.xl[1] - f.xl[0]), f.ph / (f.yl[1] - f.yl[0]));
       const double w = scale * (f.xl[1] - f.xl[0]), h = scale * (f.yl[1] - f.yl[0]);
@@ -854,12 +871,22 @@ class Renderer {
     }
     // Ticks: about one per three label heights along x, two along y (matplotlib's density).
     Scaling xscaling, yscaling;
-    const auto xt = a.xscale_ == Scale::log
-                        ? log_ticks(f.xl[0], f.xl[1])
-                        : linear_ticks(f.xl[0], f.xl[1], std::clamp(static_cast<int>(f.pw / kPt / (3 * kFont)), 2, 9), xscaling);
+    const bool whole = a.whole_ticks_;
+    auto xt = a.xscale_ == Scale::log
+                  ? log_ticks(f.xl[0], f.xl[1])
+                  : linear_ticks(f.xl[0], f.xl[1], std::clamp(static_cast<int>(f.pw / kPt / (3 * kFont)), 2, 9), xscaling,
+                                 whole);
+    // Whole map coordinates are long: fewer ticks until a label and a gap fit between two.
+    for (int n = static_cast<int>(xt.size()) - 1; whole && a.xscale_ == Scale::linear && n > 2 && xt.size() > 2; --n) {
+      double widest = 0.0;
+      for (const auto& t : xt) widest = std::max(widest, c.width(t.label, kFont));
+      if (f.XS(xt[1].at) - f.XS(xt[0].at) > widest + 1.2 * kFont * kPt) break;
+      xt = linear_ticks(f.xl[0], f.xl[1], n - 1, xscaling, whole);
+    }
     const auto yt = a.yscale_ == Scale::log
                         ? log_ticks(f.yl[0], f.yl[1])
-                        : linear_ticks(f.yl[0], f.yl[1], std::clamp(static_cast<int>(f.ph / kPt / (2 * kFont)), 2, 9), yscaling);
+                        : linear_ticks(f.yl[0], f.yl[1], std::clamp(static_cast<int>(f.ph / kPt / (2 * kFont)), 2, 9),
+                                       yscaling, whole);
     cairo_rectangle(cr, f.px, f.py, f.pw, f.ph);
     c.color({1, 1, 1, 1});
     cairo_fill(cr);
@@ -908,8 +935,10 @@ class Renderer {
       c.text(a.ylabel_, f.px - 2 * len - widest - len, f.py + f.ph / 2, kFont, {0, 0, 0, 1}, 0.5, 1.0, 1);
     if (!a.title_.empty())
       c.text(a.title_, f.px + f.pw / 2, f.py - 6.0 * kPt - (yscaling.any() ? label_h : 0.0), a.title_size_, {0, 0, 0, 1}, 0.5, 1.0);
-    if (a.legend_) draw_legend(c, f, a.entries_, a.legend_->first, a.legend_->second);
-    if (a.bar_) draw_colorbar(c, f, *a.bar_);
+    if (a.legend_)
+      draw_legend(c, f, a.entries_, a.legend_->first, a.legend_->second,
+                  a.bar_ ? colorbar_width(c, *a.bar_, f.ph, a.whole_ticks_) : 0.0);
+    if (a.bar_) draw_colorbar(c, f, *a.bar_, a.whole_ticks_);
   }
 };
 

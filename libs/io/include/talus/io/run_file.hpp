@@ -10,6 +10,14 @@
 
 namespace talus::io {
 
+/// One feature of a run's release zone (local frame, m): its parts as mc::ReleaseFeature
+/// has them (a point: one list of one vertex; a line: one polyline; a polygon: its outer
+/// ring, then its holes) and its probability of being drawn (-).
+struct ReleaseArea {
+  std::vector<std::vector<std::vector<std::array<double, 2>>>> parts;
+  double probability = 0.0;
+};
+
 /// What a run file holds besides its records (layout: docs/formats.md, "Run file").
 struct RunInfo {
   Provenance provenance;
@@ -29,6 +37,10 @@ struct RunInfo {
   /// in files of earlier versions (read the terrain file's instead).
   std::array<double, 3> origin_shift = {0.0, 0.0, 0.0};
   double hazard_relative_accuracy = 0.01; ///< of the per-cell sketches (-)
+  /// The release zone: "point", "line" or "polygon" (release.kind) and its features;
+  /// empty in files of earlier versions.
+  std::string release_kind;
+  std::vector<ReleaseArea> release;
 };
 
 /// The run metadata of a scene run as shard `shard`.

@@ -25,15 +25,19 @@ struct VectorField {
 /// An attribute value; std::monostate (and a NaN real) is written as null.
 using FieldValue = std::variant<std::monostate, std::int64_t, double, std::string>;
 
-/// Geometry of the features of a written layer: plan points, points with z, polylines
-/// with z.
-enum class VectorGeometry { point, point_z, line_string_z };
+/// Geometry of the features of a written layer: plan points, points with z, plan
+/// polylines, polylines with z, and the plan multi-geometries of release zones.
+enum class VectorGeometry { point, point_z, line_string, line_string_z, multi_point, multi_line_string, multi_polygon };
 
 struct VectorFeature {
-  /// The point (one vertex) or the polyline's vertices (x, y, z; z unused for plain
-  /// points). Empty, or any non-finite coordinate: the feature has no geometry.
+  /// The point (one vertex) or the polyline's vertices (x, y, z; z unused for plan
+  /// geometries). Empty, or any non-finite coordinate: the feature has no geometry.
   std::vector<std::array<double, 3>> vertices;
   std::vector<FieldValue> values;  ///< one per field of the layer, in order
+  /// A multi-geometry's parts, each a list of vertex lists: a point (one list of one
+  /// vertex), a polyline, or a polygon (outer ring, then holes; without the closing
+  /// vertex). Used instead of `vertices` by the multi_* geometries.
+  std::vector<std::vector<std::vector<std::array<double, 3>>>> parts{};
 };
 
 struct VectorLayer {
@@ -72,9 +76,21 @@ struct VectorRequest {
 /// or non-finite weight, a missing name.
 std::vector<mc::PlanFeature> read_plan_features(const VectorRequest& request, const std::string& terrain_crs_wkt);
 
-/// The vector files a scene names (release.file, outputs.barriers[].file), read and
-/// checked against the terrain's CRS; empty when it names none. Throws as
-/// read_plan_features.
-mc::SceneVectors read_scene_vectors(const mc::SceneSettings& settings, const std::string& terrain_crs_wkt);
+/// True when `path` names a raster (.asc, .tif, .tiff), as release.file may.
+bool is_raster_path(const std::string& path);
+
+/// The release cells of a raster (.asc or GeoTIFF, input coordinates): one square
+/// polygon feature per cell of value > 0, weighted by value × cell area (the value is a
+/// relative release density, 1 for a plain release cell), cut to the plan box `extent`
+/// (x0, x1, y0, y1: the terrain's, input coordinates). Throws core::InputError naming the
+/// file for a raster in another CRS than `terrain_crs_wkt` (with the gdalwarp command), a
+/// negative value, or no cell > 0 on the terrain.
+std::vector<mc::PlanFeature> read_release_raster(const std::string& path, const std::string& terrain_crs_wkt,
+                                                 const std::array<double, 4>& extent);
+
+/// The files a scene names (release.file: a vector file, or a raster of release cells;
+/// outputs.barriers[].file), read and checked against the terrain's CRS; empty when it
+/// names none. Throws as read_plan_features and read_release_raster.
+mc::SceneVectors read_scene_vectors(const mc::SceneSettings& settings, const terrain::Terrain& terrain);
 
 }  // namespace talus::io

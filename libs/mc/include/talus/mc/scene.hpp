@@ -43,7 +43,9 @@ struct ReleaseSettings {
   std::vector<std::array<double, 2>> points = {{1.0, 20.0}};  ///< plan coordinates (m)
   /// A vector file of release features instead of `points` (path relative to the working
   /// directory): points, lines or polygons as `kind` says, in the terrain's input
-  /// coordinates (m) and CRS. Empty: `points`.
+  /// coordinates (m) and CRS; or a raster of release cells (.asc, .tif: kind "polygon";
+  /// a cell's value > 0 is its relative release density, -/m², 0 or NODATA: none).
+  /// Empty: `points`.
   std::string file;
   std::string layer;         ///< the file's layer; empty: its only layer
   /// Numeric field of the features' relative weights (-, ≥ 0): a realization draws a

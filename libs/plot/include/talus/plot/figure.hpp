@@ -37,11 +37,15 @@ struct LineStyle {
 };
 
 /// A colour map of [0, 1]: "viridis", "magma", "plasma", "cividis" (perceptually uniform,
-/// from their published tables) or "terrain" (blue–green–yellow–brown–white).
+/// from their published tables), "terrain" (blue–green–yellow–brown–white) or "gray"
+/// (black to white, for hillshades).
 class Colormap {
  public:
   /// Throws std::invalid_argument for an unknown name.
   static const Colormap& named(std::string_view name);
+  /// A map of classes: colour k at t = k / (n − 1) (an image over [0, n − 1] gives class k
+  /// its colour exactly).
+  static Colormap listed(std::string name, const std::vector<Rgba>& colors);
   Rgba at(double t) const;  ///< t clamped to [0, 1]
   const std::string& name() const { return name_; }
 
@@ -52,7 +56,8 @@ class Colormap {
 };
 
 enum class Scale { linear, log };
-/// Where a legend goes: inside a corner of the panel, or right of it, top-aligned.
+/// Where a legend goes: inside a corner of the panel, or right of it (and of its colour
+/// bar), top-aligned.
 enum class Place { lower_right, upper_left, upper_right, outside_right };
 
 /// One panel. Everything added is drawn in the order added, clipped to the panel.
@@ -69,11 +74,12 @@ class Axes {
   /// A line across the whole panel at y (included in the y limits).
   void hline(double y, LineStyle style);
   /// A raster of ny rows of nx cells (row j at y0 + j·dy, cell centres), values row by row,
-  /// coloured by `map` over [lo, hi]; non-finite values are transparent. The cells span
+  /// coloured by `map` over [lo, hi] with opacity `alpha`; non-finite values are
+  /// transparent. The cells span
   /// [x0 − dx/2, x0 + (nx − ½)dx] × [y0 − dy/2, y0 + (ny − ½)dy]. Of a raster of more than
   /// 4 096 cells along a side, every k-th cell is drawn (k the smallest that fits).
   void image(const std::vector<double>& values, std::size_t nx, std::size_t ny, double x0, double y0, double dx,
-             double dy, const Colormap& map, double lo, double hi);
+             double dy, const Colormap& map, double lo, double hi, double alpha = 1.0);
   /// Filled contour bands of a triangulated surface (`levels` bands between the extreme
   /// values, coloured by `map` with opacity `alpha`) and their contour lines.
   void contours(const std::vector<double>& x, const std::vector<double>& y, const std::vector<double>& z,
@@ -91,10 +97,16 @@ class Axes {
   void set_xlabel(std::string s) { xlabel_ = std::move(s); }
   void set_ylabel(std::string s) { ylabel_ = std::move(s); }
   void grid() { grid_ = true; }
+  /// Tick labels of linear axes and of the colour bar give whole values, with no offset
+  /// or power of ten set apart (map coordinates: 2601050, not 1050 and "+2600000"; an
+  /// energy of 400000 J, not 4 and "1e5"), and as few ticks as keep the labels apart.
+  void set_whole_tick_labels() { whole_ticks_ = true; }
   /// A legend of the labelled lines, bands and markers, in their order.
   void legend(Place place, double size_pt) { legend_ = {place, size_pt}; }
   /// Adds a legend entry drawn as a line of this style (for entries no single item stands for).
   void legend_entry(LineStyle style, std::string label);
+  /// Adds a legend entry drawn as a filled patch (a class of a map).
+  void legend_patch(Rgba fill, std::string label);
   /// A colour bar right of the panel for `map` over [lo, hi], labelled `label`.
   void colorbar(const Colormap& map, double lo, double hi, std::string label);
   /// True when something with data has been added.
@@ -125,7 +137,7 @@ class Axes {
   std::vector<Entry> entries_;
   Scale xscale_ = Scale::linear, yscale_ = Scale::linear;
   std::optional<std::array<double, 2>> xlim_, ylim_;
-  bool equal_ = false, grid_ = false;
+  bool equal_ = false, grid_ = false, whole_ticks_ = false;
   std::string title_, xlabel_, ylabel_;
   double title_size_ = 12.0;
   std::optional<std::pair<Place, double>> legend_;

@@ -113,6 +113,7 @@ struct StepBuffers {
   std::vector<std::int32_t> keep, keep_edges, keep_terrain;
   std::vector<std::pair<Vec3, Vec3>> closed_end;
   std::vector<Persistent> persistent;
+  std::vector<std::pair<double, Vec3>> opened;  // contacts that opened: end gap (m), normal
 };
 
 // The fastest approach of a contact point that closes in the step, at the step start:
@@ -525,13 +526,15 @@ bool ContactStep<N>::keep_contacts() {
   // those that end it locked, the friction impulse they can carry (settle_contacts).
   b_.persistent.clear();
   separation_ = {};
+  b_.opened.clear();
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
     Contact& c = contacts_[i];
     const Vec3 du = point_displacement<N>(c.point - pose_.centre, d_);
     const double g = c.gap - c.gap_offset + c.normal.dot(du);
-    if (c.mode == ContactMode::open && b_.start_modes[i] != ContactMode::open && g > 0.0 &&
-        (separation_.gap == 0.0 || g < separation_.gap))
-      separation_ = {g, c.normal, c.point + du, dt_};
+    if (c.mode == ContactMode::open && b_.start_modes[i] != ContactMode::open && g > 0.0) {
+      b_.opened.emplace_back(g, c.normal);
+      if (separation_.gap == 0.0 || g < separation_.gap) separation_ = {g, c.normal, c.point + du, dt_};
+    }
     if (c.mode == ContactMode::open) {
       if (c.anchored && g < keep_gap) {
         c.normal_force = 0.0;
@@ -627,7 +630,17 @@ void ContactStep<N>::update_episode() {
     start_episode_along(model_, ground_, s_, v_start_, kinetic_start_, arrival_.normal, arrival_.triangle,
                         {arrival_.speed, arrival_.energy});
   } else if (!any_closed_ && s_.episode.active) {
+    const Vec3 before = s_.position;
     end_episode(model_, s_, separation_);
+    // The flight redone from the separation moves the block back along its path; no
+    // contact that opened in the step may close by it (a tumbling block's other corners).
+    const Vec3 moved = s_.position - before;
+    double keep = 1.0;
+    for (const auto& [gap, normal] : b_.opened) {
+      const double rate = normal.dot(moved);
+      if (rate < 0.0 && gap + rate < 0.0) keep = std::min(keep, gap / -rate);
+    }
+    s_.position = before + keep * moved;
   } else if (s_.episode.active && s_.episode.impact && end_approach() < set_.impact_min_normal_speed &&
              rebound_complete(model_, s_, spring_energy_)) {
     finish_impact(model_, s_);

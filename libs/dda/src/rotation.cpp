@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/Cholesky>
+
 namespace talus::dda::detail {
 
 namespace {
@@ -15,6 +17,9 @@ namespace {
 // is then below 1e-7 per radian turned (DdaRotation.FollowsEulersEquations), far below
 // any contact's effect.
 constexpr double kSubstepAngle = 0.05;
+// Below this angle (rad) a contact step's torque-free turn is taken by its series: its
+// third-order term, (ω·h)³/6 at most, is then below 2e-10 rad.
+constexpr double kSeriesAngle = 1e-3;
 
 // Rotates the frame `p` (principal → world) and the body angular momentum `m` (principal
 // frame) by the exact flow of ½ m_axis²/I_axis over tau: the body turns about its own axis.
@@ -102,6 +107,17 @@ FreeSpin free_spin(const Model& model, const Eigen::Quaterniond& orientation, co
   out.omega = omega;
   if (model.isotropic) {
     out.theta = omega * h;
+    return out;
+  }
+  if (omega.norm() * std::abs(h) < kSeriesAngle) {
+    // A short turn by its series, θ = ω·h + ½ω̇·h² and ω + ω̇·h (ω̇ = −J⁻¹(ω × Jω)): the
+    // difference of two orientations would carry their round-off (1e-16) into a term that
+    // the step's inertia multiplies by 2/h².
+    const Mat3 r = orientation.toRotationMatrix();
+    const Vec3 body = r.transpose() * omega;
+    const Vec3 accel = -(r * model.inertia.ldlt().solve(body.cross(model.inertia * body)));
+    out.theta = omega * h + 0.5 * accel * h * h;
+    out.omega = omega + accel * h;
     return out;
   }
   Eigen::Quaterniond q = orientation;

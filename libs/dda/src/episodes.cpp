@@ -116,9 +116,8 @@ void finish_impact(const Model& model, State& s, const Separation& separation) {
     if (un + root > 0.0) tau = std::min(separation.step, 2.0 * separation.gap / (un + root));
   }
   const Vec3 v_separation = s.velocity.head<3>() - gravity * tau;
-  const Vec3 w_separation = s.velocity.segment<3>(3);
   Vec3 v = v_separation;
-  Vec3 w = w_separation;
+  Vec3 w = s.velocity.segment<3>(3);
   const auto rotational = [&](const Vec3& omega) {
     const Vec3 wb = s.orientation.conjugate() * omega;
     return 0.5 * wb.dot(model.inertia * wb);
@@ -180,12 +179,9 @@ void finish_impact(const Model& model, State& s, const Separation& separation) {
       w *= factor;
     }
   }
-  // The flight since the separation is redone with the law's rebound: the centroid's
-  // parabola and the turn (to first order in the spin's change over τ).
-  s.position += (v - v_separation) * tau;
-  const Vec3 turn = (w - w_separation) * tau;
-  if (turn.norm() > 0.0)
-    s.orientation = (Eigen::Quaterniond(Eigen::AngleAxisd(turn.norm(), turn.normalized())) * s.orientation).normalized();
+  // The flight since the separation is redone with the law's rebound, along the normal of
+  // the contact that let go last: the block rose by the raw rebound, and rises by the law's.
+  s.position += separation.normal * separation.normal.dot(v - v_separation) * tau;
   // The contacts kept open by a micro-gap remember anchors and springs of the pose the
   // redone flight left: the block flies, and they are dropped.
   if (tau > 0.0) s.contacts.clear();
@@ -203,21 +199,7 @@ void end_episode(const Model& model, State& s, const Separation& separation) {
 bool rebound_complete(const Model& model, const State& s, double spring_energy) {
   const Episode& e = s.episode;
   if (s.velocity.head<3>().dot(e.normal) < 0.0) return false;
-  // The springs may hold no more than 1 % of the rebound energy the law allows: what they
-  // still hold is released as a push after the law has set the velocity. (1e-6 of the
-  // impact's energy at least: a rebound of R_v = 0 must end too.)
-  const double impact = 0.5 * model.mass * e.velocity_in.squaredNorm();
-  double allowed = impact;
-  if (model.restitution == RestitutionLaw::scaled) {
-    const double vin = e.velocity_in.norm();
-    const double cap = e.restitution / (1.0 + (vin / e.restitution_scale) * (vin / e.restitution_scale));
-    allowed = cap * cap * impact;
-  } else if (model.restitution == RestitutionLaw::normal_component) {
-    const double vn = std::abs(e.velocity_in.dot(e.normal));
-    const double cap = e.restitution * vn / (1.0 + (vn / e.restitution_scale) * (vn / e.restitution_scale));
-    allowed = 0.5 * model.mass * cap * cap;
-  }
-  return spring_energy <= 0.01 * std::max(allowed, 1e-4 * impact);
+  return spring_energy <= 0.01 * 0.5 * model.mass * e.velocity_in.squaredNorm();
 }
 
 }  // namespace talus::dda::detail

@@ -255,7 +255,7 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
     if (std::none_of(library.begin(), library.end(), [&](const block::Block& b) { return b.name == name; })) {
       std::string names;
       for (const auto& b : library) names += (names.empty() ? "" : ", ") + b.name;
-      throw core::InputError(inv.source_of("blocks"), "block '" + name + "' is not in the block file " +
+      throw core::InputError(inv.origins.of("blocks"), "block '" + name + "' is not in the block file " +
                                                           settings.block_file + " (it has: " + names + ")");
     }
   // Release zones and barrier lines from vector files, checked against the terrain's CRS.

@@ -243,9 +243,9 @@ void warn_coarse_step(const std::string& path, const mc::Scene& scene, const std
 // warns about realizations that did not end at rest.
 void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, const Options& opt,
                const mc::Shard& shard, const std::string& output, bool report_ends) {
-  const std::string source = inv.config_path.empty() ? "scene" : inv.config_path;
-  if (settings.terrain.empty()) throw core::InputError(source, "no terrain file given (key 'terrain')");
-  if (settings.block_file.empty()) throw core::InputError(source, "no block file given (key 'block_file')");
+  if (settings.terrain.empty()) throw core::InputError(inv.origins.of("terrain"), "no terrain file given (key 'terrain')");
+  if (settings.block_file.empty())
+    throw core::InputError(inv.origins.of("block_file"), "no block file given (key 'block_file')");
   core::Stopwatch clock;
   terrain::Terrain terrain = io::read_terrain_file(settings.terrain);
   const std::string fingerprint = io::terrain_fingerprint(terrain);
@@ -256,11 +256,11 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
       std::string names;
       for (const auto& b : library) names += (names.empty() ? "" : ", ") + b.name;
       throw core::InputError(inv.origins.of("blocks"), "block '" + name + "' is not in the block file " +
-                                                          settings.block_file + " (it has: " + names + ")");
+                                                           settings.block_file + " (it has: " + names + ")");
     }
   // Release zones and barrier lines from vector files, checked against the terrain's CRS.
   const mc::SceneVectors vectors = io::read_scene_vectors(settings, terrain);
-  const mc::Scene scene = mc::Scene::build(settings, std::move(terrain), library, source, vectors);
+  const mc::Scene scene = mc::Scene::build(settings, std::move(terrain), library, inv.origins, vectors);
 
   io::Provenance provenance = inv.provenance("dda-run", settings.seed);
   provenance.inputs = settings.terrain + "\n" + settings.block_file + "\n" + vectors.inputs;

@@ -48,15 +48,22 @@ void BlockSettings::visit(core::SettingsVisitor& v) {
             "target volume: solids are scaled to it (default 1 for Platonic solids and rocks); a mesh or cloud is "
             "scaled about its centroid only when given",
             block_volume_range());
-  v.bounded("dimensions", dimensions, "m", "box edges, or ellipsoid diameters, along x, y, z",
-            core::Range::positive(1e3));
-  v.field("resolution", resolution, "-", "ellipsoid: geodesic frequency n (20 n^2 triangles)");
-  v.field("roughness", roughness, "-",
-          "ellipsoid: sd of the relative height of 40 random smooth bumps and dents (0..0.3); > 0 makes a "
-          "concave rock");
-  v.field("elongation", elongation, "-", "rock: target L2/L1 along the principal axes");
-  v.field("flatness", flatness, "-", "rock: target L3/L2 along the principal axes");
-  v.field("points", points, "-", "rock: number of random points whose convex hull is the rock");
+  // No default shape: a box or an ellipsoid whose dimensions were forgotten is refused,
+  // not built as a 1 m cube or sphere.
+  v.bounded("dimensions", dimensions, "m",
+            "box edges, or ellipsoid diameters, along x, y, z (required for box and ellipsoid; 0 0 0 = not given)",
+            core::Range::closed(0.0, 1e3));
+  // The ranges block::make_solid accepts, declared here so that a value out of them is
+  // named by its line or --set key.
+  v.bounded("resolution", resolution, "-", "ellipsoid: geodesic frequency n (20 n^2 triangles)",
+            core::Range::closed(1.0, 1000.0));
+  v.bounded("roughness", roughness, "-",
+            "ellipsoid: sd of the relative height of 40 random smooth bumps and dents; > 0 makes a concave rock",
+            core::Range::closed(0.0, 0.3));
+  v.bounded("elongation", elongation, "-", "rock: target L2/L1 along the principal axes", core::Range::positive(1.0));
+  v.bounded("flatness", flatness, "-", "rock: target L3/L2 along the principal axes", core::Range::positive(1.0));
+  v.bounded("points", points, "-", "rock: number of random points whose convex hull is the rock",
+            core::Range::closed(8.0, 100000.0));
   v.field("seed", seed, "-", "rock, rough ellipsoid: seed of the block_shape random stream");
   v.bounded("density", density, "kg/m^3", "density of this block (default: the top-level density)",
             density_range());

@@ -116,25 +116,28 @@ extern "C" void request_stop(int signal) {
   g_stop_signal = signal;
 }
 
-class StopSignals {
- public:
-  StopSignals() {
-    struct sigaction action{};
-    action.sa_handler = request_stop;
-    sigemptyset(&action.sa_mask);
-    ::sigaction(SIGINT, &action, &old_int_);
-    ::sigaction(SIGTERM, &action, &old_term_);
-  }
-  StopSignals(const StopSignals&) = delete;
-  StopSignals& operator=(const StopSignals&) = delete;
-  ~StopSignals() {
-    ::sigaction(SIGINT, &old_int_, nullptr);
-    ::sigaction(SIGTERM, &old_term_, nullptr);
-  }
+// Run from .preinit_array: the first code after the dynamic loader's relocation, before the
+// libraries' initializers and main (docs/errors.md says what window is left). SA_RESTART
+// keeps a signal from failing their system calls with EINTR.
+extern "C" void install_stop_handlers(int, char**, char**) {
+  struct sigaction action{};
+  action.sa_handler = request_stop;
+  action.sa_flags = SA_RESTART;
+  sigemptyset(&action.sa_mask);
+  ::sigaction(SIGINT, &action, nullptr);
+  ::sigaction(SIGTERM, &action, nullptr);
+}
+[[gnu::section(".preinit_array"), gnu::used]] void (*g_install_stop_handlers)(int, char**, char**) =
+    install_stop_handlers;
 
- private:
-  struct sigaction old_int_{}, old_term_{};
-};
+// `dda-run merge` keeps the default actions (it leaves at most a temporary, which the next
+// writer removes); a signal that came before is acted on now.
+void restore_default_signals() {
+  const int early = g_stop_signal;
+  std::signal(SIGINT, SIG_DFL);
+  std::signal(SIGTERM, SIG_DFL);
+  if (early != 0) std::raise(early);
+}
 
 // The run stopped on a signal: exit code 128 + signal, as a shell reports a killed job.
 class Interrupted : public core::Error {
@@ -402,10 +405,12 @@ int merge_main(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc > 1 && std::string(argv[1]) == "merge") return merge_main(argc - 1, argv + 1);
-  // Before any work: a signal while the scene is read stops the run at its first check
-  // with the one-line message, never by the default action.
-  const StopSignals signals;
+  if (argc > 1 && std::string(argv[1]) == "merge") {
+    restore_default_signals();
+    return merge_main(argc - 1, argv + 1);
+  }
+  // The handlers are in place (install_stop_handlers): a signal while the scene is read
+  // stops the run at its first check with the one-line message.
 
   [[maybe_unused]] int rank = 0;
   int ranks = 1;

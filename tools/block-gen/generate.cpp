@@ -159,8 +159,9 @@ std::vector<block::Block> build_blocks(const Settings& settings, const std::vect
     const std::string where = origins.of(item) + ": " + item;
     const int sources = (b.solid != "none") + !b.mesh.empty() + !b.cloud.empty();
     if (sources != 1)
-      throw core::InputError(origins.of({item + ".solid", item + ".mesh", item + ".cloud"}),
-                             item + ": give exactly one of solid, mesh or cloud (" + std::to_string(sources) + " given)");
+      throw core::InputError(
+          origins.of({item + ".solid", item + ".mesh", item + ".cloud"}),
+          item + ": give exactly one of solid, mesh or cloud (" + std::to_string(sources) + " given)");
     std::vector<std::string> notes;
     Polyhedron poly;
     std::string name = b.name, source;

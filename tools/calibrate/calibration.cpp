@@ -128,20 +128,24 @@ Problem::Problem(const Settings& settings, const core::SettingsOrigins& origins,
   const std::string& source = origins.source();
   if (s.scene.empty()) throw InputError(origins.of("scene"), "scene: no scene file given");
   if (s.groups.empty()) throw InputError(origins.of("groups"), "groups: at least one observed case is needed");
-  if (s.parameters.empty()) throw InputError(origins.of("parameters"), "parameters: at least one fitted parameter is needed");
+  if (s.parameters.empty())
+    throw InputError(origins.of("parameters"), "parameters: at least one fitted parameter is needed");
   if (s.realizations < 2) throw InputError(origins.of("realizations"), "realizations must be at least 2");
   if (s.particles < 2) throw InputError(origins.of("particles"), "particles must be at least 2");
   if (s.generations < 1) throw InputError(origins.of("generations"), "generations must be at least 1");
   if (!(s.quantile > 0.0 && s.quantile < 1.0)) throw InputError(origins.of("quantile"), "quantile must be in (0, 1)");
-  if (!(s.min_acceptance >= 0.0 && s.min_acceptance < 1.0)) throw InputError(origins.of("min_acceptance"), "min_acceptance must be in [0, 1)");
+  if (!(s.min_acceptance >= 0.0 && s.min_acceptance < 1.0))
+    throw InputError(origins.of("min_acceptance"), "min_acceptance must be in [0, 1)");
   if (s.max_simulations < 0) throw InputError(origins.of("max_simulations"), "max_simulations must be >= 0");
   // Generation 0 (the prior) takes `particles` simulations and generation 1 at least as
   // many: a smaller budget could only return the prior.
   if (s.max_simulations > 0 && s.max_simulations < 2 * s.particles)
-    throw InputError(origins.of({"max_simulations", "particles"}), "max_simulations " + std::to_string(s.max_simulations) + " is below 2 x particles (" +
-                                 std::to_string(2 * s.particles) + "): generation 0 (the prior) takes particles "
-                                 "simulations and generation 1 at least as many, so no posterior could be computed "
-                                 "(0 = no limit)");
+    throw InputError(origins.of({"max_simulations", "particles"}),
+                     "max_simulations " + std::to_string(s.max_simulations) + " is below 2 x particles (" +
+                         std::to_string(2 * s.particles) +
+                         "): generation 0 (the prior) takes particles "
+                         "simulations and generation 1 at least as many, so no posterior could be computed "
+                         "(0 = no limit)");
   if (s.predictive_draws < 2) throw InputError(origins.of("predictive_draws"), "predictive_draws must be at least 2");
   variables_ = s.variables == "runout" ? std::vector<std::string>{"runout"} : std::vector<std::string>{"runout", "lateral"};
 
@@ -153,13 +157,17 @@ Problem::Problem(const Settings& settings, const core::SettingsOrigins& origins,
     const std::string where = item + " (" + p.label() + "): ";
     const auto key = [&](const char* name) { return item + "." + name; };
     if (p.is_roughness() && !p.material.empty())
-      throw InputError(origins.of({key("material"), key("parameter")}), where + "roughness_sigma is the terrain's: name no material");
-    if (!p.is_roughness() && p.material.empty()) throw InputError(origins.of({key("material")}), where + "no material named");
-    if (!labels.insert(p.label()).second) throw InputError(origins.of({key("material"), key("parameter")}), where + "fitted twice");
+      throw InputError(origins.of({key("material"), key("parameter")}),
+                       where + "roughness_sigma is the terrain's: name no material");
+    if (!p.is_roughness() && p.material.empty())
+      throw InputError(origins.of(key("material")), where + "no material named");
+    if (!labels.insert(p.label()).second)
+      throw InputError(origins.of({key("material"), key("parameter")}), where + "fitted twice");
     if (!(std::isfinite(p.min) && std::isfinite(p.max) && p.min < p.max))
       throw InputError(origins.of({key("min"), key("max")}), where + "the prior needs finite min < max (both given)");
     if (p.prior == "normal" && !(p.sd > 0.0 && std::isfinite(p.sd) && std::isfinite(p.mean)))
-      throw InputError(origins.of({key("sd"), key("mean"), key("prior")}), where + "a normal prior needs a finite mean and sd > 0");
+      throw InputError(origins.of({key("sd"), key("mean"), key("prior")}),
+                       where + "a normal prior needs a finite mean and sd > 0");
     if (p.prior == "uniform" && (!std::isnan(p.mean) || !std::isnan(p.sd)))
       throw InputError(origins.of({key(std::isnan(p.mean) ? "sd" : "mean"), key("prior")}),
                        where + "a uniform prior takes no mean or sd (prior: normal uses them)");
@@ -169,10 +177,11 @@ Problem::Problem(const Settings& settings, const core::SettingsOrigins& origins,
       const auto cdf = [&](double x) { return 0.5 * std::erfc(-(x - p.mean) / (p.sd * std::sqrt(2.0))); };
       const double mass = cdf(p.max) - cdf(p.min);
       if (!(mass >= 1e-3))
-        throw InputError(origins.of({key("mean"), key("sd"), key("min"), key("max")}), where + "a normal prior of mean " + core::format_number(p.mean) + " and sd " +
-                                     core::format_number(p.sd) + " has " + core::format_number(mass) +
-                                     " of its mass in [" + core::format_number(p.min) + ", " +
-                                     core::format_number(p.max) + "] (at least 0.001 needed)");
+        throw InputError(origins.of({key("mean"), key("sd"), key("min"), key("max")}),
+                         where + "a normal prior of mean " + core::format_number(p.mean) + " and sd " +
+                             core::format_number(p.sd) + " has " + core::format_number(mass) + " of its mass in [" +
+                             core::format_number(p.min) + ", " + core::format_number(p.max) +
+                             "] (at least 0.001 needed)");
     }
     // The ranges the material is read with (terrain-gen, scene overrides).
     const terrain::Material::Ranges r = terrain::Material::ranges();
@@ -185,8 +194,9 @@ Problem::Problem(const Settings& settings, const core::SettingsOrigins& origins,
                                : p.parameter == "friction_coefficient_sd" ? r.friction_coefficient_sd
                                                                           : r.lateral_tilt_sd_deg;
     if (!range.contains(p.min) || !range.contains(p.max))
-      throw InputError(origins.of({key("min"), key("max")}), where + "the prior [" + core::format_number(p.min) + ", " + core::format_number(p.max) +
-                                   "] leaves the property's range " + range.text(""));
+      throw InputError(origins.of({key("min"), key("max")}), where + "the prior [" + core::format_number(p.min) + ", " +
+                                                                 core::format_number(p.max) +
+                                                                 "] leaves the property's range " + range.text(""));
     priors_.push_back(stats::Prior{p.prior, p.min, p.max, p.mean, p.sd});
   }
 
@@ -221,14 +231,16 @@ Problem::Problem(const Settings& settings, const core::SettingsOrigins& origins,
       if (p.is_roughness()) continue;
       bool found = false;
       for (const auto& m : scene.materials()) found = found || m.name == p.material;
-      if (!found) throw InputError(origins.of("parameters[" + std::to_string(k) + "].material"), where + "material '" + p.material + "' is not in the terrain file " +
-                                               c.scene.terrain);
+      if (!found)
+        throw InputError(origins.of("parameters[" + std::to_string(k) + "].material"),
+                         where + "material '" + p.material + "' is not in the terrain file " + c.scene.terrain);
     }
     // Where runout is measured from, in the terrain's input coordinates.
     const Eigen::Vector3d to_input = terrain->origin_shift - scene.frame_shift();
     if (group.origin.empty()) {
       if (c.scene.release.points.empty())
-        throw InputError(origins.of(item + ".origin"), where + "origin: give it (the release comes from a file, not a point)");
+        throw InputError(origins.of(item + ".origin"),
+                         where + "origin: give it (the release comes from a file, not a point)");
       c.origin = Eigen::Vector2d(c.scene.release.points[0][0], c.scene.release.points[0][1]) + to_input.head<2>();
     } else if (group.origin.size() != 2 || !std::isfinite(group.origin[0]) || !std::isfinite(group.origin[1])) {
       throw InputError(origins.of(item + ".origin"), where + "origin must be [x, y] (m)");

@@ -246,7 +246,8 @@ void warn_coarse_step(const std::string& path, const mc::Scene& scene, const std
 // warns about realizations that did not end at rest.
 void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, const Options& opt,
                const mc::Shard& shard, const std::string& output, bool report_ends) {
-  if (settings.terrain.empty()) throw core::InputError(inv.origins.of("terrain"), "no terrain file given (key 'terrain')");
+  if (settings.terrain.empty())
+    throw core::InputError(inv.origins.of("terrain"), "no terrain file given (key 'terrain')");
   if (settings.block_file.empty())
     throw core::InputError(inv.origins.of("block_file"), "no block file given (key 'block_file')");
   core::Stopwatch clock;

@@ -81,9 +81,10 @@ Window window_of(const Settings::Crop& crop, const core::SettingsOrigins& origin
   if (crop.xmax) w.xmax = *crop.xmax;
   if (crop.ymax) w.ymax = *crop.ymax;
   if (!(w.xmin < w.xmax && w.ymin < w.ymax))
-    throw InputError(origins.of({"crop.xmin", "crop.xmax", "crop.ymin", "crop.ymax"}), "crop: the window [" + format_number(w.xmin) + ", " + format_number(w.xmax) +
-                                          "] x [" + format_number(w.ymin) + ", " + format_number(w.ymax) +
-                                          "] is empty (need xmin < xmax and ymin < ymax)");
+    throw InputError(origins.of({"crop.xmin", "crop.xmax", "crop.ymin", "crop.ymax"}),
+                     "crop: the window [" + format_number(w.xmin) + ", " + format_number(w.xmax) + "] x [" +
+                         format_number(w.ymin) + ", " + format_number(w.ymax) +
+                         "] is empty (need xmin < xmax and ymin < ymax)");
   return w;
 }
 
@@ -266,7 +267,8 @@ double checked_sigma(const Settings& s, const core::SettingsOrigins& origins) {
                      "roughness: give sigma or roughness_index, not both");
   if (s.roughness.sigma) {
     if (!(*s.roughness.sigma >= 0.0))
-      throw InputError(origins.of("roughness.sigma"), "roughness.sigma must be >= 0, got " + format_number(*s.roughness.sigma));
+      throw InputError(origins.of("roughness.sigma"),
+                       "roughness.sigma must be >= 0, got " + format_number(*s.roughness.sigma));
     return *s.roughness.sigma;
   }
   if (!s.roughness.roughness_index) return 0.0;
@@ -337,7 +339,8 @@ Terrain resample_tin(const Terrain& tin, const Settings& s, const std::string& s
   spec.ny = static_cast<std::int32_t>(ny);
   const DemGrid dem = terrain::trim_nodata(terrain::resample_to_grid(surface, spec));
   if (dem.z.empty())
-    throw InputError(origins.of("tin.cell_size"), "tin.cell_size " + format_number(spec.dx) + " m: no grid point lies on the TIN");
+    throw InputError(origins.of("tin.cell_size"),
+                     "tin.cell_size " + format_number(spec.dx) + " m: no grid point lies on the TIN");
   const auto missing = static_cast<std::size_t>(std::count_if(dem.z.begin(), dem.z.end(), [](double z) { return std::isnan(z); }));
   Terrain t;
   if (missing == 0) {

@@ -89,7 +89,8 @@ class RangeCheck final : public SettingsVisitor {
   std::string path(std::string_view key) const { return prefix_ + std::string(key); }
   void check(std::string_view key, double value, std::string_view unit, const Range& range) const {
     if (range.contains(value) && std::isfinite(value)) return;
-    throw InputError(origins_.of(path(key)), path(key) + " = " + format_number(value) + ": must be in " + range.text(unit));
+    throw InputError(origins_.of(path(key)),
+                     path(key) + " = " + format_number(value) + ": must be in " + range.text(unit));
   }
   const SettingsOrigins& origins_;
   std::string prefix_;

@@ -204,7 +204,7 @@ class Reader final : public SettingsVisitor {
                const std::function<void(SettingsVisitor&)>& body) override {
     auto found = take(key);
     // `--set release=` would reset a whole section to its defaults without a word.
-    if (found && found->IsNull() && !set_key(*found).empty())
+    if (found && found->IsNull() && !set_label(*found).empty())
       fail(*found, key, "expected a mapping of settings, got nothing (give KEY.SUBKEY=VALUE)");
     if (!found || found->IsNull()) {
       // Absent section: visit with an empty map so defaults stay; nothing to check.
@@ -220,7 +220,7 @@ class Reader final : public SettingsVisitor {
   }
   void list(std::string_view key, std::string_view, const ListAccess& items) override {
     auto found = take(key);
-    if (found && found->IsNull() && !set_key(*found).empty())
+    if (found && found->IsNull() && !set_label(*found).empty())
       fail(*found, key, "expected a list, got nothing (give [] for an empty list)");
     if (!found || found->IsNull()) {
       // Absent list: keep the defaults, but still visit them so nested defaults settle.
@@ -288,7 +288,7 @@ class Reader final : public SettingsVisitor {
   // Where the value `n` of `key` came from: the --set that gave it (or the part of the
   // tree it is in), else the line of the key in the file.
   std::string origin(const std::string& key, const YAML::Node& n) const {
-    if (const std::string from = set_key(n); !from.empty()) return from;
+    if (const std::string from = set_label(n); !from.empty()) return from;
     if (from_set_) return source_;
     for (const auto& kv : node_)
       if (kv.first.IsScalar() && kv.first.Scalar() == key) return location(kv.first);
@@ -304,7 +304,7 @@ class Reader final : public SettingsVisitor {
   }
   // Where an unknown key came from: the --set whose key path runs through it, else the file.
   std::string unknown_key_location(const std::pair<YAML::Node, YAML::Node>& kv, const std::string& full) const {
-    if (const std::string from = set_key(kv.second); !from.empty()) return from;
+    if (const std::string from = set_label(kv.second); !from.empty()) return from;
     for (const auto& s : set_values_) {
       const std::string& k = s.key;
       if (k == full || (k.size() > full.size() && k.compare(0, full.size(), full) == 0 &&
@@ -314,7 +314,7 @@ class Reader final : public SettingsVisitor {
     return location(kv.first);
   }
   // The label ("--set KEY") of the override that put `n` into the tree, or "".
-  std::string set_key(const YAML::Node& n) const {
+  std::string set_label(const YAML::Node& n) const {
     for (const auto& s : set_values_)
       if (n.is(s.node)) return s.label;
     return {};
@@ -322,10 +322,10 @@ class Reader final : public SettingsVisitor {
   // The reader of a nested mapping: named after its --set key when --set gave all of it.
   Reader nested(const YAML::Node& n, std::string_view key, const std::string& prefix) const {
     Reader inner = [&] {
-      const std::string from = set_key(n);
+      const std::string from = set_label(n);
       if (!from.empty()) return Reader(n, from, prefix, set_values_, origins_, true);
       if (auto top = peek(key)) {
-        const std::string whole = set_key(*top);
+        const std::string whole = set_label(*top);
         if (!whole.empty()) return Reader(n, whole, prefix, set_values_, origins_, true);
       }
       return Reader(n, source_, prefix, set_values_, origins_, from_set_);
@@ -356,7 +356,7 @@ class Reader final : public SettingsVisitor {
   [[noreturn]] void fail(const YAML::Node& n, std::string_view key, const std::string& what) const {
     // A value given by --set KEY=... is named by that KEY, which already says the path.
     if (auto top = peek(key)) {
-      const std::string from = set_key(*top);
+      const std::string from = set_label(*top);
       if (!from.empty()) throw InputError(from, what);
     }
     throw InputError(location(n), path(key) + ": " + what);

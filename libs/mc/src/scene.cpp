@@ -355,11 +355,14 @@ void check_release_points(const SceneSettings& s, const terrain::Surface& base, 
   const std::string source = origins.of("release.points");
   const std::string count_source = origins.of({"release.points", "release.kind"});
   if (r.kind == "point" && n < 1)
-    throw InputError(count_source, "release.kind 'point' needs at least 1 point in release.points, got " + std::to_string(n));
+    throw InputError(count_source,
+                     "release.kind 'point' needs at least 1 point in release.points, got " + std::to_string(n));
   if (r.kind == "line" && n < 2)
-    throw InputError(count_source, "release.kind 'line' needs at least 2 points in release.points, got " + std::to_string(n));
+    throw InputError(count_source,
+                     "release.kind 'line' needs at least 2 points in release.points, got " + std::to_string(n));
   if (r.kind == "polygon" && n < 3)
-    throw InputError(count_source, "release.kind 'polygon' needs at least 3 points in release.points, got " + std::to_string(n));
+    throw InputError(count_source,
+                     "release.kind 'polygon' needs at least 3 points in release.points, got " + std::to_string(n));
   if (!finite_points(r.points)) throw InputError(source, "release.points must be finite");
   if (r.kind == "polygon") {
     if (const std::string crossing = ring_crossing(to_vectors(r.points)); !crossing.empty())
@@ -407,14 +410,17 @@ void check_release(const SceneSettings& s, const terrain::Surface& base, const E
   }
   if (!std::isfinite(r.height)) throw InputError(origins.of("release.height"), "release.height must be finite");
   if (r.height_reference == "lowest_point" && r.height < 0.0)
-    throw InputError(origins.of({"release.height", "release.height_reference"}), "release.height " + format_number(r.height) +
-                                 " m is negative: with height_reference lowest_point it is the gap under the block");
+    throw InputError(origins.of({"release.height", "release.height_reference"}),
+                     "release.height " + format_number(r.height) +
+                         " m is negative: with height_reference lowest_point it is the gap under the block");
   for (double c : r.velocity)
     if (!std::isfinite(c)) throw InputError(origins.of("release.velocity"), "release.velocity must be finite");
   for (double c : r.angular_velocity)
-    if (!std::isfinite(c)) throw InputError(origins.of("release.angular_velocity"), "release.angular_velocity must be finite");
+    if (!std::isfinite(c))
+      throw InputError(origins.of("release.angular_velocity"), "release.angular_velocity must be finite");
   for (double c : r.orientation_deg)
-    if (!std::isfinite(c)) throw InputError(origins.of("release.orientation_deg"), "release.orientation_deg must be finite");
+    if (!std::isfinite(c))
+      throw InputError(origins.of("release.orientation_deg"), "release.orientation_deg must be finite");
   if (!std::isfinite(r.main_direction_deg))
     throw InputError(origins.of("release.main_direction_deg"), "release.main_direction_deg must be finite");
 }
@@ -476,8 +482,9 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
     if (err != std::errc() || v.empty())
       throw InputError(origins.of("schema_version"), "schema_version '" + v + "' is not MAJOR.MINOR");
     if (major != kSceneSchemaMajor)
-      throw InputError(origins.of("schema_version"), "scene schema version " + v + " is not supported (this build reads " +
-                                   std::to_string(kSceneSchemaMajor) + ".x)");
+      throw InputError(origins.of("schema_version"), "scene schema version " + v +
+                                                         " is not supported (this build reads " +
+                                                         std::to_string(kSceneSchemaMajor) + ".x)");
   }
   // The ranges the fields declare (the reader checks them on what it reads, naming the
   // line or --set key; these are settings made in code too).
@@ -549,8 +556,9 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
     }();
     SceneBlock sb{b->name, std::move(model), b->weight};
     if (s.block_selection == "weighted" && !(sb.weight >= 0.0 && std::isfinite(sb.weight)))
-      throw InputError(origins.of("block_selection"), "block '" + b->name + "' has sampling weight " + format_number(sb.weight) +
-                                   ": weights must be finite and >= 0");
+      throw InputError(origins.of("block_selection"), "block '" + b->name + "' has sampling weight " +
+                                                          format_number(sb.weight) +
+                                                          ": weights must be finite and >= 0");
     scene.blocks_.push_back(std::move(sb));
   }
   // A block of weight 0 is never drawn (block-gen allows it), but one of them must be.
@@ -558,8 +566,9 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
     double total = 0.0;
     for (const SceneBlock& b : scene.blocks_) total += b.weight;
     if (!(total > 0.0))
-      throw InputError(origins.of("block_selection"), "every block has sampling weight 0, so block_selection weighted has none to draw: "
-                               "give some a weight (block-gen 'weight') or set block_selection: cycle");
+      throw InputError(origins.of("block_selection"),
+                       "every block has sampling weight 0, so block_selection weighted has none to draw: "
+                       "give some a weight (block-gen 'weight') or set block_selection: cycle");
   }
 
   // Materials: overrides by name, then the stochastic switches.
@@ -637,7 +646,8 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
     const std::string item = "outputs.barriers[" + std::to_string(k) + "]";
     if (!b.file.empty()) {
       if (!b.line.empty())
-        throw InputError(origins.of({item + ".line", item + ".file"}), "outputs.barriers entry " + std::to_string(k + 1) + ": give line or file, not both");
+        throw InputError(origins.of({item + ".line", item + ".file"}),
+                         "outputs.barriers entry " + std::to_string(k + 1) + ": give line or file, not both");
       const std::vector<PlanFeature> none;
       for (Barrier& barrier : file_barriers(b, k < vectors.barriers.size() ? vectors.barriers[k] : none, input_shift)) {
         // Barrier names name the statistics of their crossings: they must differ.
@@ -658,12 +668,14 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
       throw InputError(origins.of(item + ".name"), "barrier name '" + name +
                                    "' is taken by another barrier: give distinct names (outputs.barriers[].name)");
     if (b.line.size() < 2 || !finite_points(b.line))
-      throw InputError(origins.of(item + ".line"), "barrier '" + name + "' needs at least 2 finite vertices in its line");
+      throw InputError(origins.of(item + ".line"),
+                       "barrier '" + name + "' needs at least 2 finite vertices in its line");
     Barrier barrier{name, local(b.line), {0.0}};
     on_terrain(barrier.line, "barrier '" + name + "'", origins.of({item + ".line", "frame"}), input_frame);
     for (std::size_t j = 1; j < barrier.line.size(); ++j) {
       const double len = (barrier.line[j] - barrier.line[j - 1]).norm();
-      if (!(len > 0.0)) throw InputError(origins.of(item + ".line"), "barrier '" + name + "' has a zero-length segment");
+      if (!(len > 0.0))
+        throw InputError(origins.of(item + ".line"), "barrier '" + name + "' has a zero-length segment");
       barrier.offsets.push_back(barrier.offsets.back() + len);
     }
     scene.barriers_.push_back(std::move(barrier));

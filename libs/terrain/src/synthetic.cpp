@@ -32,7 +32,8 @@ std::int32_t lattice_points(double extent, double cell, const std::string& what,
 
 void require_positive(double value, const std::string& key, const core::SettingsOrigins& origins) {
   if (!(std::isfinite(value) && value > 0.0)) {
-    throw core::InputError(origins.of(key), "synthetic slope: " + key + " must be finite and > 0, got " + format_number(value));
+    throw core::InputError(origins.of(key),
+                           "synthetic slope: " + key + " must be finite and > 0, got " + format_number(value));
   }
 }
 
@@ -77,8 +78,9 @@ DemGrid make_synthetic(const SyntheticSlope& slope, const core::SettingsOrigins&
   } else if (slope.kind == "plane") {
     require_positive(slope.length, "length", origins);
     if (!(slope.slope_angle_deg >= 0.0 && slope.slope_angle_deg < 90.0)) {
-      throw core::InputError(origins.of("slope_angle_deg"), "synthetic slope: slope_angle_deg must be in [0, 90), got " +
-                                         format_number(slope.slope_angle_deg));
+      throw core::InputError(
+          origins.of("slope_angle_deg"),
+          "synthetic slope: slope_angle_deg must be in [0, 90), got " + format_number(slope.slope_angle_deg));
     }
     const double drop = slope.length * std::tan(slope.slope_angle_deg * std::numbers::pi / 180.0);
     profile = {{0.0, drop}, {slope.length, 0.0}};
@@ -90,16 +92,19 @@ DemGrid make_synthetic(const SyntheticSlope& slope, const core::SettingsOrigins&
     }
     for (std::size_t k = 0; k < profile.size(); ++k) {
       if (!std::isfinite(profile[k][0]) || !std::isfinite(profile[k][1])) {
-        throw core::InputError(origins.of("profile"), "synthetic slope: profile point " + std::to_string(k) + " is not finite");
+        throw core::InputError(origins.of("profile"),
+                               "synthetic slope: profile point " + std::to_string(k) + " is not finite");
       }
       if (k > 0 && !(profile[k][0] > profile[k - 1][0])) {
-        throw core::InputError(origins.of("profile"), "synthetic slope: profile x must increase, but point " + std::to_string(k) +
-                                           " has x = " + format_number(profile[k][0]) + " after " +
-                                           format_number(profile[k - 1][0]));
+        throw core::InputError(origins.of("profile"), "synthetic slope: profile x must increase, but point " +
+                                                          std::to_string(k) +
+                                                          " has x = " + format_number(profile[k][0]) + " after " +
+                                                          format_number(profile[k - 1][0]));
       }
     }
   } else {
-    throw core::InputError(origins.of("kind"), "synthetic slope: unknown kind '" + slope.kind + "' (bench, plane, profile)");
+    throw core::InputError(origins.of("kind"),
+                           "synthetic slope: unknown kind '" + slope.kind + "' (bench, plane, profile)");
   }
 
   DemGrid dem;

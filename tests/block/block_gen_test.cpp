@@ -81,8 +81,9 @@ TEST_F(BlockGen, PlatonicSampleMakesTheFourReferenceBlocks) {
 }
 
 TEST_F(BlockGen, SameSettingsGiveIdenticalFiles) {
-  write_text(path("rocks.yaml"), "blocks:\n  - {solid: rock, volume: 0.5, seed: 9, elongation: 0.5}\n"
-                                 "  - {solid: ellipsoid, resolution: 6, roughness: 0.1, seed: 4}\n");
+  write_text(path("rocks.yaml"),
+             "blocks:\n  - {solid: rock, volume: 0.5, seed: 9, elongation: 0.5}\n"
+             "  - {solid: ellipsoid, dimensions: [1, 1, 1], resolution: 6, roughness: 0.1, seed: 4}\n");
   // Same command line (it is part of the provenance), so the whole file must repeat.
   ASSERT_EQ(run({"-c", "rocks.yaml", "-o", "a.h5"}).code, 0);
   fs::rename(path("a.h5"), path("first.h5"));
@@ -162,12 +163,13 @@ TEST_F(BlockGen, CloudsEmptyFilesAndBadSettingsAreClearErrors) {
   write_text(path("two.yaml"), "blocks:\n  - {solid: cube}\n  - {solid: cube}\n");
   r = run({"-c", "two.yaml", "-o", "x.h5"});
   EXPECT_EQ(r.code, 3);
-  EXPECT_EQ(r.err, "block-gen: error: two.yaml: duplicate block name 'cube' (set 'name' to tell them apart)\n");
+  // Named by the line of the second block (its name is the solid's).
+  EXPECT_EQ(r.err, "block-gen: error: two.yaml:3: duplicate block name 'cube' (set 'name' to tell them apart)\n");
 
   write_text(path("both.yaml"), "blocks:\n  - {solid: cube, mesh: a.obj}\n");
   r = run({"-c", "both.yaml", "-o", "x.h5"});
   EXPECT_EQ(r.code, 3);
-  EXPECT_EQ(r.err, "block-gen: error: both.yaml: blocks[0]: give exactly one of solid, mesh or cloud (2 given)\n");
+  EXPECT_EQ(r.err, "block-gen: error: both.yaml:2: blocks[0]: give exactly one of solid, mesh or cloud (2 given)\n");
 
   r = run({"-c", kSample});
   EXPECT_EQ(r.code, 2);
@@ -180,10 +182,11 @@ TEST_F(BlockGen, CloudsEmptyFilesAndBadSettingsAreClearErrors) {
 TEST_F(BlockGen, CloudHullAndSimplificationAreReported) {
   // A cloud: the corners of a 2×1×0.5 box and interior points.
   write_text(path("box.xyz"), "0 0 0\n2 0 0\n0 1 0\n2 1 0\n0 0 0.5\n2 0 0.5\n0 1 0.5\n2 1 0.5\n1 0.5 0.25\n");
-  write_text(path("lod.yaml"), "blocks:\n"
-                               "  - {cloud: box.xyz, weight: 2}\n"
-                               "  - name: scan\n    solid: ellipsoid\n    resolution: 6\n    roughness: 0.1\n"
-                               "    volume: 1\n    input: {simplify: {mode: faces, target_faces: 100}}\n");
+  write_text(path("lod.yaml"),
+             "blocks:\n"
+             "  - {cloud: box.xyz, weight: 2}\n"
+             "  - name: scan\n    solid: ellipsoid\n    dimensions: [1, 1, 1]\n    resolution: 6\n    roughness: 0.1\n"
+             "    volume: 1\n    input: {simplify: {mode: faces, target_faces: 100}}\n");
   const Outcome r = run({"-c", "lod.yaml", "-o", "lod.h5", "-v"});
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_TRUE(contains(r.err, "scan: simplified 720 -> ")) << r.err;

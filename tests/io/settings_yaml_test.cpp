@@ -149,6 +149,46 @@ TEST(SettingsYaml, SelfNestingAliasesAndEmptySectionsAreErrors) {
   EXPECT_THROW(read_settings("", "f", {"zones="}, bind(e)), core::InputError);
 }
 
+// Where each value came from, for checks made after reading (core::SettingsOrigins).
+TEST(SettingsYaml, OriginsNameTheLineOrTheSetKeyOfEachValue) {
+  Example e;
+  core::SettingsOrigins origins("a.yaml");
+  read_settings("sigma: 0.4\nnested:\n  inner: 7\nzones:\n  - name: scree\n    polygon: [[0, 0], [1, 0], [1, 1]]\n"
+                "  - name: mud\n",
+                "a.yaml", {"zones[1].polygon=[[0, 0]]", "count=4"}, bind(e), &origins);
+  EXPECT_EQ(origins.of("sigma"), "a.yaml:1");
+  EXPECT_EQ(origins.of("nested.inner"), "a.yaml:3");
+  EXPECT_EQ(origins.of("zones[0].polygon"), "a.yaml:6");
+  EXPECT_EQ(origins.of("zones[1].polygon"), "--set zones[1].polygon");
+  EXPECT_EQ(origins.of("count"), "--set count");
+  // A key an item does not give is its default, in the item given at that line; a key
+  // nobody gave is named by the file alone.
+  EXPECT_EQ(origins.of("zones[1].name"), "a.yaml:7");
+  EXPECT_EQ(origins.of("mode"), "a.yaml");
+  // A message about two values names the one an override gave.
+  EXPECT_EQ(origins.of({"zones[0].polygon", "count"}), "--set count");
+  EXPECT_EQ(origins.of({"sigma", "nested.inner"}), "a.yaml:1");
+  EXPECT_EQ(origins.within("nested").of("inner"), "a.yaml:3");
+  EXPECT_EQ(origins.within("zones").of("[1].polygon"), "--set zones[1].polygon");
+
+  // A section or list given whole by --set names that --set for every value in it.
+  core::SettingsOrigins whole("settings");
+  read_settings("", "--set", {"zones=[{name: a, polygon: [[0, 0]]}]"}, bind(e), &whole);
+  EXPECT_EQ(whole.of("zones[0].polygon"), "--set zones");
+  EXPECT_EQ(whole.of("sigma"), "settings");
+
+  // Overrides from another file's list are named by it.
+  core::SettingsOrigins listed("scene.yaml");
+  read_settings("sigma: 0.4\n", "scene.yaml", {"sigma=0.5"}, bind(e), &listed, {"cal.yaml:7: set"});
+  EXPECT_EQ(listed.of("sigma"), "cal.yaml:7: set sigma");
+  try {
+    read_settings("", "scene.yaml", {"mode=diagonal"}, bind(e), nullptr, {"cal.yaml:7: set"});
+    ADD_FAILURE() << "a value outside the choice is refused";
+  } catch (const core::InputError& err) {
+    EXPECT_EQ(err.source(), "cal.yaml:7: set mode");
+  }
+}
+
 TEST(SettingsYaml, PrintedSettingsReadBackIdentically) {
   Example e;
   e.sigma = 0.1 + 0.2;  // not exactly representable in short decimal

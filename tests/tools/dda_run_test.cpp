@@ -452,7 +452,8 @@ TEST_F(DdaRun, PresetsRunAndPrintTheirSettings) {
 TEST_F(DdaRun, BlockInTheGroundIsRefusedWithOneLine) {
   const Outcome r = run({"-c", "plane.yaml", "-o", "refused.h5"});
   EXPECT_EQ(r.code, 3) << r.err;
-  EXPECT_EQ(r.err.rfind("dda-run: error: plane.yaml: release of realization 0 at (5, 5): block 'cube' reaches 0.7 m "
+  // Named by the line of release.height, the setting to change.
+  EXPECT_EQ(r.err.rfind("dda-run: error: plane.yaml:5: release of realization 0 at (5, 5): block 'cube' reaches 0.7 m "
                         "into the ground (at x 4.5, y ",
                         0),
             0u)

@@ -559,8 +559,10 @@ TEST_F(TerrainGen, LasPointCloudBuildsTheGroundTin) {
   // Errors: one line, exit 3, nothing written.
   expect_error(run({"survey.las", "--set", "tin.las_classes=[9]", "-o", "out.h5"}), 3,
                "survey.las: no point of class 9 among its 23 points; its classes: 2 (20 points), 5 (3 points)");
-  expect_error(run({"survey.las", "--set", "tin.las_classes=[2.5]", "-o", "out.h5"}), 3,
-               "tin.las_classes: 2.5 is not a LAS classification code (an integer from 0 to 255)");
+  expect_error(
+      run({"survey.las", "--set", "tin.las_classes=[2.5]", "-o", "out.h5"}), 3,
+      "error: --set tin.las_classes: tin.las_classes: 2.5 is not a LAS classification code (an integer from 0 to "
+      "255)");
   write_text(dir_ / "survey.laz", testing::las_bytes(f));
   expect_error(run({"survey.laz", "-o", "out.h5"}), 3,
                "survey.laz: LAZ is compressed LAS, which Talus does not read: decompress it first, e.g. las2las -i "
@@ -653,7 +655,7 @@ TEST_F(TerrainGen, ErrorsExitWithOneLineAndLeaveNoOutput) {
   expect_error(run({"--set", "roughness", "-o", "out.h5"}), 2, "--set expects key=value");
   expect_error(run({"-c", kSample, "-o", "no/such/dir/out.h5"}), 1, "output directory does not exist");
   expect_error(run({"-c", kSample, "--set", "roughness.sigma=0.3", "-o", "out.h5"}), 3,
-               "roughness: give sigma or roughness_index, not both");
+               "error: --set roughness.sigma: roughness: give sigma or roughness_index, not both");
   expect_error(run({"-c", kSample, "--set", "triangulation=diagonal", "-o", "out.h5"}), 3,
                "'diagonal' is not one of: fixed, alternating, random");
   expect_error(run({"-c", kSample, "--set", "synthetic.cell_size=-1", "-o", "out.h5"}), 3, "cell_size");

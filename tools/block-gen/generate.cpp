@@ -1,5 +1,6 @@
 #include "generate.hpp"
 
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <set>
@@ -80,12 +81,27 @@ Polyhedron read_solid_file(const std::string& path, bool cloud, const InputSetti
   return std::move(checked.polyhedron);
 }
 
-Polyhedron make_named_solid(const BlockSettings& b, const std::string& where) {
+// `item` is the block's key path ("blocks[2]"), `where` its place in messages.
+Polyhedron make_named_solid(const BlockSettings& b, const std::string& item, const std::string& where,
+                            const core::SettingsOrigins& origins) {
   block::SolidSpec spec;
   spec.kind = *block::parse_solid_kind(b.solid);
   const bool needs_volume = spec.kind != block::SolidKind::box && spec.kind != block::SolidKind::ellipsoid;
+  // A box's or ellipsoid's shape is its dimensions: none has a default.
+  if (!needs_volume) {
+    const bool box = spec.kind == block::SolidKind::box;
+    const std::string what = std::string(box ? "a box needs its edges" : "an ellipsoid needs its diameters") +
+                             " along x, y, z in dimensions: [a, b, c] (m)";
+    if (b.dimensions == std::array<double, 3>{0.0, 0.0, 0.0})
+      throw core::InputError(origins.of({item + ".dimensions", item + ".solid"}), item + ": " + what);
+    if (!(b.dimensions[0] > 0.0 && b.dimensions[1] > 0.0 && b.dimensions[2] > 0.0))
+      throw core::InputError(origins.of(item + ".dimensions"), item + ": " + what + ", each > 0, got [" +
+                                                                   core::format_number(b.dimensions[0]) + ", " +
+                                                                   core::format_number(b.dimensions[1]) + ", " +
+                                                                   core::format_number(b.dimensions[2]) + "]");
+  }
   spec.volume = b.volume ? *b.volume : (needs_volume ? 1.0 : 0.0);
-  core::require(!b.volume || *b.volume > 0.0, where, "volume must be positive, got " +
+  core::require(!b.volume || *b.volume > 0.0, origins.of(item + ".volume"), "volume must be positive, got " +
                                                          core::format_number(b.volume.value_or(0.0)) + " m^3");
   spec.dimensions = Vec3(b.dimensions[0], b.dimensions[1], b.dimensions[2]);
   spec.resolution = static_cast<int>(std::clamp<std::int64_t>(b.resolution, -1, 1 << 20));
@@ -133,28 +149,31 @@ block::Block finish(const std::string& name, Polyhedron poly, const BlockSetting
 }  // namespace
 
 std::vector<block::Block> build_blocks(const Settings& settings, const std::vector<std::string>& inputs,
-                                       const std::string& settings_source) {
-  core::require(settings.density > 0.0 && std::isfinite(settings.density), settings_source,
+                                       const core::SettingsOrigins& origins) {
+  core::require(settings.density > 0.0 && std::isfinite(settings.density), origins.of("density"),
                 "density must be positive, got " + core::format_number(settings.density) + " kg/m^3");
   std::vector<block::Block> blocks;
   for (std::size_t i = 0; i < settings.blocks.size(); ++i) {
     const BlockSettings& b = settings.blocks[i];
-    const std::string where = settings_source + ": blocks[" + std::to_string(i) + "]";
+    const std::string item = "blocks[" + std::to_string(i) + "]";
+    const std::string where = origins.of(item) + ": " + item;
     const int sources = (b.solid != "none") + !b.mesh.empty() + !b.cloud.empty();
     if (sources != 1)
-      throw core::InputError(where, "give exactly one of solid, mesh or cloud (" + std::to_string(sources) + " given)");
+      throw core::InputError(
+          origins.of({item + ".solid", item + ".mesh", item + ".cloud"}),
+          item + ": give exactly one of solid, mesh or cloud (" + std::to_string(sources) + " given)");
     std::vector<std::string> notes;
     Polyhedron poly;
     std::string name = b.name, source;
     if (b.solid != "none") {
-      poly = make_named_solid(b, where);
+      poly = make_named_solid(b, item, where, origins);
       source = b.solid;
       if (name.empty()) name = b.solid;
     } else {
       const std::string& path = b.mesh.empty() ? b.cloud : b.mesh;
       poly = read_solid_file(path, !b.cloud.empty(), b.input, where, "blocks[" + std::to_string(i) + "].input", notes);
       if (b.volume) {
-        core::require(*b.volume > 0.0, where, "volume must be positive");
+        core::require(*b.volume > 0.0, origins.of(item + ".volume"), "volume must be positive");
         rescale(poly, *b.volume);
         notes.push_back("scaled to " + core::format_number(*b.volume) + " m^3");
       }
@@ -174,12 +193,14 @@ std::vector<block::Block> build_blocks(const Settings& settings, const std::vect
   if (blocks.empty())
     throw core::UsageError("nothing to build: give INPUT files or a settings file with a 'blocks' list (see --help)");
   std::set<std::string> names;
-  for (const auto& blk : blocks)
-    if (!names.insert(blk.name).second)
-      throw core::InputError(settings_source, "duplicate block name '" + blk.name + "' (set 'name' to tell them apart)");
+  for (std::size_t k = 0; k < blocks.size(); ++k)
+    if (!names.insert(blocks[k].name).second)
+      throw core::InputError(k < settings.blocks.size() ? origins.of("blocks[" + std::to_string(k) + "].name")
+                                                        : blocks[k].source,
+                             "duplicate block name '" + blocks[k].name + "' (set 'name' to tell them apart)");
   double total_weight = 0.0;
   for (const auto& blk : blocks) total_weight += blk.weight;
-  core::require(total_weight > 0.0, settings_source, "the block weights sum to zero");
+  core::require(total_weight > 0.0, origins.of("blocks"), "the block weights sum to zero");
   return blocks;
 }
 

@@ -132,8 +132,7 @@ int main(int argc, char** argv) {
       for (const auto& file : info_files(inv, info_option)) print_info(file);
       return;
     }
-    const std::string settings_source = inv.config_path.empty() ? "settings" : inv.config_path;
-    const std::vector<block::Block> blocks = block_gen::build_blocks(settings, inv.inputs, settings_source);
+    const std::vector<block::Block> blocks = block_gen::build_blocks(settings, inv.inputs, inv.origins);
     // A scan in centimetres read as metres is a million times too large, yet may still lie
     // inside the volumes a block may have: say so for read blocks of volumes no rockfall
     // block has (a solid asked for by volume is what was asked).

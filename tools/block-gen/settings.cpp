@@ -1,5 +1,7 @@
 #include "settings.hpp"
 
+#include <limits>
+
 namespace talus::block_gen {
 
 core::Range block_volume_range() { return core::Range::closed(block::kMinVolume, block::kMaxVolume); }
@@ -11,7 +13,8 @@ void RepairSettings::visit(core::SettingsVisitor& v) {
   v.bounded("stitch_tolerance", stitch_tolerance, "m", "stitch distance; 0 = 1e-6 x bounding-box diagonal",
             core::Range::closed(0.0, 1e3));
   v.field("fill_holes", fill_holes, "close holes of up to max_hole_edges boundary edges (reported)");
-  v.field("max_hole_edges", max_hole_edges, "-", "largest hole filled, in boundary edges");
+  v.bounded("max_hole_edges", max_hole_edges, "-", "largest hole filled, in boundary edges",
+            core::Range{3.0, std::numeric_limits<double>::infinity()});
 }
 
 void SimplifySettings::visit(core::SettingsVisitor& v) {
@@ -27,10 +30,14 @@ void InputSettings::visit(core::SettingsVisitor& v) {
   v.choice("up_axis", up_axis, {"z", "y"}, "up axis of the file; y-up files are rotated to z-up");
   v.choice("reconstruction", reconstruction, {"hull", "advancing_front"},
            "point clouds: convex hull, or concave advancing-front reconstruction");
-  v.field("radius_ratio_bound", radius_ratio_bound, "-",
-          "advancing front: refuse triangles whose circumradius exceeds this multiple of their shortest edge "
-          "(larger bridges wider gaps)");
-  v.field("beta_deg", beta_deg, "deg", "advancing front: sharpest dihedral angle change the surface may follow");
+  // The ranges the reconstruction and repair accept, declared so that the reader names a
+  // value out of them by its line or --set key (not the mesh or cloud file).
+  v.bounded("radius_ratio_bound", radius_ratio_bound, "-",
+            "advancing front: refuse triangles whose circumradius exceeds this multiple of their shortest edge "
+            "(larger bridges wider gaps)",
+            core::Range{0.0, std::numeric_limits<double>::infinity(), true, false});
+  v.bounded("beta_deg", beta_deg, "deg", "advancing front: sharpest dihedral angle change the surface may follow",
+            core::Range{0.0, 180.0, true, true});
   v.section("repair", "repairs of defective meshes, only when asked, always reported",
             [this](core::SettingsVisitor& s) { repair.visit(s); });
   v.section("simplify", "level of detail; the changes in volume, inertia and sphericity are reported",
@@ -48,15 +55,22 @@ void BlockSettings::visit(core::SettingsVisitor& v) {
             "target volume: solids are scaled to it (default 1 for Platonic solids and rocks); a mesh or cloud is "
             "scaled about its centroid only when given",
             block_volume_range());
-  v.bounded("dimensions", dimensions, "m", "box edges, or ellipsoid diameters, along x, y, z",
-            core::Range::positive(1e3));
-  v.field("resolution", resolution, "-", "ellipsoid: geodesic frequency n (20 n^2 triangles)");
-  v.field("roughness", roughness, "-",
-          "ellipsoid: sd of the relative height of 40 random smooth bumps and dents (0..0.3); > 0 makes a "
-          "concave rock");
-  v.field("elongation", elongation, "-", "rock: target L2/L1 along the principal axes");
-  v.field("flatness", flatness, "-", "rock: target L3/L2 along the principal axes");
-  v.field("points", points, "-", "rock: number of random points whose convex hull is the rock");
+  // No default shape: a box or an ellipsoid whose dimensions were forgotten is refused,
+  // not built as a 1 m cube or sphere.
+  v.bounded("dimensions", dimensions, "m",
+            "box edges, or ellipsoid diameters, along x, y, z (required for box and ellipsoid; 0 0 0 = not given)",
+            core::Range::closed(0.0, 1e3));
+  // The ranges block::make_solid accepts, declared here so that a value out of them is
+  // named by its line or --set key.
+  v.bounded("resolution", resolution, "-", "ellipsoid: geodesic frequency n (20 n^2 triangles)",
+            core::Range::closed(1.0, 1000.0));
+  v.bounded("roughness", roughness, "-",
+            "ellipsoid: sd of the relative height of 40 random smooth bumps and dents; > 0 makes a concave rock",
+            core::Range::closed(0.0, 0.3));
+  v.bounded("elongation", elongation, "-", "rock: target L2/L1 along the principal axes", core::Range::positive(1.0));
+  v.bounded("flatness", flatness, "-", "rock: target L3/L2 along the principal axes", core::Range::positive(1.0));
+  v.bounded("points", points, "-", "rock: number of random points whose convex hull is the rock",
+            core::Range::closed(8.0, 100000.0));
   v.field("seed", seed, "-", "rock, rough ellipsoid: seed of the block_shape random stream");
   v.bounded("density", density, "kg/m^3", "density of this block (default: the top-level density)",
             density_range());

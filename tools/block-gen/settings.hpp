@@ -53,7 +53,7 @@ struct BlockSettings {
   std::string mesh;
   std::string cloud;
   std::optional<double> volume;       ///< m³
-  std::array<double, 3> dimensions{1.0, 1.0, 1.0};  ///< m
+  std::array<double, 3> dimensions{0.0, 0.0, 0.0};  ///< m; all 0 = not given (a box or ellipsoid needs them)
   std::int64_t resolution = 8;
   double roughness = 0.0;
   double elongation = 0.7;

@@ -31,9 +31,26 @@ struct Fnv1a {
   }
 };
 
-mc::SceneSettings read_scene(const std::string& path, const std::vector<std::string>& overrides) {
+// The scene file with the overrides of the settings' `set` list and, for a group, of its
+// own (`group` its index; none for the base scene). Its messages and `origins` name an
+// override by the line of its list: "calibrate.yaml:7: set release.height".
+mc::SceneSettings read_scene(const Settings& settings, const core::SettingsOrigins& origins,
+                             std::optional<std::size_t> group, core::SettingsOrigins* scene_origins = nullptr) {
+  const auto given_by = [&](const std::string& key) {
+    const std::string where = origins.of(key);
+    return where.rfind("--set ", 0) == 0 ? where + ":" : where + ": " + key;
+  };
+  std::vector<std::string> overrides = settings.set;
+  std::vector<std::string> names(overrides.size(), given_by("set"));
+  if (group) {
+    const std::vector<std::string>& own = settings.groups[*group].set;
+    overrides.insert(overrides.end(), own.begin(), own.end());
+    names.resize(overrides.size(), given_by("groups[" + std::to_string(*group) + "].set"));
+  }
   mc::SceneSettings s;
-  io::read_settings_file(path, overrides, [&s](core::SettingsVisitor& v) { s.visit(v); });
+  core::SettingsOrigins recorded(settings.scene);
+  io::read_settings_file(settings.scene, overrides, [&s](core::SettingsVisitor& v) { s.visit(v); }, &recorded, names);
+  if (scene_origins != nullptr) *scene_origins = std::move(recorded);
   return s;
 }
 
@@ -105,53 +122,66 @@ void check_on_terrain(const io::ObservedStops& stops, const Case& c, const terra
 
 }  // namespace
 
-Problem::Problem(const Settings& settings, const std::string& source, unsigned threads)
+Problem::Problem(const Settings& settings, const core::SettingsOrigins& origins, unsigned threads)
     : settings_(settings), threads_(threads) {
   const Settings& s = settings_;
-  if (s.scene.empty()) throw InputError(source, "scene: no scene file given");
-  if (s.groups.empty()) throw InputError(source, "groups: at least one observed case is needed");
-  if (s.parameters.empty()) throw InputError(source, "parameters: at least one fitted parameter is needed");
-  if (s.realizations < 2) throw InputError(source, "realizations must be at least 2");
-  if (s.particles < 2) throw InputError(source, "particles must be at least 2");
-  if (s.generations < 1) throw InputError(source, "generations must be at least 1");
-  if (!(s.quantile > 0.0 && s.quantile < 1.0)) throw InputError(source, "quantile must be in (0, 1)");
-  if (!(s.min_acceptance >= 0.0 && s.min_acceptance < 1.0)) throw InputError(source, "min_acceptance must be in [0, 1)");
-  if (s.max_simulations < 0) throw InputError(source, "max_simulations must be >= 0");
+  const std::string& source = origins.source();
+  if (s.scene.empty()) throw InputError(origins.of("scene"), "scene: no scene file given");
+  if (s.groups.empty()) throw InputError(origins.of("groups"), "groups: at least one observed case is needed");
+  if (s.parameters.empty())
+    throw InputError(origins.of("parameters"), "parameters: at least one fitted parameter is needed");
+  if (s.realizations < 2) throw InputError(origins.of("realizations"), "realizations must be at least 2");
+  if (s.particles < 2) throw InputError(origins.of("particles"), "particles must be at least 2");
+  if (s.generations < 1) throw InputError(origins.of("generations"), "generations must be at least 1");
+  if (!(s.quantile > 0.0 && s.quantile < 1.0)) throw InputError(origins.of("quantile"), "quantile must be in (0, 1)");
+  if (!(s.min_acceptance >= 0.0 && s.min_acceptance < 1.0))
+    throw InputError(origins.of("min_acceptance"), "min_acceptance must be in [0, 1)");
+  if (s.max_simulations < 0) throw InputError(origins.of("max_simulations"), "max_simulations must be >= 0");
   // Generation 0 (the prior) takes `particles` simulations and generation 1 at least as
   // many: a smaller budget could only return the prior.
   if (s.max_simulations > 0 && s.max_simulations < 2 * s.particles)
-    throw InputError(source, "max_simulations " + std::to_string(s.max_simulations) + " is below 2 x particles (" +
-                                 std::to_string(2 * s.particles) + "): generation 0 (the prior) takes particles "
-                                 "simulations and generation 1 at least as many, so no posterior could be computed "
-                                 "(0 = no limit)");
-  if (s.predictive_draws < 2) throw InputError(source, "predictive_draws must be at least 2");
+    throw InputError(origins.of({"max_simulations", "particles"}),
+                     "max_simulations " + std::to_string(s.max_simulations) + " is below 2 x particles (" +
+                         std::to_string(2 * s.particles) +
+                         "): generation 0 (the prior) takes particles "
+                         "simulations and generation 1 at least as many, so no posterior could be computed "
+                         "(0 = no limit)");
+  if (s.predictive_draws < 2) throw InputError(origins.of("predictive_draws"), "predictive_draws must be at least 2");
   variables_ = s.variables == "runout" ? std::vector<std::string>{"runout"} : std::vector<std::string>{"runout", "lateral"};
 
-  base_scene_ = read_scene(s.scene, s.set);
+  base_scene_ = read_scene(s, origins, std::nullopt);
   std::set<std::string> labels;
   for (std::size_t k = 0; k < s.parameters.size(); ++k) {
     const FittedParameter& p = s.parameters[k];
-    const std::string where = "parameters[" + std::to_string(k) + "] (" + p.label() + "): ";
+    const std::string item = "parameters[" + std::to_string(k) + "]";
+    const std::string where = item + " (" + p.label() + "): ";
+    const auto key = [&](const char* name) { return item + "." + name; };
     if (p.is_roughness() && !p.material.empty())
-      throw InputError(source, where + "roughness_sigma is the terrain's: name no material");
-    if (!p.is_roughness() && p.material.empty()) throw InputError(source, where + "no material named");
-    if (!labels.insert(p.label()).second) throw InputError(source, where + "fitted twice");
+      throw InputError(origins.of({key("material"), key("parameter")}),
+                       where + "roughness_sigma is the terrain's: name no material");
+    if (!p.is_roughness() && p.material.empty())
+      throw InputError(origins.of(key("material")), where + "no material named");
+    if (!labels.insert(p.label()).second)
+      throw InputError(origins.of({key("material"), key("parameter")}), where + "fitted twice");
     if (!(std::isfinite(p.min) && std::isfinite(p.max) && p.min < p.max))
-      throw InputError(source, where + "the prior needs finite min < max (both given)");
+      throw InputError(origins.of({key("min"), key("max")}), where + "the prior needs finite min < max (both given)");
     if (p.prior == "normal" && !(p.sd > 0.0 && std::isfinite(p.sd) && std::isfinite(p.mean)))
-      throw InputError(source, where + "a normal prior needs a finite mean and sd > 0");
+      throw InputError(origins.of({key("sd"), key("mean"), key("prior")}),
+                       where + "a normal prior needs a finite mean and sd > 0");
     if (p.prior == "uniform" && (!std::isnan(p.mean) || !std::isnan(p.sd)))
-      throw InputError(source, where + "a uniform prior takes no mean or sd (prior: normal uses them)");
+      throw InputError(origins.of({key(std::isnan(p.mean) ? "sd" : "mean"), key("prior")}),
+                       where + "a uniform prior takes no mean or sd (prior: normal uses them)");
     if (p.prior == "normal") {
       // Drawn by rejection inside [min, max]: a prior with almost none of its mass there
       // says something else than was meant.
       const auto cdf = [&](double x) { return 0.5 * std::erfc(-(x - p.mean) / (p.sd * std::sqrt(2.0))); };
       const double mass = cdf(p.max) - cdf(p.min);
       if (!(mass >= 1e-3))
-        throw InputError(source, where + "a normal prior of mean " + core::format_number(p.mean) + " and sd " +
-                                     core::format_number(p.sd) + " has " + core::format_number(mass) +
-                                     " of its mass in [" + core::format_number(p.min) + ", " +
-                                     core::format_number(p.max) + "] (at least 0.001 needed)");
+        throw InputError(origins.of({key("mean"), key("sd"), key("min"), key("max")}),
+                         where + "a normal prior of mean " + core::format_number(p.mean) + " and sd " +
+                             core::format_number(p.sd) + " has " + core::format_number(mass) + " of its mass in [" +
+                             core::format_number(p.min) + ", " + core::format_number(p.max) +
+                             "] (at least 0.001 needed)");
     }
     // The ranges the material is read with (terrain-gen, scene overrides).
     const terrain::Material::Ranges r = terrain::Material::ranges();
@@ -164,8 +194,9 @@ Problem::Problem(const Settings& settings, const std::string& source, unsigned t
                                : p.parameter == "friction_coefficient_sd" ? r.friction_coefficient_sd
                                                                           : r.lateral_tilt_sd_deg;
     if (!range.contains(p.min) || !range.contains(p.max))
-      throw InputError(source, where + "the prior [" + core::format_number(p.min) + ", " + core::format_number(p.max) +
-                                   "] leaves the property's range " + range.text(""));
+      throw InputError(origins.of({key("min"), key("max")}), where + "the prior [" + core::format_number(p.min) + ", " +
+                                                                 core::format_number(p.max) +
+                                                                 "] leaves the property's range " + range.text(""));
     priors_.push_back(stats::Prior{p.prior, p.min, p.max, p.mean, p.sd});
   }
 
@@ -173,13 +204,12 @@ Problem::Problem(const Settings& settings, const std::string& source, unsigned t
     const Group& group = s.groups[g];
     Case c;
     c.name = group.name.empty() ? "group " + std::to_string(g) : group.name;
-    const std::string where = "groups[" + std::to_string(g) + "] (" + c.name + "): ";
-    std::vector<std::string> overrides = s.set;
-    overrides.insert(overrides.end(), group.set.begin(), group.set.end());
-    c.scene = read_scene(s.scene, overrides);
-    c.source = s.scene;
-    if (c.scene.terrain.empty()) throw InputError(s.scene, "no terrain file given (key 'terrain')");
-    if (c.scene.block_file.empty()) throw InputError(s.scene, "no block file given (key 'block_file')");
+    const std::string item = "groups[" + std::to_string(g) + "]";
+    const std::string where = item + " (" + c.name + "): ";
+    c.scene = read_scene(s, origins, g, &c.origins);
+    if (c.scene.terrain.empty()) throw InputError(c.origins.of("terrain"), "no terrain file given (key 'terrain')");
+    if (c.scene.block_file.empty())
+      throw InputError(c.origins.of("block_file"), "no block file given (key 'block_file')");
     auto& terrain = terrains_[c.scene.terrain];
     if (!terrain) terrain = std::make_unique<terrain::Terrain>(io::read_terrain_file(c.scene.terrain));
     auto& library = libraries_[c.scene.block_file];
@@ -192,34 +222,39 @@ Problem::Problem(const Settings& settings, const std::string& source, unsigned t
     // not hours into the calibration.
     mc::SceneSettings probe = c.scene;
     probe.realizations = s.realizations;
-    const mc::Scene scene = mc::Scene::build(probe, *terrain, *library, c.source, c.vectors);
+    const mc::Scene scene = mc::Scene::build(probe, *terrain, *library, c.origins, c.vectors);
     std::vector<std::uint32_t> first(static_cast<std::size_t>(s.realizations));
     std::iota(first.begin(), first.end(), 0u);
     mc::check_releases(scene, first, threads_);
-    for (const FittedParameter& p : s.parameters) {
+    for (std::size_t k = 0; k < s.parameters.size(); ++k) {
+      const FittedParameter& p = s.parameters[k];
       if (p.is_roughness()) continue;
       bool found = false;
       for (const auto& m : scene.materials()) found = found || m.name == p.material;
-      if (!found) throw InputError(source, where + "material '" + p.material + "' is not in the terrain file " +
-                                               c.scene.terrain);
+      if (!found)
+        throw InputError(origins.of("parameters[" + std::to_string(k) + "].material"),
+                         where + "material '" + p.material + "' is not in the terrain file " + c.scene.terrain);
     }
     // Where runout is measured from, in the terrain's input coordinates.
     const Eigen::Vector3d to_input = terrain->origin_shift - scene.frame_shift();
     if (group.origin.empty()) {
       if (c.scene.release.points.empty())
-        throw InputError(source, where + "origin: give it (the release comes from a file, not a point)");
+        throw InputError(origins.of(item + ".origin"),
+                         where + "origin: give it (the release comes from a file, not a point)");
       c.origin = Eigen::Vector2d(c.scene.release.points[0][0], c.scene.release.points[0][1]) + to_input.head<2>();
     } else if (group.origin.size() != 2 || !std::isfinite(group.origin[0]) || !std::isfinite(group.origin[1])) {
-      throw InputError(source, where + "origin must be [x, y] (m)");
+      throw InputError(origins.of(item + ".origin"), where + "origin must be [x, y] (m)");
     } else {
       c.origin = Eigen::Vector2d(group.origin[0], group.origin[1]);
     }
     const double azimuth =
         (group.main_direction_deg ? *group.main_direction_deg : c.scene.release.main_direction_deg) * M_PI / 180.0;
-    if (!std::isfinite(azimuth)) throw InputError(source, where + "main_direction_deg must be finite");
+    if (!std::isfinite(azimuth))
+      throw InputError(origins.of(item + ".main_direction_deg"), where + "main_direction_deg must be finite");
     c.direction = Eigen::Vector2d(std::cos(azimuth), std::sin(azimuth));
 
-    if (group.observed.empty()) throw InputError(source, where + "observed: no file of observed stops given");
+    if (group.observed.empty())
+      throw InputError(origins.of(item + ".observed"), where + "observed: no file of observed stops given");
     const io::ObservedStops stops =
         io::read_observed_stops(group.observed, group.layer, terrain->crs_wkt, "groups[" + std::to_string(g) + "].observed");
     check_on_terrain(stops, c, scene.base_surface(), terrain->origin_shift.head<2>(), group.observed);
@@ -295,7 +330,7 @@ Simulated Problem::simulate(const std::vector<double>& theta, std::size_t c, std
   terrain::Terrain ground = *cs.terrain;
   for (std::size_t k = 0; k < settings_.parameters.size(); ++k)
     if (settings_.parameters[k].is_roughness()) ground.roughness.sigma = theta[k];
-  const mc::Scene scene = mc::Scene::build(s, std::move(ground), *cs.library, cs.source, cs.vectors);
+  const mc::Scene scene = mc::Scene::build(s, std::move(ground), *cs.library, cs.origins, cs.vectors);
   std::vector<std::uint32_t> indices(static_cast<std::size_t>(s.realizations));
   std::iota(indices.begin(), indices.end(), 0u);
   std::vector<mc::Record> records(indices.size());

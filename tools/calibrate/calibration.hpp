@@ -21,7 +21,7 @@ namespace talus::calibrate {
 struct Case {
   std::string name;
   mc::SceneSettings scene;
-  std::string source;                      ///< the scene file, for messages
+  core::SettingsOrigins origins;           ///< where each scene setting was given, for messages
   const terrain::Terrain* terrain = nullptr;
   const std::vector<block::Block>* library = nullptr;
   mc::SceneVectors vectors;
@@ -43,8 +43,9 @@ struct Simulated {
 class Problem {
  public:
   /// Reads the scene of every group, its terrain and blocks (each file once), its
-  /// observed stops; checks every name and value. `source` names the settings in errors.
-  Problem(const Settings& settings, const std::string& source, unsigned threads);
+  /// observed stops; checks every name and value. `origins` says where each setting was
+  /// given (the settings file and line, or the --set key), for errors.
+  Problem(const Settings& settings, const core::SettingsOrigins& origins, unsigned threads);
 
   const std::vector<Case>& cases() const { return cases_; }
   const std::vector<stats::Prior>& priors() const { return priors_; }

@@ -434,10 +434,9 @@ int main(int argc, char** argv) {
       throw core::InputError(predict_path, "no such file (--predict takes the posterior.h5 of a calibration)");
   };
   spec.run = [&](const cli::Invocation& inv) {
-    const std::string source = inv.config_path.empty() ? "settings" : inv.config_path;
     if (settings.plots && ranks.writer()) cli::check_plotting();
     core::Stopwatch clock;
-    const Problem problem(settings, source, cli::parse_threads(threads_text));
+    const Problem problem(settings, inv.origins, cli::parse_threads(threads_text));
     // A bad posterior is refused before anything is written.
     const AbcGeneration posterior = predict_path.empty() ? AbcGeneration{} : read_posterior(problem, predict_path);
     // Rank 0 writes; the others simulate their share of each batch.

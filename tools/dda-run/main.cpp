@@ -116,25 +116,28 @@ extern "C" void request_stop(int signal) {
   g_stop_signal = signal;
 }
 
-class StopSignals {
- public:
-  StopSignals() {
-    struct sigaction action{};
-    action.sa_handler = request_stop;
-    sigemptyset(&action.sa_mask);
-    ::sigaction(SIGINT, &action, &old_int_);
-    ::sigaction(SIGTERM, &action, &old_term_);
-  }
-  StopSignals(const StopSignals&) = delete;
-  StopSignals& operator=(const StopSignals&) = delete;
-  ~StopSignals() {
-    ::sigaction(SIGINT, &old_int_, nullptr);
-    ::sigaction(SIGTERM, &old_term_, nullptr);
-  }
+// Run from .preinit_array: the first code after the dynamic loader's relocation, before the
+// libraries' initializers and main (docs/errors.md says what window is left). SA_RESTART
+// keeps a signal from failing their system calls with EINTR.
+extern "C" void install_stop_handlers(int, char**, char**) {
+  struct sigaction action{};
+  action.sa_handler = request_stop;
+  action.sa_flags = SA_RESTART;
+  sigemptyset(&action.sa_mask);
+  ::sigaction(SIGINT, &action, nullptr);
+  ::sigaction(SIGTERM, &action, nullptr);
+}
+[[gnu::section(".preinit_array"), gnu::used]] void (*g_install_stop_handlers)(int, char**, char**) =
+    install_stop_handlers;
 
- private:
-  struct sigaction old_int_{}, old_term_{};
-};
+// `dda-run merge` keeps the default actions (it leaves at most a temporary, which the next
+// writer removes); a signal that came before is acted on now.
+void restore_default_signals() {
+  const int early = g_stop_signal;
+  std::signal(SIGINT, SIG_DFL);
+  std::signal(SIGTERM, SIG_DFL);
+  if (early != 0) std::raise(early);
+}
 
 // The run stopped on a signal: exit code 128 + signal, as a shell reports a killed job.
 class Interrupted : public core::Error {
@@ -243,9 +246,10 @@ void warn_coarse_step(const std::string& path, const mc::Scene& scene, const std
 // warns about realizations that did not end at rest.
 void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, const Options& opt,
                const mc::Shard& shard, const std::string& output, bool report_ends) {
-  const std::string source = inv.config_path.empty() ? "scene" : inv.config_path;
-  if (settings.terrain.empty()) throw core::InputError(source, "no terrain file given (key 'terrain')");
-  if (settings.block_file.empty()) throw core::InputError(source, "no block file given (key 'block_file')");
+  if (settings.terrain.empty())
+    throw core::InputError(inv.origins.of("terrain"), "no terrain file given (key 'terrain')");
+  if (settings.block_file.empty())
+    throw core::InputError(inv.origins.of("block_file"), "no block file given (key 'block_file')");
   core::Stopwatch clock;
   terrain::Terrain terrain = io::read_terrain_file(settings.terrain);
   const std::string fingerprint = io::terrain_fingerprint(terrain);
@@ -255,12 +259,12 @@ void run_scene(const mc::SceneSettings& settings, const cli::Invocation& inv, co
     if (std::none_of(library.begin(), library.end(), [&](const block::Block& b) { return b.name == name; })) {
       std::string names;
       for (const auto& b : library) names += (names.empty() ? "" : ", ") + b.name;
-      throw core::InputError(inv.source_of("blocks"), "block '" + name + "' is not in the block file " +
-                                                          settings.block_file + " (it has: " + names + ")");
+      throw core::InputError(inv.origins.of("blocks"), "block '" + name + "' is not in the block file " +
+                                                           settings.block_file + " (it has: " + names + ")");
     }
   // Release zones and barrier lines from vector files, checked against the terrain's CRS.
   const mc::SceneVectors vectors = io::read_scene_vectors(settings, terrain);
-  const mc::Scene scene = mc::Scene::build(settings, std::move(terrain), library, source, vectors);
+  const mc::Scene scene = mc::Scene::build(settings, std::move(terrain), library, inv.origins, vectors);
 
   io::Provenance provenance = inv.provenance("dda-run", settings.seed);
   provenance.inputs = settings.terrain + "\n" + settings.block_file + "\n" + vectors.inputs;
@@ -402,10 +406,12 @@ int merge_main(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc > 1 && std::string(argv[1]) == "merge") return merge_main(argc - 1, argv + 1);
-  // Before any work: a signal while the scene is read stops the run at its first check
-  // with the one-line message, never by the default action.
-  const StopSignals signals;
+  if (argc > 1 && std::string(argv[1]) == "merge") {
+    restore_default_signals();
+    return merge_main(argc - 1, argv + 1);
+  }
+  // The handlers are in place (install_stop_handlers): a signal while the scene is read
+  // stops the run at its first check with the one-line message.
 
   [[maybe_unused]] int rank = 0;
   int ranks = 1;

@@ -74,16 +74,17 @@ bool is_wall(const Vec3& n) {
 io::UpAxis up_axis(const Settings& s) { return s.tin.up_axis == "y" ? io::UpAxis::y : io::UpAxis::z; }
 
 // The crop window; unbounded when no side is given.
-Window window_of(const Settings::Crop& crop, const std::string& settings_source) {
+Window window_of(const Settings::Crop& crop, const core::SettingsOrigins& origins) {
   Window w;
   if (crop.xmin) w.xmin = *crop.xmin;
   if (crop.ymin) w.ymin = *crop.ymin;
   if (crop.xmax) w.xmax = *crop.xmax;
   if (crop.ymax) w.ymax = *crop.ymax;
   if (!(w.xmin < w.xmax && w.ymin < w.ymax))
-    throw InputError(settings_source, "crop: the window [" + format_number(w.xmin) + ", " + format_number(w.xmax) +
-                                          "] x [" + format_number(w.ymin) + ", " + format_number(w.ymax) +
-                                          "] is empty (need xmin < xmax and ymin < ymax)");
+    throw InputError(origins.of({"crop.xmin", "crop.xmax", "crop.ymin", "crop.ymax"}),
+                     "crop: the window [" + format_number(w.xmin) + ", " + format_number(w.xmax) + "] x [" +
+                         format_number(w.ymin) + ", " + format_number(w.ymax) +
+                         "] is empty (need xmin < xmax and ymin < ymax)");
   return w;
 }
 
@@ -139,13 +140,13 @@ terrain::Diagonal diagonal_of(const std::string& mode) {
 
 // The DEM of a DEM input or synthetic slope, cropped and trimmed, in input coordinates.
 DemGrid input_dem(const Settings& s, SourceKind kind, const std::vector<std::string>& inputs,
-                  const std::string& settings_source) {
-  DemGrid dem = kind == SourceKind::synthetic ? terrain::make_synthetic(s.synthetic, settings_source)
+                  const core::SettingsOrigins& origins) {
+  DemGrid dem = kind == SourceKind::synthetic ? terrain::make_synthetic(s.synthetic, origins.within("synthetic"))
                                               : io::read_dem(inputs.front());
-  const std::string& source = kind == SourceKind::synthetic ? settings_source : inputs.front();
+  const std::string& source = kind == SourceKind::synthetic ? origins.source() : inputs.front();
   if (s.crop.any()) {
     // Unbounded sides become the DEM's own extent: crop_dem wants a finite window.
-    const Window w = window_of(s.crop, settings_source);
+    const Window w = window_of(s.crop, origins);
     const auto& g = dem.spec;
     const double x1 = g.x0 + (g.nx - 1) * g.dx, y1 = g.y0 + (g.ny - 1) * g.dy;
     dem = terrain::crop_dem(dem, std::max(w.xmin, g.x0), std::max(w.ymin, g.y0), std::min(w.xmax, x1),
@@ -260,45 +261,47 @@ std::string triangulation_of(const Terrain& t) {
 }
 
 // σ from the settings (given directly or as R), after the checks that need no input.
-double checked_sigma(const Settings& s, const std::string& settings_source) {
+double checked_sigma(const Settings& s, const core::SettingsOrigins& origins) {
   if (s.roughness.sigma && s.roughness.roughness_index)
-    throw InputError(settings_source, "roughness: give sigma or roughness_index, not both");
+    throw InputError(origins.of({"roughness.roughness_index", "roughness.sigma"}),
+                     "roughness: give sigma or roughness_index, not both");
   if (s.roughness.sigma) {
     if (!(*s.roughness.sigma >= 0.0))
-      throw InputError(settings_source, "roughness.sigma must be >= 0, got " + format_number(*s.roughness.sigma));
+      throw InputError(origins.of("roughness.sigma"),
+                       "roughness.sigma must be >= 0, got " + format_number(*s.roughness.sigma));
     return *s.roughness.sigma;
   }
   if (!s.roughness.roughness_index) return 0.0;
   try {
     return terrain::sigma_from_roughness_index(*s.roughness.roughness_index);
   } catch (const InputError& e) {
-    throw InputError(settings_source, "roughness.roughness_index " + e.detail());
+    throw InputError(origins.of("roughness.roughness_index"), "roughness.roughness_index " + e.detail());
   }
 }
 
 // Settings the library does not check itself, checked before any input is read.
-void check_settings(const Settings& s, const std::string& settings_source) {
-  if (s.materials.empty()) throw InputError(settings_source, "materials: at least one material is needed");
+void check_settings(const Settings& s, const core::SettingsOrigins& origins) {
+  if (s.materials.empty()) throw InputError(origins.of("materials"), "materials: at least one material is needed");
   std::set<std::string> names;
   for (std::size_t m = 0; m < s.materials.size(); ++m)
     if (!names.insert(s.materials[m].name).second)
-      throw InputError(settings_source, "materials[" + std::to_string(m) + "]: duplicate material name '" +
-                                            s.materials[m].name + "'");
+      throw InputError(origins.of("materials[" + std::to_string(m) + "].name"),
+                       "materials[" + std::to_string(m) + "]: duplicate material name '" + s.materials[m].name + "'");
   if (s.tin.mode == "resample" && !(s.tin.cell_size > 0.0))
-    throw InputError(settings_source, "tin.cell_size must be > 0, got " + format_number(s.tin.cell_size));
+    throw InputError(origins.of("tin.cell_size"), "tin.cell_size must be > 0, got " + format_number(s.tin.cell_size));
   if (!(s.tin.scale > 0.0))
-    throw InputError(settings_source, "tin.scale must be > 0, got " + format_number(s.tin.scale));
+    throw InputError(origins.of("tin.scale"), "tin.scale must be > 0, got " + format_number(s.tin.scale));
   for (double c : s.tin.las_classes)
     if (!(c >= 0.0 && c <= 255.0 && c == std::floor(c)))
-      throw InputError(settings_source, "tin.las_classes: " + format_number(c) +
+      throw InputError(origins.of("tin.las_classes"), "tin.las_classes: " + format_number(c) +
                                             " is not a LAS classification code (an integer from 0 to 255)");
 }
 
 // A grid TRN from a DEM file or the synthetic slope.
 Terrain terrain_from_dem(const Settings& s, SourceKind kind, const std::vector<std::string>& inputs,
-                         const std::string& settings_source) {
-  DemGrid dem = input_dem(s, kind, inputs, settings_source);
-  const std::string& source = kind == SourceKind::synthetic ? settings_source : inputs.front();
+                         const core::SettingsOrigins& origins) {
+  DemGrid dem = input_dem(s, kind, inputs, origins);
+  const std::string& source = kind == SourceKind::synthetic ? origins.source() : inputs.front();
   if (dem.spec.nx < 2 || dem.spec.ny < 2)
     throw InputError(source, "no grid of at least 2 x 2 points with data remains (after crop and NODATA trim)");
   // Checked before the origin shift, so that a point without data is named in the DEM's
@@ -320,7 +323,7 @@ Terrain terrain_from_dem(const Settings& s, SourceKind kind, const std::vector<s
 // trimmed border: the result is then a TIN of the grid triangles with data at every corner
 // (the same cut; nothing invented outside the survey).
 Terrain resample_tin(const Terrain& tin, const Settings& s, const std::string& source,
-                     const std::string& settings_source) {
+                     const core::SettingsOrigins& origins) {
   const terrain::Surface surface = terrain::Surface::realize(tin, std::nullopt);
   const geometry::Aabb box = surface.bounds();
   terrain::GridSpec spec;
@@ -330,13 +333,14 @@ Terrain resample_tin(const Terrain& tin, const Settings& s, const std::string& s
   const double nx = std::floor((box.hi.x() - box.lo.x()) / spec.dx + 1e-9) + 1.0;
   const double ny = std::floor((box.hi.y() - box.lo.y()) / spec.dy + 1e-9) + 1.0;
   if (nx * ny > 1e8)
-    throw InputError(settings_source, "tin.cell_size " + format_number(spec.dx) + " m gives " +
+    throw InputError(origins.of("tin.cell_size"), "tin.cell_size " + format_number(spec.dx) + " m gives " +
                                           format_number(nx * ny) + " grid points (more than 1e8)");
   spec.nx = static_cast<std::int32_t>(nx);
   spec.ny = static_cast<std::int32_t>(ny);
   const DemGrid dem = terrain::trim_nodata(terrain::resample_to_grid(surface, spec));
   if (dem.z.empty())
-    throw InputError(settings_source, "tin.cell_size " + format_number(spec.dx) + " m: no grid point lies on the TIN");
+    throw InputError(origins.of("tin.cell_size"),
+                     "tin.cell_size " + format_number(spec.dx) + " m: no grid point lies on the TIN");
   const auto missing = static_cast<std::size_t>(std::count_if(dem.z.begin(), dem.z.end(), [](double z) { return std::isnan(z); }));
   Terrain t;
   if (missing == 0) {
@@ -382,9 +386,9 @@ void warn_if_on_its_side(const Terrain& tin, const Settings& s, const std::strin
 }
 
 Terrain terrain_from_meshes(const Settings& s, const std::vector<std::string>& inputs,
-                            const std::string& settings_source) {
+                            const core::SettingsOrigins& origins) {
   const io::MeshImportOptions options{.scale = s.tin.scale, .up = up_axis(s)};
-  const Window w = window_of(s.crop, settings_source);
+  const Window w = window_of(s.crop, origins);
   std::vector<geometry::TriangleMesh> parts;
   std::vector<std::string> part_names;
   PlanBounds b;
@@ -409,7 +413,7 @@ Terrain terrain_from_meshes(const Settings& s, const std::vector<std::string>& i
   merge_tin_materials(tin, s.materials);
   tin.origin_shift = shift;
   warn_if_on_its_side(tin, s, source);
-  return s.tin.mode == "resample" ? resample_tin(tin, s, source, settings_source) : tin;
+  return s.tin.mode == "resample" ? resample_tin(tin, s, source, origins) : tin;
 }
 
 bool is_las(const std::string& path) {
@@ -440,12 +444,12 @@ std::string declared_cloud_crs(const std::vector<std::string>& inputs) {
 
 // A TIN by Delaunay triangulation of point clouds.
 Terrain terrain_from_points(const Settings& s, const std::vector<std::string>& inputs,
-                            const std::string& settings_source) {
+                            const core::SettingsOrigins& origins) {
   io::PointCloudOptions options;
   options.scale = s.tin.scale;
   options.up = up_axis(s);
   for (double c : s.tin.las_classes) options.las_classes.push_back(static_cast<int>(c));
-  const Window w = window_of(s.crop, settings_source);
+  const Window w = window_of(s.crop, origins);
   std::vector<Vec3> points;
   PlanBounds b;
   for (const auto& input : inputs) {
@@ -511,14 +515,14 @@ void assign_zone_file(Terrain& t, const Settings::ZoneFile& z, const std::string
 }
 
 // Material raster, zone file, then zones (all in input coordinates), over what the source gave.
-void assign_materials(Terrain& t, const Settings& s, const std::string& settings_source, const std::string& crs) {
+void assign_materials(Terrain& t, const Settings& s, const core::SettingsOrigins& origins, const std::string& crs) {
   if (!s.material_raster.empty()) {
     DemGrid ids = io::read_dem(s.material_raster);
     shift_dem(ids, Vec3(t.origin_shift.x(), t.origin_shift.y(), 0.0));
     terrain::assign_material_raster(t, ids, s.material_raster);
   }
   if (!s.zone_file.file.empty()) assign_zone_file(t, s.zone_file, crs);
-  if (!s.zones.empty()) terrain::assign_zones(t, shifted_zones(s.zones, t.origin_shift), settings_source);
+  if (!s.zones.empty()) terrain::assign_zones(t, shifted_zones(s.zones, t.origin_shift), origins.within("zones"));
 }
 
 std::string default_name(const Settings& s, SourceKind kind, const std::vector<std::string>& inputs) {
@@ -530,8 +534,7 @@ std::string default_name(const Settings& s, SourceKind kind, const std::vector<s
 
 }  // namespace
 
-Built build_terrain(const Settings& s, const std::vector<std::string>& inputs, const std::string& settings_source,
-                    const std::string& crs_source) {
+Built build_terrain(const Settings& s, const std::vector<std::string>& inputs, const core::SettingsOrigins& origins) {
   Built built;
   built.kind = resolve_source(s, inputs);
   if (built.kind == SourceKind::file) {
@@ -542,13 +545,13 @@ Built build_terrain(const Settings& s, const std::vector<std::string>& inputs, c
     return built;
   }
   // Settings first: a contradiction should not wait for a large input to be read.
-  const double sigma = checked_sigma(s, settings_source);
+  const double sigma = checked_sigma(s, origins);
   if (s.roughness.roughness_index) built.roughness_index = s.roughness.roughness_index;
-  check_settings(s, settings_source);
+  check_settings(s, origins);
   // The CRS before the inputs: a DEM in degrees is refused before it is read.
   std::string crs;
   const io::CrsData data = built.kind == SourceKind::points ? io::CrsData::point_cloud : io::CrsData::raster;
-  if (!s.crs.empty()) crs = io::resolve_crs(s.crs, crs_source.empty() ? settings_source : crs_source, data);
+  if (!s.crs.empty()) crs = io::resolve_crs(s.crs, origins.of("crs"), data);
   else if (built.kind == SourceKind::dem) {
     if (const io::DemCrs declared = io::dem_crs(inputs.front()); !declared.text.empty())
       crs = io::resolve_crs(declared.text, declared.file);
@@ -559,9 +562,9 @@ Built build_terrain(const Settings& s, const std::vector<std::string>& inputs, c
   Terrain& t = built.terrain;
   switch (built.kind) {
     case SourceKind::synthetic:
-    case SourceKind::dem: t = terrain_from_dem(s, built.kind, inputs, settings_source); break;
-    case SourceKind::tin: t = terrain_from_meshes(s, inputs, settings_source); break;
-    case SourceKind::points: t = terrain_from_points(s, inputs, settings_source); break;
+    case SourceKind::dem: t = terrain_from_dem(s, built.kind, inputs, origins); break;
+    case SourceKind::tin: t = terrain_from_meshes(s, inputs, origins); break;
+    case SourceKind::points: t = terrain_from_points(s, inputs, origins); break;
     case SourceKind::file: break;
   }
   if (t.grid) built.triangulation = s.triangulation;
@@ -571,13 +574,13 @@ Built build_terrain(const Settings& s, const std::vector<std::string>& inputs, c
                    (t.grid ? format_number(t.grid->dx) + " x " + format_number(t.grid->dy) + " m cells"
                            : std::string("no cells (TIN)")) +
                    ": give roughness.sigma to choose sigma for it");
-  assign_materials(t, s, settings_source, crs);
+  assign_materials(t, s, origins, crs);
   t.roughness.sigma = sigma;
   t.roughness.seed = s.seed;
   t.name = s.name.empty() ? default_name(s, built.kind, inputs) : s.name;
   t.crs_wkt = crs;
   if (const std::string problem = io::terrain_problem(t); !problem.empty())
-    throw InputError(settings_source, problem);
+    throw InputError(origins.source(), problem);
   return built;
 }
 

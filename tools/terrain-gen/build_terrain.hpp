@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "settings.hpp"
+#include "talus/core/settings.hpp"
 #include "talus/geometry/types.hpp"
 #include "talus/terrain/terrain.hpp"
 
@@ -25,11 +26,11 @@ struct Built {
   std::string triangulation;              ///< grid terrains: the diagonal mode
 };
 
-/// Builds the terrain the settings describe from the inputs. `settings_source` names the
-/// settings in messages (the -c file, or "settings"), `crs_source` the crs setting's (its
-/// --set key when given so; empty: settings_source). Throws core::InputError for bad input.
+/// Builds the terrain the settings describe from the inputs. `origins` say where each
+/// setting was given (the -c file and line, or the --set key), for messages about a
+/// value. Throws core::InputError for bad input.
 Built build_terrain(const Settings& settings, const std::vector<std::string>& inputs,
-                    const std::string& settings_source, const std::string& crs_source = {});
+                    const core::SettingsOrigins& origins);
 
 /// A human-readable description of the terrain (several lines).
 std::string summary(const Built& built);

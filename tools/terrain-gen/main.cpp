@@ -98,10 +98,8 @@ int main(int argc, char** argv) {
       std::fputs(terrain::material_classes_table().c_str(), stdout);
       return;
     }
-    const std::string settings_source = inv.config_path.empty() ? "settings" : inv.config_path;
     core::Stopwatch clock;
-    const terrain_gen::Built built =
-        terrain_gen::build_terrain(settings, inv.inputs, settings_source, inv.source_of("crs"));
+    const terrain_gen::Built built = terrain_gen::build_terrain(settings, inv.inputs, inv.origins);
     const terrain::Terrain& t = built.terrain;
     const bool read_back = built.kind == terrain_gen::SourceKind::file;
     core::log_info((read_back ? "read " : "built ") + std::string(t.grid ? "grid TRN" : "TIN") + " '" + t.name + "': " +

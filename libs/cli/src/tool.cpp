@@ -28,15 +28,6 @@ io::Provenance Invocation::provenance(const std::string& tool, std::uint64_t see
   return p;
 }
 
-std::string Invocation::source_of(std::string_view key) const {
-  for (auto it = overrides.rbegin(); it != overrides.rend(); ++it) {
-    const std::string_view o = *it;
-    if (o.size() > key.size() && o.substr(0, key.size()) == key && o[key.size()] == '=')
-      return "--set " + std::string(key);
-  }
-  return config_path.empty() ? "settings" : config_path;
-}
-
 std::vector<io::NamedPath> Invocation::named_inputs() const {
   std::vector<io::NamedPath> named;
   for (const auto& input : inputs) named.push_back({"input", input});
@@ -143,8 +134,9 @@ int run_tool(int argc, char** argv, const ToolSpec& spec) {
     core::set_log_level(level);
 
     inv.overrides = overrides;
-    if (!inv.config_path.empty()) io::read_settings_file(inv.config_path, overrides, spec.settings);
-    else io::read_settings("", "--set", overrides, spec.settings);
+    inv.origins = core::SettingsOrigins(inv.config_path.empty() ? "settings" : inv.config_path);
+    if (!inv.config_path.empty()) io::read_settings_file(inv.config_path, overrides, spec.settings, &inv.origins);
+    else io::read_settings("", "--set", overrides, spec.settings, &inv.origins);
     inv.settings_yaml = io::write_settings(spec.settings, false);
     if (print_config) {
       std::fputs(io::write_settings(spec.settings, true).c_str(), stdout);

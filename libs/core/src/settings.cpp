@@ -39,7 +39,7 @@ namespace {
 // checked (the values of bounded lists and triples by component).
 class RangeCheck final : public SettingsVisitor {
  public:
-  RangeCheck(std::string source, std::string prefix) : source_(std::move(source)), prefix_(std::move(prefix)) {}
+  RangeCheck(const SettingsOrigins& origins, std::string prefix) : origins_(origins), prefix_(std::move(prefix)) {}
 
   void field(std::string_view, double&, std::string_view, std::string_view) override {}
   void field(std::string_view, std::optional<double>&, std::string_view, std::string_view) override {}
@@ -72,15 +72,15 @@ class RangeCheck final : public SettingsVisitor {
     if (std::find(allowed.begin(), allowed.end(), value) != allowed.end()) return;
     std::string list;
     for (const std::string_view a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
-    throw InputError(source_, path(key) + " = '" + value + "': must be one of " + list);
+    throw InputError(origins_.of(path(key)), path(key) + " = '" + value + "': must be one of " + list);
   }
   void section(std::string_view key, std::string_view, const std::function<void(SettingsVisitor&)>& body) override {
-    RangeCheck inner(source_, path(key) + ".");
+    RangeCheck inner(origins_, path(key) + ".");
     body(inner);
   }
   void list(std::string_view key, std::string_view, const ListAccess& items) override {
     for (std::size_t i = 0; i < items.size(); ++i) {
-      RangeCheck inner(source_, path(key) + "[" + std::to_string(i) + "].");
+      RangeCheck inner(origins_, path(key) + "[" + std::to_string(i) + "].");
       items.visit_item(i, inner);
     }
   }
@@ -89,15 +89,50 @@ class RangeCheck final : public SettingsVisitor {
   std::string path(std::string_view key) const { return prefix_ + std::string(key); }
   void check(std::string_view key, double value, std::string_view unit, const Range& range) const {
     if (range.contains(value) && std::isfinite(value)) return;
-    throw InputError(source_, path(key) + " = " + format_number(value) + ": must be in " + range.text(unit));
+    throw InputError(origins_.of(path(key)),
+                     path(key) + " = " + format_number(value) + ": must be in " + range.text(unit));
   }
-  std::string source_, prefix_;
+  const SettingsOrigins& origins_;
+  std::string prefix_;
 };
 
 }  // namespace
 
-void check_ranges(const std::function<void(SettingsVisitor&)>& visit, const std::string& source) {
-  RangeCheck check(source, "");
+std::string SettingsOrigins::full(std::string_view path) const {
+  if (prefix_.empty()) return std::string(path);
+  return prefix_ + (path.empty() || path.front() == '[' ? "" : ".") + std::string(path);
+}
+
+void SettingsOrigins::record(const std::string& path, const std::string& where) { where_[full(path)] = where; }
+
+std::string SettingsOrigins::of(std::string_view path) const {
+  const std::string full = this->full(path);
+  if (const auto it = where_.find(full); it != where_.end()) return it->second;
+  // A key an item of a list does not give keeps its default, in the item given there.
+  for (std::size_t end = full.rfind(']'); end != std::string::npos && end > 0; end = full.rfind(']', end - 1))
+    if (const auto it = where_.find(std::string_view(full).substr(0, end + 1)); it != where_.end()) return it->second;
+  return source_;
+}
+
+std::string SettingsOrigins::of(std::initializer_list<std::string_view> paths) const {
+  return of(std::vector<std::string>(paths.begin(), paths.end()));
+}
+
+std::string SettingsOrigins::of(const std::vector<std::string>& paths) const {
+  // An override (--set, or another file's list of them) is named before the source.
+  for (const std::string& path : paths)
+    if (const std::string where = of(path); where != source_ && where.rfind(source_ + ":", 0) != 0) return where;
+  return paths.empty() ? source_ : of(paths.front());
+}
+
+SettingsOrigins SettingsOrigins::within(std::string_view prefix) const {
+  SettingsOrigins view = *this;
+  view.prefix_ = full(prefix);
+  return view;
+}
+
+void check_ranges(const std::function<void(SettingsVisitor&)>& visit, const SettingsOrigins& origins) {
+  RangeCheck check(origins, "");
   visit(check);
 }
 

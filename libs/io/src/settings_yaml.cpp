@@ -22,11 +22,12 @@ namespace {
 using core::InputError;
 using core::SettingsVisitor;
 
-// A value put into the YAML tree by --set KEY=VALUE: messages about it name "--set KEY",
-// not the settings file and a line the value never was on.
+// A value put into the YAML tree by --set KEY=VALUE: messages about it name "--set KEY"
+// (its label), not the settings file and a line the value never was on.
 struct SetValue {
   YAML::Node node;
   std::string key;
+  std::string label;
 };
 using SetValues = std::vector<SetValue>;
 
@@ -69,9 +70,9 @@ std::string elsewhere(const std::string& unknown, const SettingsBody& body, bool
 class Reader final : public SettingsVisitor {
  public:
   Reader(YAML::Node node, std::string source, std::string prefix, const SetValues& set_values,
-         bool from_set = false)
+         core::SettingsOrigins& origins, bool from_set = false)
       : node_(std::move(node)), source_(std::move(source)), prefix_(std::move(prefix)),
-        set_values_(set_values), from_set_(from_set) {}
+        set_values_(set_values), origins_(origins), from_set_(from_set) {}
 
   /// The whole settings' declaration, for suggesting a key of another section (nested
   /// readers share it).
@@ -203,11 +204,11 @@ class Reader final : public SettingsVisitor {
                const std::function<void(SettingsVisitor&)>& body) override {
     auto found = take(key);
     // `--set release=` would reset a whole section to its defaults without a word.
-    if (found && found->IsNull() && !set_key(*found).empty())
+    if (found && found->IsNull() && !set_label(*found).empty())
       fail(*found, key, "expected a mapping of settings, got nothing (give KEY.SUBKEY=VALUE)");
     if (!found || found->IsNull()) {
       // Absent section: visit with an empty map so defaults stay; nothing to check.
-      Reader inner(YAML::Node(YAML::NodeType::Map), source_, path(key), set_values_, from_set_);
+      Reader inner(YAML::Node(YAML::NodeType::Map), source_, path(key), set_values_, origins_, from_set_);
       body(inner);
       return;
     }
@@ -219,12 +220,12 @@ class Reader final : public SettingsVisitor {
   }
   void list(std::string_view key, std::string_view, const ListAccess& items) override {
     auto found = take(key);
-    if (found && found->IsNull() && !set_key(*found).empty())
+    if (found && found->IsNull() && !set_label(*found).empty())
       fail(*found, key, "expected a list, got nothing (give [] for an empty list)");
     if (!found || found->IsNull()) {
       // Absent list: keep the defaults, but still visit them so nested defaults settle.
       for (std::size_t i = 0; i < items.size(); ++i) {
-        Reader inner(YAML::Node(YAML::NodeType::Map), source_, path(key), set_values_, from_set_);
+        Reader inner(YAML::Node(YAML::NodeType::Map), source_, path(key), set_values_, origins_, from_set_);
         items.visit_item(i, inner);
       }
       return;
@@ -237,6 +238,7 @@ class Reader final : public SettingsVisitor {
       const std::string item_path = path(key) + "[" + std::to_string(i) + "]";
       if (!item.IsMap()) fail(item, key, "item " + std::to_string(i) + ": expected a mapping");
       Reader inner = nested(item, key, item_path);
+      origins_.record(item_path, inner.from_set_ ? inner.source_ : location(item));
       items.visit_item(i, inner);
       inner.check_unknown();
     }
@@ -280,7 +282,17 @@ class Reader final : public SettingsVisitor {
     YAML::Node n = map[k];
     if (!n.IsDefined()) return std::nullopt;
     seen_.insert(k);
+    origins_.record(path(key), origin(k, n));
     return n;
+  }
+  // Where the value `n` of `key` came from: the --set that gave it (or the part of the
+  // tree it is in), else the line of the key in the file.
+  std::string origin(const std::string& key, const YAML::Node& n) const {
+    if (const std::string from = set_label(n); !from.empty()) return from;
+    if (from_set_) return source_;
+    for (const auto& kv : node_)
+      if (kv.first.IsScalar() && kv.first.Scalar() == key) return location(kv.first);
+    return location(n);
   }
   // The node under `key` without marking it consumed.
   std::optional<YAML::Node> peek(std::string_view key) const {
@@ -292,31 +304,31 @@ class Reader final : public SettingsVisitor {
   }
   // Where an unknown key came from: the --set whose key path runs through it, else the file.
   std::string unknown_key_location(const std::pair<YAML::Node, YAML::Node>& kv, const std::string& full) const {
-    if (const std::string from = set_key(kv.second); !from.empty()) return "--set " + from;
+    if (const std::string from = set_label(kv.second); !from.empty()) return from;
     for (const auto& s : set_values_) {
       const std::string& k = s.key;
       if (k == full || (k.size() > full.size() && k.compare(0, full.size(), full) == 0 &&
                         (k[full.size()] == '.' || k[full.size()] == '[')))
-        return "--set " + k;
+        return s.label;
     }
     return location(kv.first);
   }
-  // The --set key that put `n` into the tree, or "".
-  std::string set_key(const YAML::Node& n) const {
+  // The label ("--set KEY") of the override that put `n` into the tree, or "".
+  std::string set_label(const YAML::Node& n) const {
     for (const auto& s : set_values_)
-      if (n.is(s.node)) return s.key;
+      if (n.is(s.node)) return s.label;
     return {};
   }
   // The reader of a nested mapping: named after its --set key when --set gave all of it.
   Reader nested(const YAML::Node& n, std::string_view key, const std::string& prefix) const {
     Reader inner = [&] {
-      const std::string from = set_key(n);
-      if (!from.empty()) return Reader(n, "--set " + from, prefix, set_values_, true);
+      const std::string from = set_label(n);
+      if (!from.empty()) return Reader(n, from, prefix, set_values_, origins_, true);
       if (auto top = peek(key)) {
-        const std::string whole = set_key(*top);
-        if (!whole.empty()) return Reader(n, "--set " + whole, prefix, set_values_, true);
+        const std::string whole = set_label(*top);
+        if (!whole.empty()) return Reader(n, whole, prefix, set_values_, origins_, true);
       }
-      return Reader(n, source_, prefix, set_values_, from_set_);
+      return Reader(n, source_, prefix, set_values_, origins_, from_set_);
     }();
     inner.declared_by(body_);
     return inner;
@@ -344,8 +356,8 @@ class Reader final : public SettingsVisitor {
   [[noreturn]] void fail(const YAML::Node& n, std::string_view key, const std::string& what) const {
     // A value given by --set KEY=... is named by that KEY, which already says the path.
     if (auto top = peek(key)) {
-      const std::string from = set_key(*top);
-      if (!from.empty()) throw InputError("--set " + from, what);
+      const std::string from = set_label(*top);
+      if (!from.empty()) throw InputError(from, what);
     }
     throw InputError(location(n), path(key) + ": " + what);
   }
@@ -389,6 +401,7 @@ class Reader final : public SettingsVisitor {
   std::set<std::string> seen_;
   std::set<std::string> seen_all_;
   const SetValues& set_values_;
+  core::SettingsOrigins& origins_;
   bool from_set_ = false;
   const SettingsBody* body_ = nullptr;
 };
@@ -530,7 +543,8 @@ class Writer final : public SettingsVisitor {
 // Applies one "a.b[2].c=value" override to the YAML tree.
 // `defaults` is the tree of the default settings: a key the file does not give is filled
 // from it, so `--set materials[0].restitution_mean=0.9` reaches the default list's item.
-void apply_override(YAML::Node& root, const std::string& text, SetValues& set_values, const YAML::Node& defaults) {
+void apply_override(YAML::Node& root, const std::string& text, const std::string& given_by, SetValues& set_values,
+                    const YAML::Node& defaults) {
   const auto eq = text.find('=');
   if (eq == std::string::npos || eq == 0)
     throw core::UsageError("--set expects key=value, got '" + text + "'");
@@ -542,7 +556,7 @@ void apply_override(YAML::Node& root, const std::string& text, SetValues& set_va
   } catch (const YAML::Exception& e) {
     throw core::UsageError("--set " + key + ": cannot parse value '" + value + "'");
   }
-  set_values.push_back({parsed, key});
+  set_values.push_back({parsed, key, given_by + " " + key});
   // Split on '.' and on [index].
   std::vector<std::string> parts;
   std::string current;
@@ -634,7 +648,8 @@ void check_unique_keys(const YAML::Node& node, const std::string& source, int de
 }  // namespace
 
 void read_settings(const std::string& yaml_text, const std::string& source,
-                   const std::vector<std::string>& overrides, const SettingsBody& body) {
+                   const std::vector<std::string>& overrides, const SettingsBody& body,
+                   core::SettingsOrigins* origins, const std::vector<std::string>& given_by) {
   YAML::Node root;
   try {
     root = YAML::Load(yaml_text);
@@ -646,15 +661,18 @@ void read_settings(const std::string& yaml_text, const std::string& source,
   check_unique_keys(root, source);
   SetValues set_values;
   const YAML::Node defaults = overrides.empty() ? YAML::Node() : YAML::Load(write_settings(body, false));
-  for (const auto& o : overrides) apply_override(root, o, set_values, defaults);
-  Reader reader(root, source, "", set_values);
+  for (std::size_t k = 0; k < overrides.size(); ++k)
+    apply_override(root, overrides[k], k < given_by.size() ? given_by[k] : "--set", set_values, defaults);
+  core::SettingsOrigins unused(source);
+  Reader reader(root, source, "", set_values, origins != nullptr ? *origins : unused);
   reader.declared_by(&body);
   body(reader);
   reader.check_unknown();
 }
 
 void read_settings_file(const std::string& path, const std::vector<std::string>& overrides,
-                        const SettingsBody& body) {
+                        const SettingsBody& body, core::SettingsOrigins* origins,
+                        const std::vector<std::string>& given_by) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) throw InputError(path, "is a directory, not a settings file");
   std::ifstream in(path);
@@ -662,7 +680,7 @@ void read_settings_file(const std::string& path, const std::vector<std::string>&
   std::stringstream text;
   text << in.rdbuf();
   if (in.bad()) throw InputError(path, "cannot read settings file");
-  read_settings(text.str(), path, overrides, body);
+  read_settings(text.str(), path, overrides, body, origins, given_by);
 }
 
 std::string write_settings(const SettingsBody& body, bool comments) {

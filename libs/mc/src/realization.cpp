@@ -258,6 +258,13 @@ class Observer {
   Current current_;
 };
 
+// Where the release points were given: the vector file that holds them, or the scene's
+// release.points (the file and line, or the --set key).
+std::string release_origin(const Scene& scene) {
+  const std::string& file = scene.settings().release.file;
+  return file.empty() ? scene.origins().of("release.points") : file;
+}
+
 // "(x, y)" of a local plan point in the scene's frame, as the user wrote it.
 std::string plan_text(const Scene& scene, const Eigen::Vector2d& xy) {
   const Vec3 shift = scene.frame_shift();
@@ -279,7 +286,8 @@ void place_block(const Scene& scene, const SceneBlock& block, const terrain::Sur
     // changes by exactly the vertical shift, so one evaluation suffices.
     rel.position = Vec3(xy.x(), xy.y(), ground_z + block.model.radius);
     const Clearance c = vertical_clearance(block.model, rel.position, rel.orientation, ground);
-    if (!std::isfinite(c.gap)) throw core::InputError(scene.source(), where + " has no ground under it");
+    if (!std::isfinite(c.gap))
+      throw core::InputError(release_origin(scene), where + " has no ground under it");
     rel.position.z() += r.height - c.gap;
     return;
   }
@@ -303,7 +311,8 @@ void place_block(const Scene& scene, const SceneBlock& block, const terrain::Sur
                                         : " is only " + format_number(c.gap) + " m above the ground" + point +
                                               ", less than release.clearance_gap " +
                                               format_number(r.clearance_gap) + " m";
-  throw core::InputError(scene.source(), where + state + ": raise release.height by at least " +
+  throw core::InputError(scene.origins().of({"release.height", "release.clearance_gap"}),
+                         where + state + ": raise release.height by at least " +
                                              format_number(raise) + " m, or set release.clearance to lift");
 }
 
@@ -334,7 +343,7 @@ ReleaseDraw draw_release(const Scene& scene, const terrain::Surface& ground, std
   const Eigen::Vector2d xy = release_point(r.kind, scene.release_features(), rs);
   const auto hit = ground.height_at(xy.x(), xy.y());
   if (!hit)
-    throw core::InputError(scene.source(), "release point " + plan_text(scene, xy) + " of realization " +
+    throw core::InputError(release_origin(scene), "release point " + plan_text(scene, xy) + " of realization " +
                                                std::to_string(index) + " is outside the realized terrain");
   dda::Release& rel = draw.release;
   if (r.orientation == "random") {

@@ -349,15 +349,20 @@ std::vector<Barrier> file_barriers(const BarrierSettings& b, const std::vector<P
 // Inline release points are checked in the scene's frame (`shift` takes them to the
 // terrain's local one) and reported in it.
 void check_release_points(const SceneSettings& s, const terrain::Surface& base, const Eigen::Vector2d& shift,
-                          const std::string& source) {
+                          const core::SettingsOrigins& origins) {
   const ReleaseSettings& r = s.release;
   const std::size_t n = r.points.size();
+  const std::string source = origins.of("release.points");
+  const std::string count_source = origins.of({"release.points", "release.kind"});
   if (r.kind == "point" && n < 1)
-    throw InputError(source, "release.kind 'point' needs at least 1 point in release.points, got " + std::to_string(n));
+    throw InputError(count_source,
+                     "release.kind 'point' needs at least 1 point in release.points, got " + std::to_string(n));
   if (r.kind == "line" && n < 2)
-    throw InputError(source, "release.kind 'line' needs at least 2 points in release.points, got " + std::to_string(n));
+    throw InputError(count_source,
+                     "release.kind 'line' needs at least 2 points in release.points, got " + std::to_string(n));
   if (r.kind == "polygon" && n < 3)
-    throw InputError(source, "release.kind 'polygon' needs at least 3 points in release.points, got " + std::to_string(n));
+    throw InputError(count_source,
+                     "release.kind 'polygon' needs at least 3 points in release.points, got " + std::to_string(n));
   if (!finite_points(r.points)) throw InputError(source, "release.points must be finite");
   if (r.kind == "polygon") {
     if (const std::string crossing = ring_crossing(to_vectors(r.points)); !crossing.empty())
@@ -379,7 +384,7 @@ void check_release_points(const SceneSettings& s, const terrain::Surface& base, 
     // A scene written for the shifted frame (the only one before `frame` existed).
     if (input && shift.squaredNorm() > 0.0 && base.height_at(p[0], p[1])) hint = scene_frame_hint(shift, "inside");
     const bool within = within_bounds(b, Eigen::Vector2d(p[0], p[1]) - shift);
-    throw InputError(source, "release point " + point_text(p) +
+    throw InputError(origins.of({"release.points", "frame"}), "release point " + point_text(p) +
                                  (within ? " has no terrain under it (a hole or gap in the terrain's surface; "
                                          : " is outside the terrain (") +
                                  (input ? "input" : "local") + " coordinates: " + extent_text(b, shift) + ")" +
@@ -389,29 +394,35 @@ void check_release_points(const SceneSettings& s, const terrain::Surface& base, 
 
 // The release settings (the features of a release file are checked as they are placed).
 void check_release(const SceneSettings& s, const terrain::Surface& base, const Eigen::Vector2d& shift,
-                   const std::string& source) {
+                   const core::SettingsOrigins& origins) {
   const ReleaseSettings& r = s.release;
   if (!r.file.empty()) {
     // Points left at their default, or emptied (--set 'release.points=[]' over a scene
     // that gives some), leave the file alone.
     if (!r.points.empty() && r.points != ReleaseSettings{}.points)
-      throw InputError(source, "release: give release.points or release.file, not both");
+      throw InputError(origins.of({"release.points", "release.file"}),
+                       "release: give release.points or release.file, not both");
   } else if (!r.layer.empty() || !r.weight_field.empty()) {
-    throw InputError(source, "release.layer and release.weight_field need release.file");
+    throw InputError(origins.of({r.layer.empty() ? "release.weight_field" : "release.layer"}),
+                     "release.layer and release.weight_field need release.file");
   } else {
-    check_release_points(s, base, shift, source);
+    check_release_points(s, base, shift, origins);
   }
-  if (!std::isfinite(r.height)) throw InputError(source, "release.height must be finite");
+  if (!std::isfinite(r.height)) throw InputError(origins.of("release.height"), "release.height must be finite");
   if (r.height_reference == "lowest_point" && r.height < 0.0)
-    throw InputError(source, "release.height " + format_number(r.height) +
-                                 " m is negative: with height_reference lowest_point it is the gap under the block");
+    throw InputError(origins.of({"release.height", "release.height_reference"}),
+                     "release.height " + format_number(r.height) +
+                         " m is negative: with height_reference lowest_point it is the gap under the block");
   for (double c : r.velocity)
-    if (!std::isfinite(c)) throw InputError(source, "release.velocity must be finite");
+    if (!std::isfinite(c)) throw InputError(origins.of("release.velocity"), "release.velocity must be finite");
   for (double c : r.angular_velocity)
-    if (!std::isfinite(c)) throw InputError(source, "release.angular_velocity must be finite");
+    if (!std::isfinite(c))
+      throw InputError(origins.of("release.angular_velocity"), "release.angular_velocity must be finite");
   for (double c : r.orientation_deg)
-    if (!std::isfinite(c)) throw InputError(source, "release.orientation_deg must be finite");
-  if (!std::isfinite(r.main_direction_deg)) throw InputError(source, "release.main_direction_deg must be finite");
+    if (!std::isfinite(c))
+      throw InputError(origins.of("release.orientation_deg"), "release.orientation_deg must be finite");
+  if (!std::isfinite(r.main_direction_deg))
+    throw InputError(origins.of("release.main_direction_deg"), "release.main_direction_deg must be finite");
 }
 
 void apply_override(terrain::Material& m, const MaterialOverride& o, const std::string& source) {
@@ -439,13 +450,28 @@ void check_material(const terrain::Material& m, const std::string& source) {
     throw InputError(source, where + "friction_angle_mean_deg must be in [0, 90)");
 }
 
+// The engine keys a message of dda::Model::build names ("time_step = 0.001 s is below
+// min_time_step = 0.01 s", "preset 'x': …"): each word before " = ", else its first word.
+std::vector<std::string> engine_keys(const std::string& detail) {
+  std::vector<std::string> keys;
+  for (std::size_t at = detail.find(" = "); at != std::string::npos; at = detail.find(" = ", at + 3)) {
+    const std::size_t start = detail.find_last_of(" (", at - 1);
+    keys.push_back("engine." + detail.substr(start == std::string::npos ? 0 : start + 1,
+                                             at - (start == std::string::npos ? 0 : start + 1)));
+  }
+  if (keys.empty()) keys.push_back("engine." + detail.substr(0, detail.find_first_of(" '")));
+  return keys;
+}
+
 }  // namespace
 
 Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
-                   const std::vector<block::Block>& library, const std::string& source, const SceneVectors& vectors) {
+                   const std::vector<block::Block>& library, const core::SettingsOrigins& origins,
+                   const SceneVectors& vectors) {
   Scene scene;
   scene.settings_ = settings;
-  scene.source_ = source;
+  scene.origins_ = origins;
+  const std::string& source = origins.source();
   const SceneSettings& s = scene.settings_;
 
   {
@@ -454,20 +480,21 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
     const auto dot = v.find('.');
     const auto [end, err] = std::from_chars(v.data(), v.data() + (dot == std::string::npos ? v.size() : dot), major);
     if (err != std::errc() || v.empty())
-      throw InputError(source, "schema_version '" + v + "' is not MAJOR.MINOR");
+      throw InputError(origins.of("schema_version"), "schema_version '" + v + "' is not MAJOR.MINOR");
     if (major != kSceneSchemaMajor)
-      throw InputError(source, "scene schema version " + v + " is not supported (this build reads " +
-                                   std::to_string(kSceneSchemaMajor) + ".x)");
+      throw InputError(origins.of("schema_version"), "scene schema version " + v +
+                                                         " is not supported (this build reads " +
+                                                         std::to_string(kSceneSchemaMajor) + ".x)");
   }
   // The ranges the fields declare (the reader checks them on what it reads, naming the
   // line or --set key; these are settings made in code too).
   {
     SceneSettings declared = s;
-    core::check_ranges([&](core::SettingsVisitor& v) { declared.visit(v); }, source);
+    core::check_ranges([&](core::SettingsVisitor& v) { declared.visit(v); }, origins);
   }
 
   // Blocks.
-  if (library.empty()) throw InputError(source, "the block file holds no block");
+  if (library.empty()) throw InputError(origins.of("block_file"), "the block file holds no block");
   std::vector<const block::Block*> chosen;
   if (s.blocks.empty()) {
     for (const auto& b : library) chosen.push_back(&b);
@@ -479,7 +506,7 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
       if (!found) {
         std::string names;
         for (const auto& b : library) names += (names.empty() ? "" : ", ") + b.name;
-        throw InputError(source, "block '" + name + "' is not in the block file (it has: " + names + ")");
+        throw InputError(origins.of("blocks"), "block '" + name + "' is not in the block file (it has: " + names + ")");
       }
       chosen.push_back(found);
     }
@@ -522,14 +549,16 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
       try {
         return dda::Model::build(engine, b->polyhedron);
       } catch (const InputError& e) {
-        throw InputError(source, "block '" + b->name + "': " + (e.source() == "dda settings" ? "engine." : "") +
-                                     e.detail());
+        const bool setting = e.source() == "dda settings";
+        throw InputError(setting ? origins.of(engine_keys(e.detail())) : source,
+                         "block '" + b->name + "': " + (setting ? "engine." : "") + e.detail());
       }
     }();
     SceneBlock sb{b->name, std::move(model), b->weight};
     if (s.block_selection == "weighted" && !(sb.weight >= 0.0 && std::isfinite(sb.weight)))
-      throw InputError(source, "block '" + b->name + "' has sampling weight " + format_number(sb.weight) +
-                                   ": weights must be finite and >= 0");
+      throw InputError(origins.of("block_selection"), "block '" + b->name + "' has sampling weight " +
+                                                          format_number(sb.weight) +
+                                                          ": weights must be finite and >= 0");
     scene.blocks_.push_back(std::move(sb));
   }
   // A block of weight 0 is never drawn (block-gen allows it), but one of them must be.
@@ -537,26 +566,33 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
     double total = 0.0;
     for (const SceneBlock& b : scene.blocks_) total += b.weight;
     if (!(total > 0.0))
-      throw InputError(source, "every block has sampling weight 0, so block_selection weighted has none to draw: "
-                               "give some a weight (block-gen 'weight') or set block_selection: cycle");
+      throw InputError(origins.of("block_selection"),
+                       "every block has sampling weight 0, so block_selection weighted has none to draw: "
+                       "give some a weight (block-gen 'weight') or set block_selection: cycle");
   }
 
   // Materials: overrides by name, then the stochastic switches.
   scene.materials_ = terrain.materials;
-  for (const auto& o : s.materials) {
+  // Where each material's values were last overridden: the place its errors name.
+  std::vector<std::string> material_origin(scene.materials_.size(), source);
+  for (std::size_t k = 0; k < s.materials.size(); ++k) {
+    const MaterialOverride& o = s.materials[k];
+    const std::string item = "materials[" + std::to_string(k) + "]";
     bool found = false;
-    for (auto& m : scene.materials_)
-      if (m.name == o.name) {
-        apply_override(m, o, source);
+    for (std::size_t j = 0; j < scene.materials_.size(); ++j)
+      if (scene.materials_[j].name == o.name) {
+        apply_override(scene.materials_[j], o, origins.of(item + ".class"));
+        material_origin[j] = origins.of(item);
         found = true;
       }
-    if (!found) throw InputError(source, "material '" + o.name + "' is not in the terrain file");
+    if (!found) throw InputError(origins.of(item + ".name"), "material '" + o.name + "' is not in the terrain file");
   }
-  for (auto& m : scene.materials_) {
+  for (std::size_t j = 0; j < scene.materials_.size(); ++j) {
+    terrain::Material& m = scene.materials_[j];
     if (!s.stochastic.restitution) m.restitution_sd = 0.0;
     if (!s.stochastic.friction) m.friction_coefficient_sd = 0.0;
     if (!s.stochastic.lateral_tilt) m.lateral_tilt_sd_deg = 0.0;
-    check_material(m, source);
+    check_material(m, material_origin[j]);
   }
 
   scene.terrain_ = std::make_unique<terrain::Terrain>(std::move(terrain));
@@ -573,7 +609,7 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
   // Vector files are in the terrain's input coordinates whatever the scene's frame: a GIS
   // file holds the coordinates of its CRS.
   const Eigen::Vector2d input_shift(scene.terrain_->origin_shift.x(), scene.terrain_->origin_shift.y());
-  check_release(s, *scene.base_, shift, source);
+  check_release(s, *scene.base_, shift, origins);
   if (s.release.file.empty() && s.release.kind == "point") {
     // Each point is a feature of weight 1, as a file of Point features without a
     // weight_field: equally likely, and one point draws nothing to choose it.
@@ -607,9 +643,11 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
   std::set<std::string> barrier_names;
   for (std::size_t k = 0; k < s.outputs.barriers.size(); ++k) {
     const BarrierSettings& b = s.outputs.barriers[k];
+    const std::string item = "outputs.barriers[" + std::to_string(k) + "]";
     if (!b.file.empty()) {
       if (!b.line.empty())
-        throw InputError(source, "outputs.barriers entry " + std::to_string(k + 1) + ": give line or file, not both");
+        throw InputError(origins.of({item + ".line", item + ".file"}),
+                         "outputs.barriers entry " + std::to_string(k + 1) + ": give line or file, not both");
       const std::vector<PlanFeature> none;
       for (Barrier& barrier : file_barriers(b, k < vectors.barriers.size() ? vectors.barriers[k] : none, input_shift)) {
         // Barrier names name the statistics of their crossings: they must differ.
@@ -623,47 +661,54 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
       continue;
     }
     if (!b.layer.empty() || !b.name_field.empty())
-      throw InputError(source, "outputs.barriers entry " + std::to_string(k + 1) + ": layer and name_field need file");
+      throw InputError(origins.of(item + (b.layer.empty() ? ".name_field" : ".layer")),
+                       "outputs.barriers entry " + std::to_string(k + 1) + ": layer and name_field need file");
     const std::string name = b.name.empty() ? "barrier " + std::to_string(k + 1) : b.name;
     if (!barrier_names.insert(name).second)
-      throw InputError(source, "barrier name '" + name +
+      throw InputError(origins.of(item + ".name"), "barrier name '" + name +
                                    "' is taken by another barrier: give distinct names (outputs.barriers[].name)");
     if (b.line.size() < 2 || !finite_points(b.line))
-      throw InputError(source, "barrier '" + name + "' needs at least 2 finite vertices in its line");
+      throw InputError(origins.of(item + ".line"),
+                       "barrier '" + name + "' needs at least 2 finite vertices in its line");
     Barrier barrier{name, local(b.line), {0.0}};
-    on_terrain(barrier.line, "barrier '" + name + "'", source, input_frame);
+    on_terrain(barrier.line, "barrier '" + name + "'", origins.of({item + ".line", "frame"}), input_frame);
     for (std::size_t j = 1; j < barrier.line.size(); ++j) {
       const double len = (barrier.line[j] - barrier.line[j - 1]).norm();
-      if (!(len > 0.0)) throw InputError(source, "barrier '" + name + "' has a zero-length segment");
+      if (!(len > 0.0))
+        throw InputError(origins.of(item + ".line"), "barrier '" + name + "' has a zero-length segment");
       barrier.offsets.push_back(barrier.offsets.back() + len);
     }
     scene.barriers_.push_back(std::move(barrier));
   }
 
-  for (const auto& z : s.stop_zones) {
+  for (std::size_t k = 0; k < s.stop_zones.size(); ++k) {
+    const StopZoneSettings& z = s.stop_zones[k];
+    const std::string item = "stop_zones[" + std::to_string(k) + "]";
+    const std::string range_source = origins.of(item + ".x_range"), polygon_source = origins.of(item + ".polygon");
     StopZone zone{z.name, 0.0, 0.0, {}};
-    if (z.name.empty()) throw InputError(source, "a stop zone has no name");
+    if (z.name.empty()) throw InputError(origins.of(item + ".name"), "a stop zone has no name");
     if (!z.polygon.empty() == !z.x_range.empty())
-      throw InputError(source, "stop zone '" + z.name + "' needs either x_range or polygon");
+      throw InputError(origins.of({item + ".x_range", item + ".polygon"}),
+                       "stop zone '" + z.name + "' needs either x_range or polygon");
     if (!z.x_range.empty()) {
       if (z.x_range.size() != 2 || !(z.x_range[0] < z.x_range[1]))
-        throw InputError(source, "stop zone '" + z.name + "': x_range must be [x_min, x_max] with x_min < x_max");
+        throw InputError(range_source, "stop zone '" + z.name + "': x_range must be [x_min, x_max] with x_min < x_max");
       zone.x_min = z.x_range[0] - shift.x();
       zone.x_max = z.x_range[1] - shift.x();
       // The zone spans every y.
       const double all = std::numeric_limits<double>::infinity();
       require_on_terrain(plan, Eigen::Vector2d(zone.x_min, -all), Eigen::Vector2d(zone.x_max, all), shift, input_frame,
-                         "stop zone '" + z.name + "'", source);
+                         "stop zone '" + z.name + "'", origins.of({item + ".x_range", "frame"}));
     } else {
       zone.polygon = local(z.polygon);
       if (zone.polygon.size() < 3 || !finite_points(z.polygon))
-        throw InputError(source, "stop zone '" + z.name + "': polygon needs 3 or more vertices and an area");
+        throw InputError(polygon_source, "stop zone '" + z.name + "': polygon needs 3 or more vertices and an area");
       if (const std::string crossing = ring_crossing(zone.polygon); !crossing.empty())
-        throw InputError(source, "stop zone '" + z.name + "': polygon crosses itself (" + crossing +
+        throw InputError(polygon_source, "stop zone '" + z.name + "': polygon crosses itself (" + crossing +
                                      " meet): give its vertices in order around it");
       if (polygon_area(zone.polygon) == 0.0)
-        throw InputError(source, "stop zone '" + z.name + "': polygon needs 3 or more vertices and an area");
-      on_terrain(zone.polygon, "stop zone '" + z.name + "'", source, input_frame);
+        throw InputError(polygon_source, "stop zone '" + z.name + "': polygon needs 3 or more vertices and an area");
+      on_terrain(zone.polygon, "stop zone '" + z.name + "'", origins.of({item + ".polygon", "frame"}), input_frame);
     }
     scene.zones_.push_back(std::move(zone));
   }
@@ -682,7 +727,7 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
       const bool multiple = up >= 1.0 && std::abs(cell - up * d) <= 1e-9 * cell;
       const bool divisor = down >= 1.0 && std::abs(cell * down - d) <= 1e-9 * d;
       if (!multiple && !divisor)
-        throw InputError(source, "outputs.hazard_cell_size " + format_number(cell) +
+        throw InputError(origins.of("outputs.hazard_cell_size"), "outputs.hazard_cell_size " + format_number(cell) +
                                      " m is neither a multiple nor a divisor of the DEM cell (" + format_number(d) +
                                      " m): hazard rasters lie on the DEM grid; give e.g. " + format_number(d / 2) +
                                      ", " + format_number(d) + " or " + format_number(2 * d) + " m");
@@ -700,7 +745,8 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
     }
     scene.hazard_.size = cell;
     if (nx * ny > 1e8)
-      throw InputError(source, "outputs.hazard_cell_size " + format_number(cell) + " m gives more than 1e8 cells");
+      throw InputError(origins.of("outputs.hazard_cell_size"),
+                       "outputs.hazard_cell_size " + format_number(cell) + " m gives more than 1e8 cells");
     scene.hazard_.nx = std::max(1, static_cast<std::int32_t>(nx));
     scene.hazard_.ny = std::max(1, static_cast<std::int32_t>(ny));
   }

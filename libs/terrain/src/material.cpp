@@ -57,22 +57,25 @@ void ensure_materials(Terrain& terrain) {
 
 }  // namespace
 
-void assign_zones(Terrain& terrain, const std::vector<MaterialZone>& zones, const std::string& source) {
+void assign_zones(Terrain& terrain, const std::vector<MaterialZone>& zones, const core::SettingsOrigins& origins) {
   std::vector<PreparedZone> prepared;
   prepared.reserve(zones.size());
   for (std::size_t z = 0; z < zones.size(); ++z) {
     const MaterialZone& zone = zones[z];
     const std::string where = "zone " + std::to_string(z) + " (material '" + zone.material + "')";
+    const std::string item = "[" + std::to_string(z) + "]";
     const auto it = std::find_if(terrain.materials.begin(), terrain.materials.end(),
                                  [&](const Material& m) { return m.name == zone.material; });
     if (it == terrain.materials.end()) {
       std::string known;
       for (const Material& m : terrain.materials) known += (known.empty() ? "" : ", ") + m.name;
-      throw core::InputError(source, where + ": unknown material '" + zone.material + "' (known: " + known + ")");
+      throw core::InputError(origins.of(item + ".material"),
+                             where + ": unknown material '" + zone.material + "' (known: " + known + ")");
     }
     if (zone.polygon.size() < 3) {
-      throw core::InputError(source, where + ": polygon has " + std::to_string(zone.polygon.size()) +
-                                         " points, at least 3 are needed");
+      throw core::InputError(
+          origins.of(item + ".polygon"),
+          where + ": polygon has " + std::to_string(zone.polygon.size()) + " points, at least 3 are needed");
     }
     PreparedZone p;
     p.material = static_cast<std::int32_t>(it - terrain.materials.begin());
@@ -82,7 +85,8 @@ void assign_zones(Terrain& terrain, const std::vector<MaterialZone>& zones, cons
     for (std::size_t k = 0; k < zone.polygon.size(); ++k) {
       const auto& q = zone.polygon[k];
       if (!std::isfinite(q[0]) || !std::isfinite(q[1])) {
-        throw core::InputError(source, where + ": polygon point " + std::to_string(k) + " is not finite");
+        throw core::InputError(origins.of(item + ".polygon"),
+                               where + ": polygon point " + std::to_string(k) + " is not finite");
       }
       p.xmin = std::min(p.xmin, q[0]);
       p.xmax = std::max(p.xmax, q[0]);

@@ -12,7 +12,10 @@ namespace {
 using core::format_number;
 
 // Points of a lattice of step `cell` over `extent`, allowing 1e-9 of a cell of rounding.
-std::int32_t lattice_points(double extent, double cell, const std::string& what, const std::string& source) {
+// `origins` are those of the slope's settings; `extent_key` the one that gave the extent.
+std::int32_t lattice_points(double extent, double cell, const std::string& what, const std::string& extent_key,
+                            const core::SettingsOrigins& origins) {
+  const std::string source = origins.of({"cell_size", extent_key});
   const double n = std::floor(extent / cell + 1e-9) + 1.0;
   if (n < 2.0) {
     throw core::InputError(source, "synthetic slope: " + what + " " + format_number(extent) +
@@ -27,9 +30,10 @@ std::int32_t lattice_points(double extent, double cell, const std::string& what,
   return static_cast<std::int32_t>(n);
 }
 
-void require_positive(double value, const std::string& key, const std::string& source) {
+void require_positive(double value, const std::string& key, const core::SettingsOrigins& origins) {
   if (!(std::isfinite(value) && value > 0.0)) {
-    throw core::InputError(source, "synthetic slope: " + key + " must be finite and > 0, got " + format_number(value));
+    throw core::InputError(origins.of(key),
+                           "synthetic slope: " + key + " must be finite and > 0, got " + format_number(value));
   }
 }
 
@@ -63,38 +67,44 @@ std::vector<std::array<double, 2>> bench_profile() {
   return {{0, 30}, {6, 24}, {8, 24}, {14, 18}, {16, 18}, {22, 12}, {24, 12}, {36, 0}, {60, 0}};
 }
 
-DemGrid make_synthetic(const SyntheticSlope& slope, const std::string& source) {
-  require_positive(slope.cell_size, "cell_size", source);
-  require_positive(slope.width, "width", source);
+DemGrid make_synthetic(const SyntheticSlope& slope, const core::SettingsOrigins& origins) {
+  require_positive(slope.cell_size, "cell_size", origins);
+  require_positive(slope.width, "width", origins);
+  // The key whose value sets the slope's length: the bench's is fixed.
+  const std::string length_key = slope.kind == "plane" ? "length" : slope.kind == "profile" ? "profile" : "cell_size";
   std::vector<std::array<double, 2>> profile;
   if (slope.kind == "bench") {
     profile = bench_profile();
   } else if (slope.kind == "plane") {
-    require_positive(slope.length, "length", source);
+    require_positive(slope.length, "length", origins);
     if (!(slope.slope_angle_deg >= 0.0 && slope.slope_angle_deg < 90.0)) {
-      throw core::InputError(source, "synthetic slope: slope_angle_deg must be in [0, 90), got " +
-                                         format_number(slope.slope_angle_deg));
+      throw core::InputError(
+          origins.of("slope_angle_deg"),
+          "synthetic slope: slope_angle_deg must be in [0, 90), got " + format_number(slope.slope_angle_deg));
     }
     const double drop = slope.length * std::tan(slope.slope_angle_deg * std::numbers::pi / 180.0);
     profile = {{0.0, drop}, {slope.length, 0.0}};
   } else if (slope.kind == "profile") {
     profile = slope.profile;
     if (profile.size() < 2) {
-      throw core::InputError(source, "synthetic slope: profile needs at least 2 [x, z] points, got " +
+      throw core::InputError(origins.of("profile"), "synthetic slope: profile needs at least 2 [x, z] points, got " +
                                          std::to_string(profile.size()));
     }
     for (std::size_t k = 0; k < profile.size(); ++k) {
       if (!std::isfinite(profile[k][0]) || !std::isfinite(profile[k][1])) {
-        throw core::InputError(source, "synthetic slope: profile point " + std::to_string(k) + " is not finite");
+        throw core::InputError(origins.of("profile"),
+                               "synthetic slope: profile point " + std::to_string(k) + " is not finite");
       }
       if (k > 0 && !(profile[k][0] > profile[k - 1][0])) {
-        throw core::InputError(source, "synthetic slope: profile x must increase, but point " + std::to_string(k) +
-                                           " has x = " + format_number(profile[k][0]) + " after " +
-                                           format_number(profile[k - 1][0]));
+        throw core::InputError(origins.of("profile"), "synthetic slope: profile x must increase, but point " +
+                                                          std::to_string(k) +
+                                                          " has x = " + format_number(profile[k][0]) + " after " +
+                                                          format_number(profile[k - 1][0]));
       }
     }
   } else {
-    throw core::InputError(source, "synthetic slope: unknown kind '" + slope.kind + "' (bench, plane, profile)");
+    throw core::InputError(origins.of("kind"),
+                           "synthetic slope: unknown kind '" + slope.kind + "' (bench, plane, profile)");
   }
 
   DemGrid dem;
@@ -103,8 +113,8 @@ DemGrid make_synthetic(const SyntheticSlope& slope, const std::string& source) {
   dem.spec.y0 = 0.0;
   dem.spec.dx = slope.cell_size;
   dem.spec.dy = slope.cell_size;
-  dem.spec.nx = lattice_points(profile.back()[0] - x_first, slope.cell_size, "length", source);
-  dem.spec.ny = lattice_points(slope.width, slope.cell_size, "width", source);
+  dem.spec.nx = lattice_points(profile.back()[0] - x_first, slope.cell_size, "length", length_key, origins);
+  dem.spec.ny = lattice_points(slope.width, slope.cell_size, "width", "width", origins);
   dem.z.resize(dem.spec.point_count());
   for (std::int32_t i = 0; i < dem.spec.nx; ++i) {
     const double z = profile_z(profile, x_first + i * slope.cell_size);

@@ -7,6 +7,7 @@
 #include <string_view>
 #include <vector>
 
+#include "talus/core/settings.hpp"
 #include "talus/io/file_header.hpp"
 #include "talus/io/paths.hpp"
 #include "talus/io/settings_yaml.hpp"
@@ -21,11 +22,9 @@ struct Invocation {
   std::string settings_yaml;        ///< effective settings, defaults included
   std::string command_line;         ///< the invocation, for provenance
   std::vector<std::string> overrides;  ///< the --set KEY=VALUE arguments, in order
-
-  /// Where the setting `key` (a top-level key path, e.g. "crs") was given, for a message
-  /// about its value: "--set KEY" when an override sets it, else the settings file, else
-  /// "settings" (its default).
-  std::string source_of(std::string_view key) const;
+  /// Where each setting was given, for a message about its value: "--set KEY", the
+  /// settings file and line, else the file (or "settings" without one) for a default.
+  core::SettingsOrigins origins;
 
   /// The positional inputs and the settings file, for io::check_outputs_distinct.
   std::vector<io::NamedPath> named_inputs() const;

@@ -5,9 +5,11 @@
 #include <functional>
 #include <initializer_list>
 #include <limits>
+#include <map>
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 namespace talus::core {
@@ -118,12 +120,46 @@ class SettingsVisitor {
   }
 };
 
+/// Where the value of each setting came from, for messages about values checked after
+/// reading (a release point off the terrain, a cell size that does not divide a slope):
+/// "--set KEY" when the command line gave it, "FILE:LINE" when a line of the settings file
+/// did, else the source alone (a default). The settings reader records it
+/// (io::read_settings); a message about a value names `of(its key path)`.
+class SettingsOrigins {
+ public:
+  /// `source` names values nobody gave: the settings file, or "settings" without one.
+  SettingsOrigins(std::string source = "settings") : source_(std::move(source)) {}  // NOLINT: a name converts
+  SettingsOrigins(const char* source) : source_(source) {}                           // NOLINT: a name converts
+
+  /// The value at `path` ("release.points", "stop_zones[1].polygon") came from `where`.
+  void record(const std::string& path, const std::string& where);
+  /// Where the value at `path` came from. A path nobody gave takes the place of the list
+  /// item it belongs to (its default was filled into an item given there), else the source.
+  std::string of(std::string_view path) const;
+  /// A message about several values (a cell size and the width it must divide) names the
+  /// first of `paths` that an override (--set) gave, else where the first one came from.
+  std::string of(std::initializer_list<std::string_view> paths) const;
+  std::string of(const std::vector<std::string>& paths) const;
+  /// The origins of the settings under `prefix` ("synthetic", a list "zones"), for code
+  /// that knows only their keys: within("synthetic").of("cell_size") is
+  /// of("synthetic.cell_size"), within("zones").of("[2].material") of("zones[2].material").
+  SettingsOrigins within(std::string_view prefix) const;
+  const std::string& source() const { return source_; }
+
+ private:
+  std::string full(std::string_view path) const;
+
+  std::string source_;
+  std::string prefix_;  ///< "synthetic" for a view of that section; "" for the whole
+  std::map<std::string, std::string, std::less<>> where_;
+};
+
 /// Checks each number a settings struct declares as bounded (`visit` lets it declare its
 /// fields) against the declared range, and that it is finite, and each choice against its
 /// values: the check of settings made in code, which no reader has seen (the reader checks
-/// what it reads). Throws InputError(source, "KEY = VALUE: must be in RANGE") or
-/// (source, "KEY = 'VALUE': must be one of A, B"), KEY with its sections' prefix.
-void check_ranges(const std::function<void(SettingsVisitor&)>& visit, const std::string& source);
+/// what it reads). Throws InputError(origins.of(KEY), "KEY = VALUE: must be in RANGE") or
+/// (…, "KEY = 'VALUE': must be one of A, B"), KEY with its sections' prefix.
+void check_ranges(const std::function<void(SettingsVisitor&)>& visit, const SettingsOrigins& origins);
 
 /// Levenshtein distance between two words: the suggestion for a misspelt key or option.
 std::size_t edit_distance(std::string_view a, std::string_view b);

@@ -207,7 +207,9 @@ struct StopZone {
 class Scene {
  public:
   /// Validates `settings` against the loaded terrain and blocks and builds the scene.
-  /// `source` names the scene in messages. Throws core::InputError with a one-line reason:
+  /// `origins` says where each setting was given (the scene file and line, or the --set
+  /// key): an error names where the value it refuses came from, its source the scene.
+  /// Throws core::InputError with a one-line reason:
   /// wrong schema major, non-positive counts, unknown block or material names, release
   /// points outside the terrain, a non-finite or (lowest_point) negative release height,
   /// degenerate lines, zones or polygons, bad engine settings. Whether a block starts in
@@ -216,12 +218,15 @@ class Scene {
   /// outputs.barriers[].file), read by io::read_scene_vectors; their errors name the
   /// file the scene names.
   static Scene build(const SceneSettings& settings, terrain::Terrain terrain,
-                     const std::vector<block::Block>& library, const std::string& source,
+                     const std::vector<block::Block>& library, const core::SettingsOrigins& origins,
                      const SceneVectors& vectors = {});
 
   const SceneSettings& settings() const { return settings_; }
   /// The scene's name in messages (its file).
-  const std::string& source() const { return source_; }
+  const std::string& source() const { return origins_.source(); }
+  /// Where the setting at `path` was given, for a message about its value (see
+  /// core::SettingsOrigins).
+  const core::SettingsOrigins& origins() const { return origins_; }
   const terrain::Terrain& terrain() const { return *terrain_; }
   /// Add to a position in the terrain's local frame to get it in the scene's frame (m):
   /// the terrain's origin shift with frame "input", zero with "local". Messages report
@@ -249,7 +254,7 @@ class Scene {
 
  private:
   SceneSettings settings_;
-  std::string source_;
+  core::SettingsOrigins origins_;
   std::unique_ptr<terrain::Terrain> terrain_;
   std::unique_ptr<terrain::Surface> base_;
   std::vector<terrain::Material> materials_;

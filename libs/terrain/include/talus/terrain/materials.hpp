@@ -18,9 +18,10 @@ struct MaterialZone {
 
 /// Gives each triangle the material of the last zone whose polygon contains the plan
 /// position (x, y) of its centroid (even–odd rule; base geometry), else leaves it as it
-/// is. Throws core::InputError(source, …) for an unknown material name, a polygon with
-/// fewer than 3 points or a non-finite coordinate (naming the zone).
-void assign_zones(Terrain& terrain, const std::vector<MaterialZone>& zones, const std::string& source);
+/// is. Throws core::InputError for an unknown material name, a polygon with fewer than
+/// 3 points or a non-finite coordinate, naming the zone and where it was given
+/// (`origins` of the zones list: of("[2].polygon") for zone 2's polygon).
+void assign_zones(Terrain& terrain, const std::vector<MaterialZone>& zones, const core::SettingsOrigins& origins);
 
 /// Gives each triangle the material id of the raster point nearest the plan position of
 /// its centroid: raster point (i, j) stands for the cell of size dx × dy centred on it

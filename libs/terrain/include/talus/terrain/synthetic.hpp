@@ -35,9 +35,11 @@ struct SyntheticSlope {
 /// The SPEC §6 bench profile as [x, z] breakpoints (m).
 std::vector<std::array<double, 2>> bench_profile();
 
-/// The DEM of a synthetic slope. Throws core::InputError(source, …) naming the bad
-/// setting: non-positive or non-finite sizes, an angle outside [0, 90), fewer than 2
-/// profile points, x not strictly increasing, or a grid of fewer than 2 × 2 points.
-DemGrid make_synthetic(const SyntheticSlope& slope, const std::string& source);
+/// The DEM of a synthetic slope. Throws core::InputError naming the bad setting, where
+/// `origins` (those of the slope's section) say it was given: non-positive or non-finite
+/// sizes, an angle outside [0, 90), fewer than 2 profile points, x not strictly
+/// increasing, a grid of fewer than 2 × 2 points, or a cell_size that does not divide the
+/// slope's length and width.
+DemGrid make_synthetic(const SyntheticSlope& slope, const core::SettingsOrigins& origins);
 
 }  // namespace talus::terrain

@@ -197,6 +197,8 @@ def make_fixtures(bin_dir, root):
     # named by their line here and by their --set key in the cases that set them.
     write(os.path.join(root, "cell.yaml"), PLANE_YAML.replace("cell_size: 1", "cell_size: 3"))
     write(os.path.join(root, "box.yaml"), "blocks:\n  - name: slab\n    solid: box\n    volume: 1\n")
+    write(os.path.join(root, "stats-q.yaml"), "plots: false\nquantiles: [0.5, 1.5]\n")
+    write(os.path.join(root, "stats-pool.yaml"), "plots: false\npools:\n  - name: both\n    runs: [nope]\n")
     write(os.path.join(root, "bow.yaml"), SCENE_YAML + "stop_zones:\n  - name: bow\n"
           "    polygon: [[1, 1], [5, 5], [5, 1], [1, 5]]\n")
     write(os.path.join(root, "calset.yaml"), CALIBRATE_YAML + "set: [release.height=1e12]\n")
@@ -364,6 +366,15 @@ CASES = [
     (["stats", "--set", "plots=false", "run.h5", "-o", "no/such/dir"], RUNTIME, ["no/such"]),
     (["stats", "--set", "plots=false", "run.h5", "--set", "terrain=other.h5", "-o", "s"], BAD_INPUT,
      ["other.h5", "is not the terrain of the run run.h5", "fingerprint"]),
+    # stats' values refused after reading: named by the --set key, or the file and line.
+    (["stats", "--set", "plots=false", "run.h5", "--set", "quantiles=[0.5, 1.5]", "-o", "s"], BAD_INPUT,
+     ["stats: error: --set quantiles: quantiles: 1.5 is not in (0, 1)"]),
+    (["stats", "-c", "stats-q.yaml", "run.h5", "-o", "s"], BAD_INPUT,
+     ["stats: error: stats-q.yaml:2: quantiles: 1.5 is not in (0, 1)"]),
+    (["stats", "--set", "plots=false", "run.h5", "--set", "names=[a, b]", "-o", "s"], BAD_INPUT,
+     ["stats: error: --set names: names: 2 names for 1 runs"]),
+    (["stats", "-c", "stats-pool.yaml", "run.h5", "-o", "s"], BAD_INPUT,
+     ["stats: error: stats-pool.yaml:", "pools: 'both' names run 'nope', which is not among the runs"]),
     # Settings that crash, hang or are silently ignored.
     (["terrain-gen", "-c", "loop.yaml", "-o", "x.h5"], BAD_INPUT, ["loop.yaml:1", "nested more than 64 levels"]),
     (["terrain-gen", "-c", "sub", "-o", "x.h5"], BAD_INPUT, ["sub", "is a directory, not a settings file"]),

@@ -51,7 +51,8 @@ bool unusable_run_name(const std::string& name) {
 
 }  // namespace
 
-std::vector<Run> load_runs(const std::vector<std::string>& paths, const Settings& settings) {
+std::vector<Run> load_runs(const std::vector<std::string>& paths, const Settings& settings,
+                           const core::SettingsOrigins& origins) {
   std::vector<Run> runs;
   std::map<std::string, std::size_t> shard_group;  // run key → index in `runs`
   std::vector<std::vector<io::RunFile>> shards;    // parallel to `runs` (shards only)
@@ -96,18 +97,20 @@ std::vector<Run> load_runs(const std::vector<std::string>& paths, const Settings
   }
   if (!settings.names.empty()) {
     if (settings.names.size() != runs.size())
-      throw core::InputError("settings", "names: " + std::to_string(settings.names.size()) + " names for " +
-                                             std::to_string(runs.size()) + " runs");
+      throw core::InputError(origins.of("names"), "names: " + std::to_string(settings.names.size()) + " names for " +
+                                                      std::to_string(runs.size()) + " runs");
     for (std::size_t r = 0; r < runs.size(); ++r) runs[r].name = settings.names[r];
   }
   if (!settings.release_frequencies.empty() && settings.release_frequencies.size() != runs.size())
-    throw core::InputError("settings", "release_frequencies: " + std::to_string(settings.release_frequencies.size()) +
-                                           " frequencies for " + std::to_string(runs.size()) +
-                                           " runs (one per run after shards are joined)");
+    throw core::InputError(origins.of("release_frequencies"),
+                           "release_frequencies: " + std::to_string(settings.release_frequencies.size()) +
+                               " frequencies for " + std::to_string(runs.size()) +
+                               " runs (one per run after shards are joined)");
   std::set<std::string> seen;
   for (const auto& run : runs) {
     if (unusable_run_name(run.name))
-      throw core::InputError("settings", "run name '" + run.name + "' is empty or holds one of / \\ , \"");
+      throw core::InputError(origins.of("names"),
+                             "run name '" + run.name + "' is empty or holds one of / \\ , \"");
     if (!seen.insert(run.name).second)
       throw core::InputError(run.files.front(), "two runs are named '" + run.name +
                                                     "': give distinct names with --set names=[a,b,...]");
@@ -134,13 +137,16 @@ std::int32_t remap(std::int32_t index, const std::vector<std::string>& from, std
 
 }  // namespace
 
-void pool_runs(std::vector<Run>& runs, const Settings& settings) {
+void pool_runs(std::vector<Run>& runs, const Settings& settings, const core::SettingsOrigins& origins) {
   const std::size_t given = runs.size();
-  for (const Pool& pool : settings.pools) {
+  for (std::size_t p = 0; p < settings.pools.size(); ++p) {
+    const Pool& pool = settings.pools[p];
+    const std::string item = "pools[" + std::to_string(p) + "]";
     if (unusable_run_name(pool.name))
-      throw core::InputError("settings", "pools: name '" + pool.name + "' is empty or holds one of / \\ , \"");
+      throw core::InputError(origins.of(item + ".name"),
+                             "pools: name '" + pool.name + "' is empty or holds one of / \\ , \"");
     if (std::any_of(runs.begin(), runs.end(), [&](const Run& r) { return r.name == pool.name; }))
-      throw core::InputError("settings", "pools: '" + pool.name + "' is already the name of a run");
+      throw core::InputError(origins.of(item + ".name"), "pools: '" + pool.name + "' is already the name of a run");
     std::vector<const Run*> members;
     if (pool.runs.empty()) {
       for (std::size_t r = 0; r < given; ++r) members.push_back(&runs[r]);
@@ -151,8 +157,8 @@ void pool_runs(std::vector<Run>& runs, const Settings& settings) {
         if (it == runs.begin() + static_cast<std::ptrdiff_t>(given)) {
           std::string known;
           for (std::size_t r = 0; r < given; ++r) known += (r ? ", " : "") + runs[r].name;
-          throw core::InputError("settings", "pools: '" + pool.name + "' names run '" + name +
-                                                 "', which is not among the runs (" + known + ")");
+          throw core::InputError(origins.of(item + ".runs"), "pools: '" + pool.name + "' names run '" + name +
+                                                                  "', which is not among the runs (" + known + ")");
         }
         members.push_back(&*it);
       }
@@ -866,7 +872,8 @@ Analysis analyze(const std::vector<Run>& runs, const Settings& settings) {
   return a;
 }
 
-std::optional<Validation> validate_against_observed(const Analysis& a, const Settings& settings) {
+std::optional<Validation> validate_against_observed(const Analysis& a, const Settings& settings,
+                                                   const core::SettingsOrigins& origins) {
   const Observed& o = settings.observed;
   if (o.file.empty()) return std::nullopt;
   const Series* series = nullptr;
@@ -875,9 +882,11 @@ std::optional<Validation> validate_against_observed(const Analysis& a, const Set
       series = &s;
       break;
     }
-  if (series == nullptr) throw core::InputError("settings", "observed.series: no run named '" + o.series + "'");
+  if (series == nullptr)
+    throw core::InputError(origins.of("observed.series"), "observed.series: no run named '" + o.series + "'");
   if (series->stop_points.empty())
-    throw core::InputError("settings", "observed: run '" + series->run + "' has no realization at rest to compare");
+    throw core::InputError(origins.of({"observed.series", "observed.file"}),
+                           "observed: run '" + series->run + "' has no realization at rest to compare");
 
   const io::ObservedStops stops =
       io::read_observed_stops(o.file, o.layer, a.runs[series->run_index].crs_wkt, "observed.file");

@@ -26,14 +26,15 @@ struct Run {
 /// Reads the run files, joins the shards of each run (files whose shard is not "0/1",
 /// grouped by identical settings and inputs) and names the runs. Throws core::InputError
 /// naming the file when one is missing, corrupt, empty, or a shard that does not fit.
-std::vector<Run> load_runs(const std::vector<std::string>& paths, const Settings& settings);
+std::vector<Run> load_runs(const std::vector<std::string>& paths, const Settings& settings,
+                           const core::SettingsOrigins& origins);
 
 /// Appends one run per Settings::pools entry: the realizations of the runs it names, in
 /// that order, renumbered 0, 1, … one after the other, with blocks, stop classes and
 /// barriers matched by name; no hazard grid (the members' grids may differ). The runs
 /// pooled must share the terrain's origin shift. Throws core::InputError naming the
 /// settings when a pool names an unknown run, has a name already taken, or mixes frames.
-void pool_runs(std::vector<Run>& runs, const Settings& settings);
+void pool_runs(std::vector<Run>& runs, const Settings& settings, const core::SettingsOrigins& origins);
 
 /// A statistic followed by the convergence study.
 struct Followed {
@@ -231,6 +232,7 @@ int ead_energy_class(double energy);
 /// core::InputError naming the file (unreadable, no point, a row without x and y, a
 /// vector layer in another CRS, a point off the run's terrain, where no simulated block
 /// can stop) or the settings (unknown series, no simulated stop).
-std::optional<Validation> validate_against_observed(const Analysis& a, const Settings& settings);
+std::optional<Validation> validate_against_observed(const Analysis& a, const Settings& settings,
+                                                   const core::SettingsOrigins& origins);
 
 }  // namespace talus::stats_tool

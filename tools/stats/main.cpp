@@ -113,14 +113,14 @@ int main(int argc, char** argv) {
   spec.flags = {{"--print-table", "print the side-by-side summary table on standard output", &print_table}};
   spec.check = [&](const cli::Invocation& inv) {
     if (inv.output.empty()) throw core::UsageError("-o OUTDIR is required");
-    settings.validate();
+    settings.validate(inv.origins);
     check_outputs(inv, settings);
   };
   spec.run = [&](const cli::Invocation& inv) {
-    auto runs = stats_tool::load_runs(inv.inputs, settings);
-    stats_tool::pool_runs(runs, settings);
+    auto runs = stats_tool::load_runs(inv.inputs, settings, inv.origins);
+    stats_tool::pool_runs(runs, settings, inv.origins);
     auto analysis = stats_tool::analyze(runs, settings);
-    analysis.validation = stats_tool::validate_against_observed(analysis, settings);
+    analysis.validation = stats_tool::validate_against_observed(analysis, settings, inv.origins);
     make_output_directory(inv.output);
     const fs::path dir = directory_path(inv.output);
     const auto earlier = owned_files(dir);

@@ -91,19 +91,19 @@ void Settings::visit(core::SettingsVisitor& v) {
 
 namespace {
 
-void require_probabilities(const std::vector<double>& ps, const char* key) {
+void require_probabilities(const std::vector<double>& ps, const char* key, const core::SettingsOrigins& origins) {
   for (double p : ps)
     if (!(p > 0.0 && p < 1.0))
-      throw core::InputError("settings", std::string(key) + ": " + core::format_number(p) + " is not in (0, 1)");
+      throw core::InputError(origins.of(key), std::string(key) + ": " + core::format_number(p) + " is not in (0, 1)");
 }
 
 void require_subset(const std::vector<std::string>& values, std::initializer_list<const char*> allowed,
-                    const char* key) {
+                    const char* key, const core::SettingsOrigins& origins) {
   for (const auto& value : values)
     if (std::none_of(allowed.begin(), allowed.end(), [&](const char* a) { return value == a; })) {
       std::string list;
       for (const char* a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
-      throw core::InputError("settings", std::string(key) + ": '" + value + "' is not one of: " + list);
+      throw core::InputError(origins.of(key), std::string(key) + ": '" + value + "' is not one of: " + list);
     }
 }
 
@@ -111,37 +111,39 @@ void require_subset(const std::vector<std::string>& values, std::initializer_lis
 
 // The ranges the fields declare (the reader checks them on what it reads, naming the line
 // or --set key), then the lists'.
-void Settings::validate() const {
+void Settings::validate(const core::SettingsOrigins& origins) const {
   Settings declared = *this;
-  core::check_ranges([&](core::SettingsVisitor& v) { declared.visit(v); }, "settings");
-  require_probabilities(quantiles, "quantiles");
-  require_probabilities(convergence_quantiles, "convergence_quantiles");
+  core::check_ranges([&](core::SettingsVisitor& v) { declared.visit(v); }, origins);
+  require_probabilities(quantiles, "quantiles", origins);
+  require_probabilities(convergence_quantiles, "convergence_quantiles", origins);
   for (double d : reach_distances)
-    if (!std::isfinite(d)) throw core::InputError("settings", "reach_distances must be finite");
+    if (!std::isfinite(d)) throw core::InputError(origins.of("reach_distances"), "reach_distances must be finite");
   if (!observed.file.empty()) {
     if (observed.origin.size() != 2 || !std::isfinite(observed.origin[0]) || !std::isfinite(observed.origin[1]))
-      throw core::InputError("settings", "observed.origin must be [x, y] (m, finite) when observed.file is set");
+      throw core::InputError(origins.of({"observed.origin", "observed.file"}),
+                             "observed.origin must be [x, y] (m, finite) when observed.file is set");
     if (!std::isfinite(observed.main_direction_deg))
-      throw core::InputError("settings", "observed.main_direction_deg must be finite");
+      throw core::InputError(origins.of("observed.main_direction_deg"), "observed.main_direction_deg must be finite");
   }
-  require_subset(raster_formats, {"asc", "tif"}, "raster_formats");
-  require_subset(hazard_variables, {"energy", "height", "speed"}, "hazard_variables");
-  require_subset(hazard_statistics, {"mean", "median", "max"}, "hazard_statistics");
-  require_probabilities(hazard_quantiles, "hazard_quantiles");
-  const auto increasing = [](const std::vector<double>& v, std::size_t n, const char* key, const char* unit) {
+  require_subset(raster_formats, {"asc", "tif"}, "raster_formats", origins);
+  require_subset(hazard_variables, {"energy", "height", "speed"}, "hazard_variables", origins);
+  require_subset(hazard_statistics, {"mean", "median", "max"}, "hazard_statistics", origins);
+  require_probabilities(hazard_quantiles, "hazard_quantiles", origins);
+  const auto increasing = [&origins](const std::vector<double>& v, std::size_t n, const char* key,
+                                     const char* unit) {
     bool ok = v.size() == n;
     for (std::size_t k = 0; ok && k < n; ++k) ok = std::isfinite(v[k]) && v[k] > 0.0 && (k == 0 || v[k] > v[k - 1]);
     if (!ok)
-      throw core::InputError("settings", std::string(key) + " must be " + std::to_string(n) +
-                                             " increasing positive values (" + unit + ")");
+      throw core::InputError(origins.of(key), std::string(key) + " must be " + std::to_string(n) +
+                                                  " increasing positive values (" + unit + ")");
   };
   increasing(intensity_thresholds, 2, "intensity_thresholds", "J");
   increasing(return_periods, 3, "return_periods", "yr");
   for (double f : release_frequencies)
     if (!(f > 0.0) || !std::isfinite(f))
-      throw core::InputError("settings", "release_frequencies: " + core::format_number(f) +
-                                             " is not a positive frequency (events per year)");
-  require_subset(plot_formats, {"png", "svg"}, "plot_formats");
+      throw core::InputError(origins.of("release_frequencies"), "release_frequencies: " + core::format_number(f) +
+                                                                   " is not a positive frequency (events per year)");
+  require_subset(plot_formats, {"png", "svg"}, "plot_formats", origins);
 }
 
 }  // namespace talus::stats_tool

@@ -102,8 +102,9 @@ struct Settings {
   std::int64_t plot_jobs = 0;
 
   void visit(core::SettingsVisitor& v);
-  /// Throws core::InputError("settings", …) on a value out of range.
-  void validate() const;
+  /// Throws core::InputError on a value out of range, naming where it was given
+  /// (`origins`: the --set key, or the file and line).
+  void validate(const core::SettingsOrigins& origins) const;
 };
 
 }  // namespace talus::stats_tool

@@ -58,8 +58,8 @@ std::vector<Run> load_runs(const std::vector<std::string>& paths, const Settings
   std::vector<std::vector<io::RunFile>> shards;    // parallel to `runs` (shards only)
   for (const auto& path : paths) {
     io::RunFile file = io::read_run_file(path);
-    if (file.data.records.empty()) throw core::InputError(path, "run file holds no realizations");
     if (file.info.shard == "0/1") {
+      if (file.data.records.empty()) throw core::InputError(path, "run file holds no realizations");
       runs.push_back({std::filesystem::path(path).stem().string(), {path}, std::move(file)});
       shards.emplace_back();
       continue;
@@ -77,6 +77,9 @@ std::vector<Run> load_runs(const std::vector<std::string>& paths, const Settings
     if (shards[r].empty()) continue;
     // Checks that the shards belong together and no realization repeats.
     runs[r].file = io::merge_run_files(shards[r], runs[r].files);
+    // A shard may hold none (a run of fewer realizations than shards); the run may not.
+    if (runs[r].file.data.records.empty())
+      throw core::InputError(runs[r].files.front(), "the shards given hold no realizations");
     if (runs[r].file.info.shard != "0/1") partial.push_back(r);
   }
   for (std::size_t r : partial) {

@@ -545,6 +545,19 @@ TEST_F(Stats, ShardsGiveTheStatisticsOfTheWholeRun) {
   const Outcome chunked = run_fast({"chunked-0.h5", "chunked-1.h5", "-o", "out-chunked", "--set", "names=[ref]"});
   ASSERT_EQ(chunked.code, 0) << chunked.err;
   EXPECT_EQ(read_text(dir_ / "out-chunked" / "summary.csv"), read_text(dir_ / "out-ref" / "summary.csv"));
+  // A run of 12 realizations in 13 shards: the last holds none and still belongs to it.
+  std::vector<std::string> thirteen;
+  for (std::uint32_t k = 0; k < 13; ++k) {
+    const std::string name = "thin-" + std::to_string(k) + ".h5";
+    write_run(dir_ / name, k, 13);
+    thirteen.push_back(name);
+  }
+  thirteen.insert(thirteen.end(), {"-o", "out-thin", "--set", "names=[ref]"});
+  const Outcome thin = run_fast(thirteen);
+  ASSERT_EQ(thin.code, 0) << thin.err;
+  EXPECT_EQ(read_text(dir_ / "out-thin" / "summary.csv"), read_text(dir_ / "out-ref" / "summary.csv"));
+  expect_one_line_error(run_fast({"thin-12.h5", "-o", "out-bad", "--set", "allow_partial=true"}), 3,
+                        "thin-12.h5: the shards given hold no realizations");
 }
 
 // A series of one value has no spread: its sd and bootstrap intervals are undefined (nan

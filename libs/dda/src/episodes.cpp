@@ -94,7 +94,6 @@ void start_episode_along(const Model& model, const Ground& ground, State& s, con
   ++s.impacts;
 }
 
-
 // Applies the restitution law to the rebound of the impact in progress; the episode
 // goes on as a rolling/sliding one if contacts stay closed.
 void finish_impact(const Model& model, State& s, const Separation& separation) {

@@ -20,7 +20,7 @@ double predicted_reach(const Model& model, const State& s, double dt) {
 // The contact search distance of a step of length h: twice the farthest any point of
 // the block can move in it, and at least the step control's displacement bound (m).
 double search_reach(const Model& model, const State& s, double h) {
-  return std::max(2.0 * predicted_reach(model, s, h), model.max_step_displacement());
+  return std::max(2.0 * predicted_reach(model, s, h), model.max_step_displacement()) + model.rounding_reach;
 }
 
 // The near search distance (m), or 0: every candidate the full search finds beyond it is
@@ -32,7 +32,8 @@ double near_reach(const Model& model, const State& s, double h, double scale) {
     return 0.0;
   // At least twice the reach, so that the flight test's free motion keeps whatever lies
   // beyond it open too.
-  const double near = std::max(std::max(2.0, scale) * predicted_reach(model, s, h) * (1.0 + 1e-6), 1e-5 * model.radius);
+  const double near = std::max(std::max(2.0, scale) * predicted_reach(model, s, h) * (1.0 + 1e-6), 1e-5 * model.radius) +
+                      model.rounding_reach;
   return near < search_reach(model, s, h) ? near : 0.0;
 }
 
@@ -56,7 +57,8 @@ void aim_pass_over(const Model& model, const State& s, const Pose& pose, double 
   pass.h = h;
   pass.fall = 0.5 * model.settings.gravity * h * h;
   pass.scale = scale;
-  pass.allowance = scale * h * s.velocity.segment<3>(3).norm() * 1e-9 * (pose.centre.cwiseAbs().maxCoeff() + model.radius);
+  pass.allowance = scale * h * s.velocity.segment<3>(3).norm() * 1e-9 * (pose.centre.cwiseAbs().maxCoeff() + model.radius) +
+                   model.rounding_reach;
 }
 
 void end_with(State& s, EndReason reason) {

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 // The contact states carried from one step to the next (contact_law.hpp, carry_contacts).
 #include <algorithm>
+#include <limits>
 #include <utility>
 
 #include "contact_law.hpp"
@@ -68,6 +69,13 @@ void carry_one(const Contact& old, Contact& c, const Pose& pose, double friction
     const double allowed = std::min(friction * c.anchor_force, old.spring_shear) / shear_stiffness;
     const double stretch = st.norm();
     if (stretch > allowed) c.ground_anchor += st * (1.0 - allowed / stretch);
+    // Rolling over the smooth surface the material point under the contact changes; the
+    // anchors follow the contact point and keep the shear stretch.
+    if (c.rolling) {
+      const Vec3 kept = pose.centre + pose.map * c.body_anchor - c.ground_anchor;
+      c.body_anchor = pose.inverse_map * (c.point - pose.centre);
+      c.ground_anchor = c.point - c.gap * c.normal - (kept - c.normal * c.normal.dot(kept));
+    }
   }
 }
 
@@ -87,13 +95,54 @@ bool carry_contacts(const std::vector<Contact>& previous, std::vector<Contact>& 
     return !carried;
   });
   if (matched != nullptr) matched->assign(now.size(), 0);
-  thread_local std::vector<std::uint8_t> used;
+  thread_local std::vector<std::uint8_t> used, rolled;
   used.assign(previous.size(), 0);
+  rolled.assign(previous.size(), 0);
+  const auto take = [&](std::size_t i, const Contact& old) {
+    if (matched != nullptr) (*matched)[i] = 1;
+    used[static_cast<std::size_t>(&old - previous.data())] = 1;
+    carry_one(old, now[i], pose, friction, shear_stiffness, radius);
+  };
+  // A contact rolling over the smooth surface passes from vertex to vertex as the support
+  // moves: a rolling contact takes the state of its own feature's, else of the nearest
+  // rolling contact of the last step on the same plane (or crest); the vertex it left
+  // keeps none.
   for (std::size_t i = 0; i < now.size(); ++i) {
     Contact& c = now[i];
+    if (!c.rolling) continue;
     c.gap_offset = std::min(c.gap, 0.0);
     const Contact* match = nullptr;
     same.each(c, [&](const Contact& old) {
+      if (old.terrain_feature != c.terrain_feature &&
+          (c.kind == ContactKind::vertex_ridge || old.normal.dot(c.normal) <= 1.0 - 1e-12))
+        return true;
+      match = &old;
+      return false;
+    });
+    double nearest = std::numeric_limits<double>::infinity();
+    if (match == nullptr)
+      for (const Contact& old : previous) {
+        if (used[static_cast<std::size_t>(&old - previous.data())] != 0 || !old.rolling || old.kind != c.kind ||
+            (c.kind == ContactKind::vertex_ridge ? old.terrain_feature != c.terrain_feature
+                                                 : old.normal.dot(c.normal) <= 1.0 - 1e-12))
+          continue;
+        const double d = (old.point - c.point).squaredNorm();
+        if (d < nearest) {
+          nearest = d;
+          match = &old;
+        }
+      }
+    if (match == nullptr) continue;
+    rolled[static_cast<std::size_t>(match - previous.data())] = 1;
+    take(i, *match);
+  }
+  for (std::size_t i = 0; i < now.size(); ++i) {
+    Contact& c = now[i];
+    if (c.rolling) continue;
+    c.gap_offset = std::min(c.gap, 0.0);
+    const Contact* match = nullptr;
+    same.each(c, [&](const Contact& old) {
+      if (rolled[static_cast<std::size_t>(&old - previous.data())] != 0) return true;
       if (old.terrain_feature == c.terrain_feature) {
         match = &old;
         return false;
@@ -101,10 +150,7 @@ bool carry_contacts(const std::vector<Contact>& previous, std::vector<Contact>& 
       if (c.kind == ContactKind::vertex_face && old.normal.dot(c.normal) > 1.0 - 1e-12) match = &old;
       return true;
     });
-    if (match == nullptr) continue;
-    if (matched != nullptr) (*matched)[i] = 1;
-    used[static_cast<std::size_t>(match - previous.data())] = 1;
-    carry_one(*match, c, pose, friction, shear_stiffness, radius);
+    if (match != nullptr) take(i, *match);
   }
   return std::all_of(used.begin(), used.end(), [](std::uint8_t u) { return u != 0; });
 }

@@ -110,7 +110,8 @@ double clear_horizon(const Model& model, const Ground& ground, State& s, Scratch
 double clear_time(const Model& model, const Ground& ground, State& s, Scratch& w, double h, const PlacedBlock& at) {
   const geometry::Aabb box = swept_sphere_box(model, s, h).inflated(model.max_step_displacement());
   thread_local FlightBound bound;
-  const double round_off = 1e-9 * (s.position.cwiseAbs().maxCoeff() + model.radius);
+  // The smooth surface lies up to rounding_reach outside the vertices.
+  const double round_off = 1e-9 * (s.position.cwiseAbs().maxCoeff() + model.radius) + model.rounding_reach;
   // Free flight is the exact parabola whatever dynamic_coefficient is (apply_displacement).
   const bool damped = false;
   // Points accelerate by the spin's change too when ω turns (Euler's equations).

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <numbers>
 #include <string>
 #include <utility>
 
@@ -106,6 +107,9 @@ void Settings::visit(core::SettingsVisitor& v) {
             core::Range{0.0, kInf});
   v.choice("restitution_bound", restitution_bound, {"normal_approach", "none"},
            "scaled law: remove at most the kinetic energy of the impact's normal approach, or no bound");
+  v.bounded("smooth_turn_deg", smooth_turn_deg, "deg",
+            "turn of the faces at a vertex below which they stand for a curved surface, 0 = none",
+            core::Range::closed(0.0, 90.0));
   v.field("impact_strains", impact_strains,
           "full12: strains respond during impact episodes (else held during impacts)");
   v.bounded("rest_kinetic_energy", rest_kinetic_energy, "J/kg",
@@ -216,6 +220,75 @@ std::vector<BlockEdge> build_edges(const geometry::Polyhedron& poly, const std::
   return edges;
 }
 
+// The smooth surface through the vertices (Model::vertex_normals, vertex_rounding): where
+// the faces around a vertex turn by less than `corner` (rad) it is a sphere tangent to the
+// vertex normal, of the radius that holds the neighbours on average; from corner/2 to
+// corner the radius shrinks linearly to zero, so a vertex turns into a corner gradually.
+void build_rounding(Model& m, double corner) {
+  const std::size_t n = m.vertices.size();
+  std::vector<std::vector<std::int32_t>> faces_at(n);
+  for (std::size_t f = 0; f < m.faces.size(); ++f)
+    for (std::int32_t v : m.faces[f].vertices) faces_at[static_cast<std::size_t>(v)].push_back(static_cast<std::int32_t>(f));
+  std::vector<std::vector<std::int32_t>> next(n);
+  for (const BlockEdge& e : m.edges) {
+    next[static_cast<std::size_t>(e.a)].push_back(e.b);
+    next[static_cast<std::size_t>(e.b)].push_back(e.a);
+  }
+  m.vertex_normals.assign(n, Vec3::Zero());
+  m.vertex_rounding.assign(n, 0.0);
+  m.vertex_cone.assign(n, 0.0);
+  m.neighbour_offsets.assign(1, 0);
+  m.vertex_neighbours.clear();
+  m.face_offsets.assign(1, 0);
+  m.vertex_faces.clear();
+  const auto angle = [](const Vec3& a, const Vec3& b) { return std::atan2(a.cross(b).norm(), a.dot(b)); };
+  for (std::size_t v = 0; v < n; ++v) {
+    std::sort(next[v].begin(), next[v].end());
+    m.vertex_neighbours.insert(m.vertex_neighbours.end(), next[v].begin(), next[v].end());
+    m.neighbour_offsets.push_back(static_cast<std::int32_t>(m.vertex_neighbours.size()));
+    m.vertex_faces.insert(m.vertex_faces.end(), faces_at[v].begin(), faces_at[v].end());
+    m.face_offsets.push_back(static_cast<std::int32_t>(m.vertex_faces.size()));
+    const Vec3& p = m.vertices[v];
+    Vec3 normal = Vec3::Zero();
+    for (std::int32_t f : faces_at[v]) {
+      const auto& ids = m.faces[static_cast<std::size_t>(f)].vertices;
+      const std::size_t k = static_cast<std::size_t>(std::find(ids.begin(), ids.end(), static_cast<std::int32_t>(v)) - ids.begin());
+      const Vec3& a = m.vertices[static_cast<std::size_t>(ids[(k + ids.size() - 1) % ids.size()])];
+      const Vec3& b = m.vertices[static_cast<std::size_t>(ids[(k + 1) % ids.size()])];
+      normal += angle(a - p, b - p) * m.faces[static_cast<std::size_t>(f)].normal;
+    }
+    if (!(normal.norm() > 0.0)) continue;
+    normal.normalize();
+    m.vertex_normals[v] = normal;
+    double turn = 0.0, cone = 0.0;
+    for (std::int32_t f : faces_at[v]) {
+      const Vec3& nf = m.faces[static_cast<std::size_t>(f)].normal;
+      cone = std::max(cone, angle(normal, nf));
+      for (std::int32_t g : faces_at[v]) turn = std::max(turn, angle(nf, m.faces[static_cast<std::size_t>(g)].normal));
+    }
+    m.vertex_cone[v] = cone;
+    if (!(turn < corner) || next[v].empty()) continue;
+    double sum = 0.0;
+    bool convex = true;
+    for (std::int32_t u : next[v]) {
+      const Vec3 d = p - m.vertices[static_cast<std::size_t>(u)];
+      const double drop = normal.dot(d);
+      if (!(drop > 1e-12 * d.norm())) {
+        convex = false;
+        break;
+      }
+      sum += d.squaredNorm() / (2.0 * drop);
+    }
+    if (!convex) continue;
+    const double taper = std::clamp(2.0 * (corner - turn) / corner, 0.0, 1.0);
+    const double rho = std::min(m.radius, sum / static_cast<double>(next[v].size())) * taper;
+    m.vertex_rounding[v] = rho;
+    // A vertex's sphere can reach farthest for directions up to about twice its cone's
+    // half-angle from its normal.
+    m.rounding_reach = std::max(m.rounding_reach, rho * (1.0 - std::cos(std::min(2.0 * cone, std::numbers::pi / 2))));
+  }
+}
+
 }  // namespace
 
 Model Model::build(const Settings& settings, const geometry::Polyhedron& block) {
@@ -293,6 +366,7 @@ Model Model::build(const Settings& settings, const geometry::Polyhedron& block) 
     m.longest_edge = std::max(m.longest_edge, (m.vertices[static_cast<std::size_t>(e.b)] -
                                                m.vertices[static_cast<std::size_t>(e.a)]).norm());
   m.convex = !reflex;
+  if (settings.smooth_turn_deg > 0.0) build_rounding(m, settings.smooth_turn_deg * std::numbers::pi / 180.0);
   if (m.vertices.size() > detail::kScannedVertices)
     m.index = std::make_shared<const detail::BlockIndex>(detail::make_block_index(m, 1e-6 * m.radius));
   m.elasticity = isotropic_elasticity(settings.young_modulus, settings.poisson_ratio);

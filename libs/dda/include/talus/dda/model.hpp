@@ -78,6 +78,25 @@ struct Model {
   /// The solid bends inwards at no edge: every edge is convex, or flat between two
   /// triangles on one plane (decided exactly).
   bool convex = true;
+  /// The curved surface the facets stand for (docs/dda.md, Smooth surface), per vertex in
+  /// the body frame: the unit normal (adjacent face normals weighted by their angles at
+  /// the vertex), the radius ρ of the sphere tangent there that holds the neighbouring
+  /// vertices on average (m; 0 at a corner: faces turning by smooth_turn_deg or more, or a
+  /// vertex not convex), and the neighbours along edges (CSR: neighbours of v are
+  /// vertex_neighbours[neighbour_offsets[v] .. neighbour_offsets[v + 1]]). Empty when
+  /// smooth_turn_deg is 0.
+  std::vector<Vec3> vertex_normals;
+  std::vector<double> vertex_rounding;
+  /// Per vertex, the largest angle between its normal and its faces' normals (rad): the
+  /// vertex's part of the smooth surface is the cap of its sphere within this angle of
+  /// the normal.
+  std::vector<double> vertex_cone;
+  std::vector<std::int32_t> neighbour_offsets, vertex_neighbours;
+  /// The faces around each vertex (CSR, like the neighbours).
+  std::vector<std::int32_t> face_offsets, vertex_faces;
+  /// The most a rounded vertex contact lies below its vertex, max ρ·(1 − cos 2α) with α
+  /// its vertex_cone (m): every contact search is widened by it.
+  double rounding_reach = 0.0;
   /// Box trees over the vertices, convex edges and faces (body frame), through which
   /// contact detection and the step control find the features they need in logarithmic
   /// time (docs/dda.md, Detection); null for a block of few vertices, which is scanned.

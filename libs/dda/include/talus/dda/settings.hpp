@@ -74,6 +74,11 @@ struct Settings {
   /// "normal_approach": the scaled law removes at most the kinetic energy of the
   /// impact's normal approach, ½·m·(V_in·n)² (docs/dda.md); "none": no bound.
   std::string restitution_bound = "normal_approach";
+  /// A block's facets stand for a curved surface where the faces around a vertex turn by
+  /// less than this (deg): vertex contacts lie on the surface blended from the spheres
+  /// tangent at the vertices (docs/dda.md, Smooth surface); 0 (default) = the polyhedron
+  /// exactly, every vertex a corner. 40 keeps every Platonic solid a polyhedron.
+  double smooth_turn_deg = 0.0;
   /// full12 only: let the strains respond during impact episodes (the reference model's
   /// behaviour; the strain mode then keeps most of the impact energy, docs/dda.md).
   bool impact_strains = false;

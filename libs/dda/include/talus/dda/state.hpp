@@ -31,6 +31,9 @@ enum class ContactKind : std::uint8_t {
   vertex_face,  ///< block vertex against a terrain triangle
   face_vertex,  ///< terrain vertex against a block face
   edge_edge,    ///< block edge crossing a terrain edge
+  /// a rounded block vertex's sphere against a terrain crest, in place of the crossings
+  /// of the smooth edges around it (docs/dda.md, Smooth surface)
+  vertex_ridge,
 };
 enum class ContactMode : std::uint8_t { open, locked, sliding };
 
@@ -66,6 +69,10 @@ struct Contact {
   /// resumes from them, never from a deeper state the geometry update left.
   double spring_gap = 0.0;
   double spring_shear = std::numeric_limits<double>::infinity();
+  /// The point lies on the smooth surface at a rounded vertex (docs/dda.md, Smooth
+  /// surface): it moves over the block as the block rolls, and a locked contact's anchors
+  /// move with it, keeping their stretch.
+  bool rolling = false;
 };
 
 /// Wall-clock seconds spent per phase (filled when Settings::time_phases is on).

@@ -48,26 +48,42 @@ TEST(Summary, SimulatedCounterpartsOfUniformValues) {
   }
 }
 
-// The maximum of n is compared with its own scatter: observed maxima of 50 uniform values,
-// each against a simulation of 500, give z of mean square of order 1, not the z of
-// hundreds a comparison with no scatter (the stated sd of 1e-6 alone) would give.
+// The maximum of n is compared with its own scatter: observed maxima of 50 exponential
+// values, each against a simulation of 500 (too few to read the maximum's quantiles off,
+// so the tail fit), give z of mean about 0 and mean square about 1, not the z of hundreds
+// a comparison with no scatter (the stated sd of 1e-6 alone) would give.
 TEST(Summary, MaximumOfNIsComparedWithItsScatter) {
+  const auto exponentials = [](std::uint64_t seed, std::uint32_t index, std::size_t n) {
+    std::vector<double> x = uniforms(seed, index, n);
+    for (double& v : x) v = -std::log1p(-v);
+    return x;
+  };
   double sum = 0.0, sum_sq = 0.0;
   const int trials = 400;
   for (int t = 0; t < trials; ++t) {
-    const std::vector<double> observed = uniforms(7, static_cast<std::uint32_t>(t), 50);
-    const Sample simulated(uniforms(8, static_cast<std::uint32_t>(t), 500));
+    const std::vector<double> observed = exponentials(7, static_cast<std::uint32_t>(t), 50);
+    const Sample simulated(exponentials(8, static_cast<std::uint32_t>(t), 500));
     const SummaryTarget target{Kind::max, 0.0, 0.5, 50.0, summary_statistic(observed, {Kind::max, 0, 0.5, 50.0}), 1e-6};
     const double z = compare_summary(simulated, target).z;
     sum += z;
     sum_sq += z * z;
   }
-  // The maximum of a uniform is skewed (1 − max is nearly exponential): its mean lies below
-  // its median (mean z about 0.3) and its sd exceeds the half-width between the quantiles
-  // of ±1 normal sd (mean square about 1.6 for an exponential tail, 1.2 for a Gumbel one).
-  EXPECT_NEAR(sum / trials, 0.3, 0.25);
-  EXPECT_GT(sum_sq / trials, 0.8);
-  EXPECT_LT(sum_sq / trials, 2.5);
+  // The Gumbel's mean lies 0.21 sd above its median (z about −0.2); its mean square is
+  // about 1/(1 + n/m) plus the tail fit's own error. Bounds for 400 trials.
+  EXPECT_NEAR(sum / trials, -0.2, 0.2);
+  EXPECT_GT(sum_sq / trials, 0.7);
+  EXPECT_LT(sum_sq / trials, 1.5);
+}
+
+// With enough values (m >= 29 n) the maximum's quantiles are the sample's: uniform values,
+// the maximum of 10 has median 0.5^(1/10) and, between its quantiles of ±1 normal sd, a
+// half-width of (0.8413^(1/10) − 0.1587^(1/10))/2.
+TEST(Summary, MaximumOfFewIsReadOffALargeSample) {
+  const Sample big(uniforms(4, 0, 20000));
+  const SummaryComparison c = compare_summary(big, {Kind::max, 0.0, 0.5, 10.0, 0.9, 1e-9});
+  EXPECT_NEAR(c.simulated, std::pow(0.5, 0.1), 0.003);  // sampling error of 20 000 values
+  const double w = 0.5 * (std::pow(0.8413447460685429, 0.1) - std::pow(0.15865525393145707, 0.1));
+  EXPECT_NEAR(c.sd, w * std::sqrt(1.0 + 10.0 / 20000.0), 0.003);
 }
 
 // A share observed as 0.581 of 250 (sd 0.031) against simulations of 250 at true shares

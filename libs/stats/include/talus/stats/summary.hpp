@@ -32,8 +32,11 @@ struct SummaryComparison {
 /// - quantile: Q(p), sd² = target sd² + ((Q(p + s) − Q(p − s))/2)², s = √(p(1 − p)/m)
 ///   (the order statistics one binomial sd either side);
 /// - max of n: the median of the maximum of n values drawn from the sample's distribution,
-///   Q(0.5^(1/n)); its spread w = (Q(0.8413^(1/n)) − Q(0.1587^(1/n)))/2 is the observed
-///   maximum's own scatter, and w·√(n/m) the simulation's error in estimating it:
+///   Q(0.5^(1/n)), and its spread w = (Q(0.8413^(1/n)) − Q(0.1587^(1/n)))/2, when at least
+///   5 values lie beyond Q(0.8413^(1/n)) (m >= 29 n); otherwise from an exponential tail
+///   fitted to the top k = max(10, m/10) values (mean excess a over the next one, u): the
+///   maximum is then Gumbel, median u + a(ln(nk/m) − ln ln 2), w = aπ/√6. w is the observed
+///   maximum's own scatter, w·√(n/m) the simulation's error in estimating it:
 ///   sd² = target sd² + w²(1 + n/m). min mirrors max.
 /// Needs a sample of at least 2 values (and m >= n for max and min, checked by callers).
 SummaryComparison compare_summary(const Sample& sample, const SummaryTarget& target);

@@ -15,6 +15,11 @@
       and (with trajectories) flight and rotation shares; the cube and the octahedron at two
       time steps (DIR/cube-octahedron-{design,research}-S*.h5) when present
 
+  paper.py bands PREDICTDIR [--fit FITDIR] [--figure BANDS.png] [-o BANDS.md]
+      the published figures against the predictive bands of a calibration
+      (calibrate --predict with samples/bench-slope/predict.yaml: PREDICTDIR/predictive.csv),
+      with the posterior of FITDIR (summary.csv, generations.csv) when given
+
 Conventions (stated in docs/reference-study.md): the toe share counts every realization
 whose final centroid is at x >= TOE (36 m), those that left the terrain past it included;
 the maximum runout is the largest final x of the blocks at rest (x from the crest, the
@@ -533,6 +538,113 @@ def step_table(directory, toe):
             "|---|---|---|---|---|---|---|"] + step_rows
 
 
+# ---------------------------------------------------------------- calibration bands
+
+# calibrate's statistic labels (samples/bench-slope/predict.yaml) and how the table names them.
+BAND_QUANTITIES = [
+    ("share_above runout > 36 m", "toe share (%)", 100.0),
+    ("max runout of 250 (m)", "max runout (m)", 1.0),
+    ("min lateral of 250 (m)", "lateral min (m)", 1.0),
+    ("max lateral of 250 (m)", "lateral max (m)", 1.0),
+    ("max speed of 250 (m/s)", "max speed (m/s)", 1.0),
+    ("max jump of 250 (m)", "max jump (m)", 1.0),
+]
+CALIBRATED_CELL = "S1 R4"
+
+
+def read_bands(path):
+    rows = {}
+    with open(path) as f:
+        for r in csv.DictReader(f):
+            rows[(r["case"], r["statistic"])] = r
+    return rows
+
+
+def cmd_bands(args):
+    rows = read_bands(os.path.join(args.predictdir, "predictive.csv"))
+    cells = [l + " " + b for l in LEVELS for b in BLOCKS]
+    out = []
+    if args.fit:
+        with open(os.path.join(args.fit, "summary.csv")) as f:
+            summary = list(csv.DictReader(f))
+        with open(os.path.join(args.fit, "generations.csv")) as f:
+            gens = list(csv.DictReader(f))
+        out.append("| parameter | unit | prior | P5 | P50 | P95 |")
+        out.append("|---|---|---|---|---|---|")
+        for r in summary:
+            out.append("| %s | %s | %s [%s, %s] | %.3g | %.3g | %.3g |" % (
+                r["parameter"], r["unit"], r["prior"], r["min"], r["max"], float(r["P5"]), float(r["P50"]),
+                float(r["P95"])))
+        out.append("")
+        out.append("%d generation(s) after the prior, %d simulations; tolerance %s." % (
+            len(gens) - 1, sum(int(g["proposed"]) for g in gens),
+            " → ".join("%.3g" % float(g["tolerance"]) for g in gens[1:])))
+        out.append("")
+    out.append("| cell | " + " | ".join(q[1] for q in BAND_QUANTITIES) + " |")
+    out.append("|---|" + "---|" * len(BAND_QUANTITIES))
+    counts = {"calibrated": [0, 0], "predicted": [0, 0]}
+    for cell in cells:
+        entries = []
+        for label, _, scale in BAND_QUANTITIES:
+            r = rows.get((cell, label))
+            if r is None:
+                entries.append("–")
+                continue
+            inside = r["inside"] == "1"
+            kind = "calibrated" if cell == CALIBRATED_CELL else "predicted"
+            counts[kind][0] += inside
+            counts[kind][1] += 1
+            value = float(r["observed"]) * scale
+            entries.append("%s%s%s [%s, %s, %s]" % (
+                "" if inside else "**", f1(value, 2 if scale == 1.0 else 1), "" if inside else "**",
+                f1(float(r["band_low"]) * scale), f1(float(r["band_median"]) * scale), f1(float(r["band_high"]) * scale)))
+        out.append("| %s%s | %s |" % (cell, " (calibrated)" if cell == CALIBRATED_CELL else "", " | ".join(entries)))
+    out.append("")
+    out.append("Published value in [P5, P50, P95] of the predictive band (%s draws of the posterior, 250 blocks each); "
+               "bold: outside the band. Inside: %d of the calibrated cell's %d; %d of the other eleven cells' %d." % (
+                   args.draws, counts["calibrated"][0], counts["calibrated"][1], counts["predicted"][0],
+                   counts["predicted"][1]))
+    write(args.output, "\n".join(out) + "\n")
+    if args.figure:
+        bands_figure(rows, cells, args.figure)
+
+
+def bands_figure(rows, cells, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.lines
+    import matplotlib.patches
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(2, 3, figsize=(13, 7.5))
+    fig.subplots_adjust(left=0.05, right=0.99, bottom=0.14, top=0.91, hspace=0.4, wspace=0.2)
+    x = np.arange(len(cells))
+    for ax, (label, name, scale) in zip(axes.flat, BAND_QUANTITIES):
+        for k, cell in enumerate(cells):
+            r = rows.get((cell, label))
+            if r is None:
+                continue
+            lo, med, hi = (float(r[c]) * scale for c in ("band_low", "band_median", "band_high"))
+            ax.plot([k, k], [lo, hi], color="C0", linewidth=6, alpha=0.4, solid_capstyle="butt")
+            ax.plot([k - 0.25, k + 0.25], [med, med], color="C0", linewidth=1.5)
+            inside = r["inside"] == "1"
+            ax.plot([k], [float(r["observed"]) * scale], "o" if inside else "X", color="k" if inside else "C3",
+                    markersize=6)
+        ax.axvspan(cells.index(CALIBRATED_CELL) - 0.5, cells.index(CALIBRATED_CELL) + 0.5, color="0.92", zorder=0)
+        ax.set_xticks(x, [c.replace(" ", "\n") for c in cells], fontsize="x-small")
+        ax.set_xlim(-0.6, len(cells) - 0.4)
+        ax.set_title(name, fontsize="medium")
+    handles = [matplotlib.lines.Line2D([], [], color="C0", linewidth=6, alpha=0.4, label="predictive P5-P95 (P50 line)"),
+               matplotlib.lines.Line2D([], [], color="k", marker="o", linestyle="", label="published, inside"),
+               matplotlib.lines.Line2D([], [], color="C3", marker="X", linestyle="", label="published, outside"),
+               matplotlib.patches.Patch(color="0.92", label="the calibrated cell")]
+    fig.legend(handles=handles, loc="lower center", ncol=4, fontsize="small")
+    fig.suptitle("Calibrated on R4 / S1 alone: the published figures against the predictive bands")
+    tmp = path + ".tmp-paper.png"
+    fig.savefig(tmp, dpi=110)
+    plt.close(fig)
+    os.replace(tmp, path)
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     sub = p.add_subparsers(dest="command", required=True)
@@ -560,6 +672,13 @@ def main():
                    help="another study's run files, tabled after the first")
     h.add_argument("-o", "--output", default="-")
     h.set_defaults(func=cmd_shapes)
+    b = sub.add_parser("bands")
+    b.add_argument("predictdir")
+    b.add_argument("--fit", default="")
+    b.add_argument("--draws", default="40", help="posterior draws of the prediction (for the caption)")
+    b.add_argument("--figure", default="")
+    b.add_argument("-o", "--output", default="-")
+    b.set_defaults(func=cmd_bands)
     args = p.parse_args()
     args.func(args)
 

@@ -75,6 +75,21 @@ generations: 1
 plots: false
 """
 
+# The same calibration against published summaries instead of stops (docs/calibration.md,
+# "Summary statistics"); calsum-neg.yaml has a negative sd on line 5.
+CALSUM_YAML = """scene: scene.yaml
+groups:
+  - summaries:
+      - {statistic: share_above, threshold: 5, value: 0.5, sd: 0.1}
+      - {statistic: max, n: 3, value: 12, sd: 0.5}
+parameters:
+  - {material: rock, parameter: restitution_mean, min: 0.2, max: 0.9}
+realizations: 3
+particles: 4
+generations: 1
+plots: false
+"""
+
 # A 4 x 3 DEM on a 1 m grid.
 DEM_ASC = """ncols 4
 nrows 3
@@ -202,6 +217,8 @@ def make_fixtures(bin_dir, root):
     write(os.path.join(root, "bow.yaml"), SCENE_YAML + "stop_zones:\n  - name: bow\n"
           "    polygon: [[1, 1], [5, 5], [5, 1], [1, 5]]\n")
     write(os.path.join(root, "calset.yaml"), CALIBRATE_YAML + "set: [release.height=1e12]\n")
+    write(os.path.join(root, "calsum.yaml"), CALSUM_YAML)
+    write(os.path.join(root, "calsum-neg.yaml"), CALSUM_YAML.replace("value: 12, sd: 0.5", "value: 12, sd: -0.5"))
     write(os.path.join(root, "hazard.yaml"), SCENE_YAML.replace("hazard_cell_size: 2", "hazard_cell_size: 1.5"))
     with open(os.path.join(root, "garbage.asc"), "wb") as f:
         f.write(b"ncols\x01\x02\xff\xfe" + bytes(range(128, 228)) + b" 4\n")
@@ -509,6 +526,35 @@ CASES = [
      ["local.csv: line 2: observed stop (1012, 2005) is outside the terrain (input coordinates: x in [0, 20]",
       "it lies inside the terrain in its local frame (input coordinates minus the origin shift [-1000, -2000])",
       "give the observed stops in the terrain's input coordinates"]),
+    # Published summaries (docs/calibration.md, "Summary statistics"): each names its key,
+    # at the file's line or the --set key.
+    (["calibrate", "-c", "calsum.yaml", "--set", "groups[0].summaries[0].statistic=mean", "-o", "c"], BAD_INPUT,
+     ["--set groups[0].summaries[0].statistic", "'mean' is not one of"]),
+    (["calibrate", "-c", "calsum.yaml", "--set", "groups[0].summaries[1].variable=energy", "-o", "c"], BAD_INPUT,
+     ["--set groups[0].summaries[1].variable", "'energy' is not one of"]),
+    (["calibrate", "-c", "calsum.yaml", "--set", "groups[0].summaries[0].sdev=0.1", "-o", "c"], BAD_INPUT,
+     ["--set groups[0].summaries[0].sdev", "unknown key"]),
+    (["calibrate", "-c", "calsum-neg.yaml", "-o", "c"], BAD_INPUT,
+     [": error: calsum-neg.yaml:5: groups[0].summaries[1]: sd must be > 0 (the value's standard uncertainty), got -0.5"]),
+    (["calibrate", "-c", "calsum.yaml", "--set", "groups[0].summaries=[{statistic: quantile, p: 0.5, value: 10}]",
+      "-o", "c"], BAD_INPUT,
+     [": error: --set groups[0].summaries: groups[0].summaries[0]: quantile needs sd (its standard uncertainty, m)"]),
+    (["calibrate", "-c", "calsum.yaml", "--set", "groups[0].summaries[0].value=58.1", "-o", "c"], BAD_INPUT,
+     [": error: --set groups[0].summaries[0].value: groups[0].summaries[0]: a share must be in [0, 1], got 58.1"]),
+    (["calibrate", "-c", "calsum.yaml", "--set", "groups[0].summaries[0]={statistic: share_above, threshold: 5, "
+      "count: 7, n: 5}", "-o", "c"], BAD_INPUT, ["groups[0].summaries[0]: count 7 exceeds n 5"]),
+    (["calibrate", "-c", "calsum.yaml", "--set", "groups[0].summaries[0]={statistic: share_above, threshold: 5, "
+      "count: 3, n: 5, sd: 0.1}", "-o", "c"], BAD_INPUT, ["groups[0].summaries[0]: give count and n, or value and sd"]),
+    (["calibrate", "-c", "calsum.yaml", "--set", "groups[0].summaries[0].p=0.5", "-o", "c"], BAD_INPUT,
+     ["--set groups[0].summaries[0].p: groups[0].summaries[0]: share_above takes no p"]),
+    (["calibrate", "-c", "calsum.yaml", "--set", "groups[0].summaries[1].n=250", "-o", "c"], BAD_INPUT,
+     [": error: --set groups[0].summaries[1].n:", "the max of n = 250 blocks needs at least as many realizations",
+      "(realizations is 3)"]),
+    (["calibrate", "-c", "calsum.yaml", "--set", "groups[0].observed=stops.csv", "-o", "c"], BAD_INPUT,
+     ["--set groups[0].observed", "give observed stops or summaries, not both"]),
+    (["calibrate", "-c", "calsum.yaml", "--set",
+      "groups=[{summaries: [{statistic: max, n: 3, value: 12, sd: 0.5}]}, {observed: stops.csv}]", "-o", "c"],
+     BAD_INPUT, ["groups[1] (group 1): the cases must all give observed stops or all give summaries"]),
     (["calibrate", "-c", "calibrate.yaml", "--predict", "missing.h5", "-o", "c"], BAD_INPUT, ["missing.h5"]),
     (["calibrate", "-c", "calibrate.yaml", "--predict", "t.h5", "-o", "c"], BAD_INPUT, ["t.h5"]),
     (["calibrate", "-c", "calibrate.yaml", "--predict", "run.h5", "--resume", "-o", "c"], USAGE, ["--resume"]),

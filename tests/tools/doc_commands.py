@@ -59,6 +59,10 @@ EXCLUDED = [
      "the bench-slope study beside the published one, its model-choice sensitivity (66 runs of 1000 "
      "realizations) and its shape measures (12 runs, 6 with trajectories); the table script they drive is run "
      "here on dda-run.md's run files (samples/bench-slope/paper.py table)"),
+    (r"^make -C samples/bench-slope (calibration|prediction)\b",
+     "the one-cell calibrations of the reference study (1114 and 600 simulations of 250 realizations, 20 and "
+     "12 min on two cores) and its prediction of twelve cells; the calibration_summaries_recovery test runs the "
+     "same chain on the calibration example"),
     (r"^bench/pareto/pareto\.py\b", "run time against error: about 80 runs of 500 realizations (an hour on 2 cores)"),
     (r"^valgrind --tool=callgrind\b",
      "instruction counts: the run under valgrind takes minutes; the same run without it is the whole-run law's "
@@ -101,6 +105,10 @@ OVERRIDES = [
      "--set particles=6 --set generations=1 --set realizations={n}"),
     ("docs/calibration.md", r"^calibrate -c samples/calibration/predict\.yaml",
      "--set predictive_draws=3 --set realizations={n}"),
+    # The fit to summaries: one generation of 6 particles (its maximum is of 60 blocks, so
+    # the simulations keep their 60 realizations).
+    ("docs/calibration.md", r"^calibrate -c samples/calibration/summaries\.yaml",
+     "--set particles=6 --set generations=1"),
 ]
 
 # Documents whose commands go on from another document's outputs, as their text says:

@@ -120,6 +120,98 @@ void check_on_terrain(const io::ObservedStops& stops, const Case& c, const terra
                                  "] m from the origin along the runout direction: no simulated block can stop there");
 }
 
+const char* unit_of(SummaryVariable v) { return v == SummaryVariable::speed ? "m/s" : "m"; }
+
+// A published summary, checked: each statistic is given what it needs and nothing it does
+// not take, with values in range. `key` ("groups[0].summaries[2]") names it in messages,
+// at the file and line (or --set key) where it was given.
+CaseSummary read_summary(const Summary& s, const std::string& key, const core::SettingsOrigins& origins,
+                         std::int64_t realizations) {
+  using Kind = stats::SummaryTarget::Kind;
+  const auto fail = [&](const std::string& field, const std::string& what) {
+    throw InputError(origins.of(field.empty() ? key : key + "." + field), key + ": " + what);
+  };
+  if (s.statistic.empty()) fail("statistic", "no statistic given (share_above, quantile, max or min)");
+  const auto needs = [&](const std::optional<double>& x, const char* field, const char* meaning) {
+    if (!x) fail("", s.statistic + " needs " + field + " (" + meaning + ")");
+    if (!std::isfinite(*x)) fail(field, std::string(field) + " must be finite");
+  };
+  const auto refuses = [&](const std::optional<double>& x, const char* field) {
+    if (x) fail(field, s.statistic + " takes no " + field);
+  };
+  const auto whole = [&](double x, const char* field, double lo) {
+    if (!(x >= lo && x == std::floor(x) && x <= 1e9))
+      fail(field, std::string(field) + " must be a whole number >= " + core::format_number(lo) + ", got " +
+                      core::format_number(x));
+  };
+  CaseSummary out;
+  out.variable = s.variable == "lateral" ? SummaryVariable::lateral
+                 : s.variable == "speed" ? SummaryVariable::speed
+                 : s.variable == "jump"  ? SummaryVariable::jump
+                                         : SummaryVariable::runout;
+  const std::string unit = unit_of(out.variable);
+  stats::SummaryTarget& t = out.target;
+  if (s.statistic == "share_above") {
+    t.kind = Kind::share_above;
+    needs(s.threshold, "threshold", "the value blocks above count");
+    refuses(s.p, "p");
+    t.threshold = *s.threshold;
+    if (s.count) {
+      // A count of n: its binomial standard error, at (count + 1)/(n + 2) so that a count
+      // of 0 or n is not taken as exact.
+      if (s.value || s.sd) fail(s.value ? "value" : "sd", "give count and n, or value and sd, not both");
+      needs(s.n, "n", "the blocks counted");
+      whole(*s.n, "n", 1.0);
+      whole(*s.count, "count", 0.0);
+      if (*s.count > *s.n) fail("count", "count " + core::format_number(*s.count) + " exceeds n " + core::format_number(*s.n));
+      t.value = *s.count / *s.n;
+      const double shrunk = (*s.count + 1.0) / (*s.n + 2.0);
+      t.sd = std::sqrt(shrunk * (1.0 - shrunk) / *s.n);
+    } else {
+      if (!s.value) fail("", "share_above needs value and sd (a share in [0, 1] and its standard error), or count and n");
+      refuses(s.n, "n (it goes with count)");
+      needs(s.value, "value", "the share, in [0, 1]");
+      if (!(*s.value >= 0.0 && *s.value <= 1.0))
+        fail("value", "a share must be in [0, 1], got " + core::format_number(*s.value) + " (give 0.581, not 58.1 %)");
+      needs(s.sd, "sd", "the share's standard error");
+      t.value = *s.value;
+      t.sd = *s.sd;
+    }
+    out.label = "share_above " + s.variable + " > " + core::format_number(t.threshold) + " " + unit;
+  } else {
+    refuses(s.threshold, "threshold");
+    refuses(s.count, "count");
+    needs(s.value, "value", ("the published value, " + unit).c_str());
+    needs(s.sd, "sd", ("its standard uncertainty, " + unit).c_str());
+    t.value = *s.value;
+    t.sd = *s.sd;
+    if (s.statistic == "quantile") {
+      t.kind = Kind::quantile;
+      refuses(s.n, "n");
+      needs(s.p, "p", "the quantile's probability, in (0, 1)");
+      if (!(*s.p > 0.0 && *s.p < 1.0)) fail("p", "p must be in (0, 1), got " + core::format_number(*s.p));
+      t.p = *s.p;
+      out.label = "quantile " + core::format_number(t.p) + " of " + s.variable + " (" + unit + ")";
+    } else {
+      t.kind = s.statistic == "max" ? Kind::max : Kind::min;
+      refuses(s.p, "p");
+      needs(s.n, "n", "the blocks the extreme is over");
+      whole(*s.n, "n", 1.0);
+      t.n = *s.n;
+      // The extreme of n is compared with the simulation's distribution of it (its
+      // quantile 0.5^(1/n) and the spread about it), which m < n realizations cannot reach.
+      if (static_cast<double>(realizations) < t.n)
+        throw InputError(origins.of({"realizations", key + ".n"}),
+                         key + ": the " + s.statistic + " of n = " + core::format_number(t.n) +
+                             " blocks needs at least as many realizations per simulation (realizations is " +
+                             std::to_string(realizations) + ")");
+      out.label = s.statistic + " " + s.variable + " of " + core::format_number(t.n) + " (" + unit + ")";
+    }
+  }
+  if (!(t.sd > 0.0)) fail("sd", "sd must be > 0 (the value's standard uncertainty), got " + core::format_number(t.sd));
+  return out;
+}
+
 }  // namespace
 
 Problem::Problem(const Settings& settings, const core::SettingsOrigins& origins, unsigned threads)
@@ -253,8 +345,19 @@ Problem::Problem(const Settings& settings, const core::SettingsOrigins& origins,
       throw InputError(origins.of(item + ".main_direction_deg"), where + "main_direction_deg must be finite");
     c.direction = Eigen::Vector2d(std::cos(azimuth), std::sin(azimuth));
 
+    if (!group.summaries.empty()) {
+      if (!group.observed.empty())
+        throw InputError(origins.of(item + ".observed"),
+                         where + "give observed stops or summaries, not both (they are compared differently)");
+      for (std::size_t k = 0; k < group.summaries.size(); ++k)
+        c.summaries.push_back(
+            read_summary(group.summaries[k], item + ".summaries[" + std::to_string(k) + "]", origins, s.realizations));
+      cases_.push_back(std::move(c));
+      continue;
+    }
     if (group.observed.empty())
-      throw InputError(origins.of(item + ".observed"), where + "observed: no file of observed stops given");
+      throw InputError(origins.of(item + ".observed"),
+                       where + "observed: no file of observed stops given (nor summaries)");
     const io::ObservedStops stops =
         io::read_observed_stops(group.observed, group.layer, terrain->crs_wkt, "groups[" + std::to_string(g) + "].observed");
     check_on_terrain(stops, c, scene.base_surface(), terrain->origin_shift.head<2>(), group.observed);
@@ -274,6 +377,16 @@ Problem::Problem(const Settings& settings, const core::SettingsOrigins& origins,
     }
     cases_.push_back(std::move(c));
   }
+
+  // The energy distance of stops and the discrepancy of summaries are on different
+  // scales: averaged together, one kind would outweigh the other arbitrarily.
+  for (std::size_t g = 1; g < cases_.size(); ++g)
+    if (cases_[g].has_summaries() != cases_[0].has_summaries())
+      throw InputError(origins.of("groups[" + std::to_string(g) + "]." +
+                                  (cases_[g].has_summaries() ? "summaries" : "observed")),
+                       "groups[" + std::to_string(g) + "] (" + cases_[g].name + "): the cases must all give observed "
+                       "stops or all give summaries (the two distances are on different scales)");
+  if (cases_[0].has_summaries()) return;
 
   // Each variable is compared in units of its observed spread over every case: the
   // sample standard deviation, undefined for a single stop and no scale when the stops
@@ -343,6 +456,16 @@ Simulated Problem::simulate(const std::vector<double>& theta, std::size_t c, std
       ++out.failures;
       continue;
     }
+    // Summaries are of every block, wherever it ended: one that left the terrain is
+    // counted at its exit (a lower bound of its runout, past any line it crossed), so a
+    // parameter set that sends blocks off the terrain is not rewarded by their absence.
+    {
+      const Eigen::Vector2d d = r.final_position.head<2>() + shift - cs.origin;
+      out.blocks[0].push_back(cs.direction.dot(d));
+      out.blocks[1].push_back(cs.direction.x() * d.y() - cs.direction.y() * d.x());
+      out.blocks[2].push_back(r.max_speed);
+      out.blocks[3].push_back(r.max_jump_height);
+    }
     // Compared as observed stops are: where blocks came to rest (those that left the
     // terrain or ran out of steps are counted, not compared).
     if (r.end != dda::EndReason::rest) {
@@ -359,10 +482,23 @@ Simulated Problem::simulate(const std::vector<double>& theta, std::size_t c, std
   return out;
 }
 
+std::vector<stats::SummaryComparison> Problem::compare(std::size_t c, const Simulated& sim) const {
+  std::vector<stats::SummaryComparison> out;
+  for (const CaseSummary& summary : cases_[c].summaries)
+    out.push_back(stats::compare_summary(stats::Sample(sim.blocks[static_cast<std::size_t>(summary.variable)]),
+                                         summary.target));
+  return out;
+}
+
 double Problem::distance(const std::vector<double>& theta) const {
   double total = 0.0;
   for (std::size_t c = 0; c < cases_.size(); ++c) {
     const Simulated sim = simulate(theta, c);
+    if (cases_[c].has_summaries()) {
+      if (sim.blocks[0].size() < 2) return std::numeric_limits<double>::infinity();
+      total += stats::summary_distance(compare(c, sim));
+      continue;
+    }
     if (sim.values.size() < 2) return std::numeric_limits<double>::infinity();
     total += stats::energy_distance(sim.values, cases_[c].observed, scale_);
   }

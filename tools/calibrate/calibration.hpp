@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 #pragma once
 #include <Eigen/Core>
+#include <array>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -11,13 +12,24 @@
 #include "talus/block/block.hpp"
 #include "talus/mc/scene.hpp"
 #include "talus/stats/abc.hpp"
+#include "talus/stats/summary.hpp"
 #include "talus/terrain/terrain.hpp"
 
 namespace talus::calibrate {
 
+/// The variables a summary statistic can be of, in the order of Simulated::blocks.
+enum class SummaryVariable { runout = 0, lateral = 1, speed = 2, jump = 3 };
+
+/// One published summary of a case, ready to compare: the target and what it is of.
+struct CaseSummary {
+  stats::SummaryTarget target;
+  SummaryVariable variable = SummaryVariable::runout;
+  std::string label;  ///< "share_above runout > 35 m", "max runout of 250": how outputs name it
+};
+
 /// An observed case ready to simulate: its scene settings (scene file, then the common
-/// and the group's overrides), its observed stops measured from its origin, and the
-/// terrain and blocks it shares with the other cases.
+/// and the group's overrides), its observed stops measured from its origin (or its
+/// published summaries), and the terrain and blocks it shares with the other cases.
 struct Case {
   std::string name;
   mc::SceneSettings scene;
@@ -27,7 +39,9 @@ struct Case {
   mc::SceneVectors vectors;
   Eigen::Vector2d origin = Eigen::Vector2d::Zero();     ///< terrain input coordinates (m)
   Eigen::Vector2d direction = Eigen::Vector2d::UnitX(); ///< unit runout direction
-  std::vector<std::vector<double>> observed;            ///< [n][variables] (m)
+  std::vector<std::vector<double>> observed;            ///< [n][variables] (m); empty for summaries
+  std::vector<CaseSummary> summaries;                   ///< published summaries instead of stops
+  bool has_summaries() const { return !summaries.empty(); }
 };
 
 /// One simulation of a case: the compared values of its realizations at rest, how many
@@ -35,6 +49,10 @@ struct Case {
 /// (both left out of the comparison, and reported).
 struct Simulated {
   std::vector<std::vector<double>> values;  ///< [realizations at rest][variables] (m)
+  /// Every realization without a numerical failure, in realization order, wherever it
+  /// ended: runout and lateral offset of its final position (m), its largest speed (m/s)
+  /// and jump height (m), indexed by SummaryVariable. What summary statistics are of.
+  std::array<std::vector<double>, 4> blocks;
   std::int64_t not_at_rest = 0;
   std::int64_t failures = 0;
 };
@@ -61,8 +79,14 @@ class Problem {
   Simulated simulate(const std::vector<double>& theta, std::size_t c, std::uint64_t draw = 0) const;
   /// The distance of one parameter set: the mean over the cases of the energy distance
   /// between simulated and observed values (each variable divided by its scale);
-  /// infinite when a case has fewer than 2 realizations at rest.
+  /// infinite when a case has fewer than 2 realizations at rest. For cases of summaries,
+  /// the mean of their discrepancies √(mean z²) (stats::summary_distance); infinite when
+  /// a case has fewer than 2 realizations without a numerical failure.
   double distance(const std::vector<double>& theta) const;
+  /// Each published summary of case `c` against simulation `sim` of it.
+  std::vector<stats::SummaryComparison> compare(std::size_t c, const Simulated& sim) const;
+  /// True when the cases give summaries (they are all of one kind).
+  bool summaries() const { return cases_.front().has_summaries(); }
   /// The scene settings of case `c` (or of the scene without the group overrides, c =
   /// npos) with `theta` as material overrides.
   mc::SceneSettings with_parameters(const mc::SceneSettings& base, const std::vector<double>& theta) const;

@@ -23,6 +23,7 @@
 #include "talus/io/hdf5.hpp"
 #include "talus/io/settings_yaml.hpp"
 #include "talus/stats/sample.hpp"
+#include "talus/stats/summary.hpp"
 
 #ifdef TALUS_WITH_MPI
 #include <mpi.h>
@@ -64,8 +65,68 @@ struct Checkpoint {
   bool finished = false;
 };
 
+// The fit at the posterior medians: each case's simulated stops, or its summaries' comparisons.
+struct Fit {
+  std::vector<std::vector<std::vector<double>>> values;
+  std::vector<std::vector<stats::SummaryComparison>> summaries;
+};
+
+std::vector<std::string> summary_labels(const calibrate::Case& c) {
+  std::vector<std::string> labels;
+  for (const auto& s : c.summaries) labels.push_back(s.label);
+  return labels;
+}
+
+// Per case: its observed stops and, at the posterior medians, its simulated ones.
+void write_stop_cases(const io::h5::Group& cases, const Problem& problem,
+                      const std::vector<std::vector<std::vector<double>>>& fit) {
+  cases.write_strings("variables", problem.variables());
+  cases.write("scale", problem.scale().data(), {problem.scale().size()}, "m");
+  for (std::size_t c = 0; c < problem.cases().size(); ++c) {
+    const io::h5::Group cg = cases.create_group(std::to_string(c));
+    const auto& obs = problem.cases()[c].observed;
+    std::vector<double> flat;
+    for (const auto& o : obs) flat.insert(flat.end(), o.begin(), o.end());
+    cg.write("observed", flat.data(), {obs.size(), problem.variables().size()}, "m");
+    if (c < fit.size() && !fit[c].empty()) {
+      flat.clear();
+      for (const auto& o : fit[c]) flat.insert(flat.end(), o.begin(), o.end());
+      cg.write("fitted", flat.data(), {fit[c].size(), problem.variables().size()}, "m");
+    }
+  }
+}
+
+// Per case: each summary's label, published value and sd, and at the posterior medians
+// the simulated counterpart, the combined sd and z.
+void write_summary_cases(const io::h5::Group& cases, const Problem& problem,
+                         const std::vector<std::vector<stats::SummaryComparison>>& fit) {
+  for (std::size_t c = 0; c < problem.cases().size(); ++c) {
+    const auto& cs = problem.cases()[c];
+    const io::h5::Group cg = cases.create_group(std::to_string(c));
+    cg.write_strings("statistic", summary_labels(cs));
+    std::vector<double> value, sd;
+    for (const auto& x : cs.summaries) {
+      value.push_back(x.target.value);
+      sd.push_back(x.target.sd);
+    }
+    cg.write("observed", value.data(), {value.size()}, "per statistic");
+    cg.write("observed_sd", sd.data(), {sd.size()}, "per statistic");
+    if (c < fit.size() && !fit[c].empty()) {
+      std::vector<double> sim, sim_sd, z;
+      for (const auto& x : fit[c]) {
+        sim.push_back(x.simulated);
+        sim_sd.push_back(x.sd);
+        z.push_back(x.z);
+      }
+      cg.write("fitted", sim.data(), {sim.size()}, "per statistic");
+      cg.write("fitted_sd", sim_sd.data(), {sim_sd.size()}, "per statistic");
+      cg.write("fitted_z", z.data(), {z.size()}, "-");
+    }
+  }
+}
+
 void write_posterior(const std::string& path, const Problem& problem, const Checkpoint& cp,
-                     const io::Provenance& provenance, const std::vector<std::vector<std::vector<double>>>& fit) {
+                     const io::Provenance& provenance, const Fit& fit) {
   io::AtomicOutput out(path);
   {
     io::h5::File f = io::h5::File::create(out.temp_path(), path);
@@ -105,20 +166,9 @@ void write_posterior(const std::string& path, const Problem& problem, const Chec
     std::vector<std::string> names;
     for (const auto& c : problem.cases()) names.push_back(c.name);
     cases.write_strings("name", names);
-    cases.write_strings("variables", problem.variables());
-    cases.write("scale", problem.scale().data(), {problem.scale().size()}, "m");
-    for (std::size_t c = 0; c < problem.cases().size(); ++c) {
-      const io::h5::Group cg = cases.create_group(std::to_string(c));
-      const auto& obs = problem.cases()[c].observed;
-      std::vector<double> flat;
-      for (const auto& o : obs) flat.insert(flat.end(), o.begin(), o.end());
-      cg.write("observed", flat.data(), {obs.size(), problem.variables().size()}, "m");
-      if (c < fit.size() && !fit[c].empty()) {
-        flat.clear();
-        for (const auto& o : fit[c]) flat.insert(flat.end(), o.begin(), o.end());
-        cg.write("fitted", flat.data(), {fit[c].size(), problem.variables().size()}, "m");
-      }
-    }
+    cases.set_attr("kind", problem.summaries() ? "summaries" : "stops");
+    if (problem.summaries()) write_summary_cases(cases, problem, fit.summaries);
+    else write_stop_cases(cases, problem, fit.values);
     f.close();
   }
   out.commit();
@@ -276,9 +326,66 @@ AbcGeneration read_posterior(const Problem& problem, const std::string& posterio
   return g;
 }
 
+// Cases of summaries: each posterior draw is simulated with `realizations` realizations and
+// each statistic computed as its publisher did (the share, the quantile, the extreme of the
+// first n blocks), so the spread over the draws holds both the parameters' uncertainty and
+// the statistic's own sampling scatter. The band is its P5, P50 and P95.
+void predict_summaries(const Problem& problem, const std::vector<std::size_t>& picks, const AbcGeneration& g,
+                       const std::string& dir, const io::Provenance& provenance) {
+  std::ostringstream csv;
+  csv << "case,statistic,observed,observed_sd,band_low,band_median,band_high,inside,share_of_draws_below\n";
+  io::AtomicOutput h5out((fs::path(dir) / "predictive.h5").string());
+  {
+    io::h5::File out = io::h5::File::create(h5out.temp_path(), h5out.final_path());
+    io::write_header(out.root(), "calibration-prediction", kCalibrationSchema, provenance);
+    out.root().set_attr("kind", "summaries");
+    for (std::size_t c = 0; c < problem.cases().size(); ++c) {
+      const auto& cs = problem.cases()[c];
+      const std::size_t k = cs.summaries.size();
+      std::vector<std::vector<double>> per(k);
+      for (std::size_t d = 0; d < picks.size(); ++d) {
+        const calibrate::Simulated sim = problem.simulate(g.theta[picks[d]], c, d + 1);
+        if (sim.blocks[0].empty())
+          throw core::RuntimeError("case '" + cs.name + "': every realization of posterior draw " + std::to_string(d) +
+                                   " ended in a numerical failure: no statistic to compute");
+        for (std::size_t j = 0; j < k; ++j)
+          per[j].push_back(stats::summary_statistic(sim.blocks[static_cast<std::size_t>(cs.summaries[j].variable)],
+                                                    cs.summaries[j].target));
+      }
+      const io::h5::Group cg = out.root().create_group(std::to_string(c));
+      cg.set_attr("name", cs.name);
+      cg.write_strings("statistic", summary_labels(cs));
+      std::vector<double> observed, sd, draws(picks.size() * k);
+      for (std::size_t j = 0; j < k; ++j) {
+        const auto& t = cs.summaries[j].target;
+        observed.push_back(t.value);
+        sd.push_back(t.sd);
+        for (std::size_t d = 0; d < picks.size(); ++d) draws[d * k + j] = per[j][d];
+        const stats::Sample band(per[j]);
+        const double lo = band.quantile(0.05), hi = band.quantile(0.95);
+        const auto below = std::count_if(per[j].begin(), per[j].end(), [&](double x) { return x < t.value; });
+        csv << cs.name << "," << cs.summaries[j].label << "," << num(t.value) << "," << num(t.sd) << "," << num(lo)
+            << "," << num(band.quantile(0.5)) << "," << num(hi) << "," << (t.value >= lo && t.value <= hi ? 1 : 0) << ","
+            << num(static_cast<double>(below) / static_cast<double>(per[j].size())) << "\n";
+      }
+      cg.write("observed", observed.data(), {k}, "per statistic");
+      cg.write("observed_sd", sd.data(), {k}, "per statistic");
+      cg.write("draws", draws.data(), {picks.size(), k}, "per statistic");
+    }
+    out.close();
+  }
+  h5out.commit();
+  io::write_text_file((fs::path(dir) / "predictive.csv").string(), csv.str());
+  std::fputs(csv.str().c_str(), stdout);
+}
+
 void predict(const Problem& problem, const AbcGeneration& g, const std::string& dir, const io::Provenance& provenance) {
   const Settings& s = problem.settings();
   const auto picks = resample(g, static_cast<std::size_t>(s.predictive_draws), s.seed);
+  if (problem.summaries()) {
+    predict_summaries(problem, picks, g, dir, provenance);
+    return;
+  }
   std::ostringstream csv;
   csv << "case,variable,p,predicted,band_low,band_median,band_high,observed,inside\n";
   std::ostringstream ks;
@@ -488,7 +595,7 @@ int main(int argc, char** argv) {
     auto checkpoint = [&](bool finished) {
       count_all();
       cp.finished = finished;
-      if (ranks.writer()) write_posterior(posterior_path, problem, cp, provenance, {});
+      if (ranks.writer()) write_posterior(posterior_path, problem, cp, provenance, Fit{});
     };
     if (cp.generations.empty()) {
       core::Stopwatch g_clock;
@@ -548,10 +655,13 @@ int main(int argc, char** argv) {
     const AbcGeneration& post = cp.generations.back();
     // The fit: every case simulated at the posterior medians.
     const std::vector<double> best = medians(post);
-    std::vector<std::vector<std::vector<double>>> fit;
+    Fit fit;
     for (std::size_t c = 0; c < problem.cases().size(); ++c) {
       const calibrate::Simulated sim = problem.simulate(best, c);
-      fit.push_back(sim.values);
+      fit.values.push_back(sim.values);
+      if (problem.summaries())
+        fit.summaries.push_back(sim.blocks[0].size() < 2 ? std::vector<stats::SummaryComparison>{}
+                                                         : problem.compare(c, sim));
       cp.realizations += static_cast<std::int64_t>(settings.realizations);
       cp.failures += sim.failures;
     }
@@ -574,7 +684,8 @@ int main(int argc, char** argv) {
     std::fputs(table(problem, post).c_str(), stdout);
     if (not_at_rest > 0)
       core::log_info(std::to_string(not_at_rest) + " realizations of this invocation did not come to rest (left the "
-                     "terrain or reached the step limit) and were not compared");
+                     "terrain or reached the step limit) and were " +
+                     (problem.summaries() ? "counted at their final position" : "not compared"));
     if (cp.failures > 0)
       core::log_warn(std::to_string(cp.failures) + " of " + std::to_string(cp.realizations) +
                      " realizations ended in a numerical failure and were left out of the comparison");

@@ -15,12 +15,30 @@ void FittedParameter::visit(core::SettingsVisitor& v) {
   v.field("sd", sd, "", "standard deviation of a normal prior, in the parameter's unit");
 }
 
+void Summary::visit(core::SettingsVisitor& v) {
+  v.choice("statistic", statistic, {"share_above", "quantile", "max", "min"},
+           "share_above: share of the blocks above threshold; quantile: the p-quantile; max, min: the extreme of n "
+           "blocks");
+  v.choice("variable", variable, {"runout", "lateral", "speed", "jump"},
+           "runout (m, along the runout direction from the origin), lateral (m, left positive), speed (m/s, each "
+           "block's largest centroid speed) or jump (m, each block's highest centroid above the ground after its "
+           "first touch)");
+  v.field("threshold", threshold, "", "share_above: the value blocks above count, in the variable's unit");
+  v.field("p", p, "-", "quantile: its probability, in (0, 1)");
+  v.field("value", value, "", "the published value, in the variable's unit (a share: -, in [0, 1])");
+  v.field("sd", sd, "", "the value's standard uncertainty (> 0), in its unit");
+  v.field("count", count, "-", "share_above: the blocks above the threshold, of n (instead of value and sd)");
+  v.field("n", n, "-", "max, min: the blocks the extreme is over; share_above with count: the blocks counted");
+}
+
 void Group::visit(core::SettingsVisitor& v) {
   v.field("name", name, "name of the observed case in the outputs; empty = group K");
   v.field("set", set, "scene overrides of this case, KEY=VALUE as dda-run --set (e.g. its release point)");
   v.field("observed", observed,
           "observed stops: a CSV of x, y (header x, y or easting, northing), a CSV of runout[, lateral] (m), or a "
           "vector file of points, in the terrain's input coordinates");
+  v.list_of("summaries", "published summary statistics of the case, each with its uncertainty (instead of observed)",
+            summaries);
   v.field("layer", layer, "layer of a vector file; empty = its only layer");
   v.field("origin", origin, "m", "[x, y] runout is measured from (terrain input coordinates); empty = the scene's "
                                  "first release point");

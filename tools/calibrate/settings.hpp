@@ -26,11 +26,26 @@ struct FittedParameter {
   bool is_roughness() const { return parameter == "roughness_sigma"; }
 };
 
-/// One observed case: the scene as run for it and the stops observed.
+/// One published summary of an observed case (docs/calibration.md, "Summary statistics"):
+/// a statistic of one variable over the case's blocks, with its stated uncertainty.
+struct Summary {
+  std::string statistic;                  ///< share_above, quantile, max or min
+  std::string variable = "runout";        ///< runout (m), lateral (m), speed (m/s) or jump (m)
+  std::optional<double> threshold;        ///< share_above: values above it count (the variable's unit)
+  std::optional<double> p;                ///< quantile: its probability (-), in (0, 1)
+  std::optional<double> value;            ///< the published value (the variable's unit; a share: -, in [0, 1])
+  std::optional<double> sd;               ///< its standard uncertainty, > 0 (the value's unit)
+  std::optional<double> count;            ///< share_above: blocks above the threshold, of n (instead of value and sd)
+  std::optional<double> n;                ///< max, min: blocks the extreme is over; share_above: blocks counted (-)
+  void visit(core::SettingsVisitor& v);
+};
+
+/// One observed case: the scene as run for it and the stops, or the summaries, observed.
 struct Group {
   std::string name;                       ///< names the case in outputs; empty: "group K"
   std::vector<std::string> set;           ///< scene overrides of this case (KEY=VALUE, as dda-run --set)
   std::string observed;                   ///< observed stops: CSV of x, y or of runout[, lateral], or a vector file of points
+  std::vector<Summary> summaries;         ///< or published summary statistics instead of stops
   std::string layer;                      ///< layer of a vector file; empty: its only layer
   /// Where runout is measured from ([x, y], m, the terrain's input coordinates); empty:
   /// the scene's first release point.

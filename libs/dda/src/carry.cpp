@@ -111,11 +111,14 @@ bool carry_contacts(const std::vector<Contact>& previous, std::vector<Contact>& 
     Contact& c = now[i];
     if (!c.rolling) continue;
     c.gap_offset = std::min(c.gap, 0.0);
+    // The same crest, or for a vertex contact the same plane.
+    const auto same_ground = [&](const Contact& old) {
+      return old.terrain_feature == c.terrain_feature ||
+             (c.kind != ContactKind::vertex_ridge && old.normal.dot(c.normal) > 1.0 - 1e-12);
+    };
     const Contact* match = nullptr;
     same.each(c, [&](const Contact& old) {
-      if (old.terrain_feature != c.terrain_feature &&
-          (c.kind == ContactKind::vertex_ridge || old.normal.dot(c.normal) <= 1.0 - 1e-12))
-        return true;
+      if (!same_ground(old)) return true;
       match = &old;
       return false;
     });
@@ -123,8 +126,7 @@ bool carry_contacts(const std::vector<Contact>& previous, std::vector<Contact>& 
     if (match == nullptr)
       for (const Contact& old : previous) {
         if (used[static_cast<std::size_t>(&old - previous.data())] != 0 || !old.rolling || old.kind != c.kind ||
-            (c.kind == ContactKind::vertex_ridge ? old.terrain_feature != c.terrain_feature
-                                                 : old.normal.dot(c.normal) <= 1.0 - 1e-12))
+            !same_ground(old))
           continue;
         const double d = (old.point - c.point).squaredNorm();
         if (d < nearest) {

@@ -183,6 +183,9 @@ done
 # (one-cell spikes), and terraces with 1-2 m steps dropping within one 0.25 m cell.
 py dem-spikes "$inputs/spikes.asc"
 tg -c "$inputs/ground.yaml" "$inputs/spikes.asc" -o "$inputs/dem-spikes.h5"
+# The same slope with 8 % of its points raised: spikes a thin block can fall across.
+py dem-spikes "$inputs/spikes8.asc" --fraction 0.08
+tg -c "$inputs/ground.yaml" "$inputs/spikes8.asc" -o "$inputs/dem-spikes8.h5"
 py dem-steps "$inputs/steps.asc"
 tg -c "$inputs/ground.yaml" "$inputs/steps.asc" -o "$inputs/dem-steps.h5"
 # Analytic planes: 30 deg, 1 m cells, 40 x 10 m (configs/terrain/plane.yaml), each cell
@@ -219,6 +222,7 @@ blocks:
   - {name: needle, solid: box, dimensions: [5, 0.1, 0.1]}
   - {name: slab, solid: box, dimensions: [2, 1, 0.5]}
   - {name: plate, solid: box, dimensions: [2, 2, 0.1]}
+  - {name: thin-plate, solid: box, dimensions: [2, 2, 0.05]}
   - {name: rock-obj, mesh: rock.obj, volume: 1}
   - {name: rock-ellipsoid, solid: ellipsoid, dimensions: [1.6, 1.2, 0.9], resolution: 12, roughness: 0.12,
      volume: 1, seed: 4}
@@ -346,6 +350,31 @@ for t in "${terrain_others[@]}"; do
     steps) queue terrain dem-steps "$n_main" terrain="$I/dem-steps.h5" block_file="$I/platonic.h5" \
              release.kind=line 'release.points=[[1,3],[1,17]]' 'release.velocity=[3,0,0]' ;;
   esac
+done
+
+# Thin blocks (a 2 x 2 x 0.05 m plate, a 5 x 0.1 x 0.1 m needle), cubes of 1e-3, 1 and
+# 1000 m^3 and the scanned rock on the densely spiked DEM, the terraces and the cliff: no
+# terrain feature may pass into a block (docs/dda.md, Detection), checked at every step.
+case $mode in
+  ci) impale_terrains=(spikes8); impale_sets=(thin) ;;
+  *) impale_terrains=(spikes8 steps cliff-rough); impale_sets=(thin cubes rock) ;;
+esac
+for t in "${impale_terrains[@]}"; do
+  case $t in
+    spikes8) ground="$I/dem-spikes8.h5"; where=('release.points=[[3,4],[3,26]]') ;;
+    steps) ground="$I/dem-steps.h5"; where=('release.points=[[3,4],[3,16]]' 'release.velocity=[3,0,0]') ;;
+    cliff-rough) ground="$I/cliff-rough.h5"; where=('release.points=[[6,4],[6,26]]' 'release.velocity=[5,0,0]') ;;
+  esac
+  for set in "${impale_sets[@]}"; do
+    case $set in
+      thin) n=$n_main; what=(block_file="$I/shapes.h5" 'blocks=[thin-plate,needle]' release.height=3.5) ;;
+      # The 10 m cube needs its radius (8.7 m) between it and the terrain's open edges.
+      cubes) n=$n_main; what=(block_file="$I/cubes.h5" 'blocks=[cube-0.001,cube-1,cube-1000]' release.height=9
+                              'release.points=[[10,9.5],[10,10.5]]') ;;
+      rock) n=$n_costly; what=(block_file="$I/shapes.h5" 'blocks=[rock-obj]' release.height=2.5) ;;
+    esac
+    queue terrain "$set-$t" "$n" terrain="$ground" release.kind=line "${where[@]}" "${what[@]}"
+  done
 done
 
 # --- impact: 50 m/s onto the 60 deg plane, falling vertically and along the normal.

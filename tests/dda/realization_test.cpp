@@ -11,6 +11,7 @@
 
 #include "contacts.hpp"
 #include "dda_fixtures.hpp"
+#include "narrow_phase.hpp"
 #include "talus/core/error.hpp"
 #include "talus/terrain/build.hpp"
 #include "talus/terrain/synthetic.hpp"
@@ -324,7 +325,7 @@ TEST(DdaContacts, PenetratedCandidatesAreInsideTheGround) {
   const terrain::Terrain t = bench_slope(0.4);
   const terrain::Surface surface = terrain::Surface::realize(t, 3);
   const core::RandomStream rng(11, core::Stream::release, 0);
-  std::size_t vertices = 0, crossings = 0;
+  std::size_t vertices = 0, crossings = 0, crests = 0;
   for (const geometry::Polyhedron& poly :
        {testing::tetrahedron(2.04), testing::cube(1.0), bench_ellipsoid(8), bench_ellipsoid(8, 0.15)}) {
     const Model m = Model::build(Settings{}, poly);
@@ -338,6 +339,15 @@ TEST(DdaContacts, PenetratedCandidatesAreInsideTheGround) {
                                                    0.03, m.penetration_limit(), world, patch);
       for (const Contact& c : found) {
         if (!(c.gap < 0.0) || c.kind == ContactKind::face_vertex) continue;
+        if (c.kind == ContactKind::ridge_face) {
+          // The crest's point held lies on the ground, the contact's depth inside the block.
+          ++crests;
+          const Vec3 crest = c.point - c.gap * c.normal;
+          const auto hit = surface.height_at(crest.x(), crest.y());
+          ASSERT_TRUE(hit.has_value());
+          EXPECT_NEAR(crest.z(), hit->z, 1e-9) << "pose " << k << ", crest with gap " << c.gap;
+          continue;
+        }
         ++(c.kind == ContactKind::edge_edge ? crossings : vertices);
         const auto hit = surface.height_at(c.point.x(), c.point.y());
         ASSERT_TRUE(hit.has_value());
@@ -349,6 +359,7 @@ TEST(DdaContacts, PenetratedCandidatesAreInsideTheGround) {
   }
   EXPECT_GT(vertices, 100000u);
   EXPECT_GT(crossings, 30000u);
+  EXPECT_GT(crests, 0u);
 }
 
 // A terrain vertex inside a convex block deeper than the search distance is held by the
@@ -383,6 +394,54 @@ TEST(DdaContacts, TerrainVertexDeepInsideIsHeldByTheNearestFace) {
     EXPECT_EQ(std::count_if(found.begin(), found.end(),
                             [](const Contact& c) { return c.kind == ContactKind::vertex_face && c.gap < 0.0; }),
               4);
+  }
+}
+
+// A terrain crest inside a convex block that no crossing holds is held at its deepest point
+// by the face it is least deep under; one its crossings hold where it is deepest gets
+// nothing more. Here a roof-shaped crest along y under a cube's bottom face, the cube sunk
+// `sunk` into it: the crossings of the bottom edges hold it.
+TEST(DdaContacts, CrestDeepInsideIsHeldWhereNoCrossingHoldsIt) {
+  terrain::DemGrid dem;
+  dem.spec = {0.0, 0.0, 1.0, 1.0, 7, 7};
+  dem.z.resize(dem.spec.point_count());
+  for (std::size_t iy = 0; iy < 7; ++iy)
+    for (std::size_t ix = 0; ix < 7; ++ix)
+      dem.z[dem.spec.index(static_cast<std::int32_t>(ix), static_cast<std::int32_t>(iy))] =
+          0.5 - 0.5 * std::abs(static_cast<double>(ix) - 3.0);
+  const terrain::Terrain t = terrain::build_grid_terrain(dem, terrain::Diagonal::alternating, 1, "roof");
+  const terrain::Surface surface = terrain::Surface::realize(t, std::nullopt);
+  const Model m = Model::build(Settings{}, testing::cube(1.0));
+  const double ds = 0.01, depth = 0.1;
+  for (const double sunk : {0.0002, 0.03}) {
+    detail::Pose pose;
+    pose.centre = Vec3(3.1, 3.3, 1.0 - sunk);  // the crest x = 3 under the bottom face
+    std::vector<Vec3> world;
+    TerrainPatch patch;
+    const std::vector<Contact> found = search_at(m, surface, pose, ds, depth, world, patch);
+    EXPECT_EQ(std::count_if(found.begin(), found.end(), [](const Contact& c) { return c.kind == ContactKind::ridge_face; }), 0);
+    EXPECT_EQ(std::count_if(found.begin(), found.end(),
+                            [](const Contact& c) { return c.kind == ContactKind::edge_edge && c.gap < 0.0; }),
+              2);
+    // Without the crossings, each crest segment under the face is held at depth `sunk`
+    // (deeper than a twentieth of ds), pushed up along the face's normal.
+    const detail::PlacedBlock at(m, pose, world);
+    std::vector<Contact> alone;
+    detail::deep_ridge_contacts(at, patch, ds, depth, 0, alone);
+    if (sunk < 0.05 * ds) {
+      EXPECT_TRUE(alone.empty());
+      continue;
+    }
+    ASSERT_EQ(alone.size(), 2u);
+    for (const Contact& c : alone) {
+      EXPECT_EQ(c.kind, ContactKind::ridge_face);
+      EXPECT_NEAR(c.gap, -sunk, 1e-12);
+      EXPECT_NEAR(c.normal.z(), 1.0, 1e-12);
+      EXPECT_NEAR(c.point.z(), 0.5 - sunk, 1e-12);
+      const Vec3 crest = c.point - c.gap * c.normal;
+      EXPECT_NEAR(crest.x(), 3.0, 1e-12);
+      EXPECT_NEAR(crest.z(), 0.5, 1e-12);
+    }
   }
 }
 

@@ -76,6 +76,105 @@ void terrain_vertex_contact(const PlacedBlock& at, const TerrainPatch& patch, co
 }
 
 namespace {
+constexpr double kDeepCrest = 0.05;
+}  // namespace
+
+void deep_ridge_contacts(const PlacedBlock& at, const TerrainPatch& patch, double ds, double depth, std::size_t first,
+                         std::vector<Contact>& out) {
+  const Model& model = at.model();
+  if (!model.convex) return;
+  const Pose& pose = at.pose();
+  const geometry::Aabb box = at.box();
+  const std::size_t found = out.size();
+  // A crest its crossings hold lies barely deeper elsewhere inside the block than where
+  // they hold it; a twentieth of ds deeper, it has slipped past them (docs/dda.md,
+  // Detection: at a fiftieth, crests held as they should be got a second contact).
+  const double beyond = kDeepCrest * ds;
+  for (const TerrainPatch::Ridge& te : patch.ridges) {
+    if (!te.convex || !overlaps(te.box, box)) continue;
+    // How deep the crossings found on this crest hold it.
+    double held = 0.0;
+    for (std::size_t k = first; k < found; ++k)
+      if ((out[k].kind == ContactKind::edge_edge || out[k].kind == ContactKind::vertex_ridge) &&
+          out[k].terrain_feature == te.key())
+        held = std::max(held, -out[k].gap);
+    // A point x inside the block at depth d has u·(x − c) + d ≤ S(u) for every unit u;
+    // with u towards the crest's point nearest the centre, u·(x − c) is at least that
+    // distance for every point of the crest: no point deeper than S(u) − distance.
+    const Vec3 along = te.pb - te.pa;
+    const double t_near = std::clamp((pose.centre - te.pa).dot(along) / along.squaredNorm(), 0.0, 1.0);
+    const Vec3 towards = te.pa + t_near * along - pose.centre;
+    const double distance = towards.norm();
+    if (distance > 0.0 && at.support(towards / distance) - distance <= held + beyond) continue;
+    // The depth D(t) = min over faces of (offset − m·x(t)) along the crest is concave: its
+    // part inside every face plane, [t0, t1], by clipping, then its maximum there by
+    // golden-section search.
+    const Vec3 a = pose.inverse_map * (te.pa - pose.centre);
+    const Vec3 ab = pose.inverse_map * (te.pb - pose.centre) - a;
+    double t0 = 0.0, t1 = 1.0;
+    bool inside = true;
+    for (const BlockFace& f : model.faces) {
+      const double d0 = f.normal.dot(a) - f.offset, d1 = f.normal.dot(a + ab) - f.offset;
+      if (d0 >= 0.0 && d1 >= 0.0) inside = false;
+      if (d0 > 0.0) t0 = std::max(t0, d0 / (d0 - d1));
+      if (d1 > 0.0) t1 = std::min(t1, d0 / (d0 - d1));
+      if (!inside || t0 >= t1) {
+        inside = false;
+        break;
+      }
+    }
+    if (!inside) continue;
+    const auto depth_at = [&](double t, std::size_t* face) {
+      const Vec3 x = a + t * ab;
+      double least = std::numeric_limits<double>::infinity();
+      for (std::size_t f = 0; f < model.faces.size(); ++f) {
+        const double d = model.faces[f].offset - model.faces[f].normal.dot(x);
+        if (d < least) {
+          least = d;
+          if (face != nullptr) *face = f;
+        }
+      }
+      return least;
+    };
+    constexpr double kGolden = 0.6180339887498949;
+    double lo = t0, hi = t1;
+    double x1 = hi - kGolden * (hi - lo), x2 = lo + kGolden * (hi - lo);
+    double d1 = depth_at(x1, nullptr), d2 = depth_at(x2, nullptr);
+    for (int iteration = 0; iteration < 60; ++iteration) {
+      if (d1 < d2) {
+        lo = x1;
+        x1 = x2;
+        d1 = d2;
+        x2 = lo + kGolden * (hi - lo);
+        d2 = depth_at(x2, nullptr);
+      } else {
+        hi = x2;
+        x2 = x1;
+        d2 = d1;
+        x1 = hi - kGolden * (hi - lo);
+        d1 = depth_at(x1, nullptr);
+      }
+    }
+    std::size_t face = 0;
+    const double t = 0.5 * (lo + hi);
+    const double deepest = depth_at(t, &face);
+    if (!(deepest > held + beyond && deepest < depth)) continue;
+    const BlockFace& f = model.faces[face];
+    const Vec3 xb = a + t * ab;
+    Contact& c = out.emplace_back();
+    c.kind = ContactKind::ridge_face;
+    // No block feature: the contact follows its crest from face to face as the deepest
+    // point moves (carry_contacts matches it by the crest).
+    c.block_feature = -1;
+    c.terrain_feature = te.key();
+    c.triangle = te.triangle;
+    c.point = world_point(pose, xb + deepest * f.normal);
+    c.normal = -(pose.rotation * f.normal).normalized();
+    c.gap = (c.point - world_point(pose, xb)).dot(c.normal);
+  }
+}
+
+namespace {
 
 // The search of a detailed block over its pairs (detect_indexed), in three parts; each
 // world vertex is computed once per search (the same bits as PlacedBlock::vertex).

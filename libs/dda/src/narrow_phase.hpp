@@ -223,6 +223,13 @@ inline geometry::Aabb edge_box(const Vec3& p0, const Vec3& p1, double margin) {
   return geometry::Aabb{p0.cwiseMin(p1), p0.cwiseMax(p1)}.inflated(margin);
 }
 
+// Terrain crests of `patch` inside a convex block deeper, by a twentieth of ds, than the
+// crossings found on them (out[first..]) hold them (a crest that entered a face between
+// the block's edges, where no crossing reaches it): each held at its deepest point by the
+// face it is least deep under, as a terrain vertex deep inside is (terrain_vertex_contact).
+void deep_ridge_contacts(const PlacedBlock& at, const TerrainPatch& patch, double ds, double depth, std::size_t first,
+                         std::vector<Contact>& out);
+
 struct Live;
 
 /// The search of detect_contacts in `patch` for a detailed block, over the pairs of `c`

@@ -34,6 +34,9 @@ enum class ContactKind : std::uint8_t {
   /// a rounded block vertex's sphere against a terrain crest, in place of the crossings
   /// of the smooth edges around it (docs/dda.md, Smooth surface)
   vertex_ridge,
+  /// a terrain crest inside a convex block deeper than its crossings hold it, held at its
+  /// deepest point by the face it is least deep under (docs/dda.md, Detection)
+  ridge_face,
 };
 enum class ContactMode : std::uint8_t { open, locked, sliding };
 

@@ -427,7 +427,7 @@ TEST(DdaContacts, CrestDeepInsideIsHeldWhereNoCrossingHoldsIt) {
     // (deeper than a twentieth of ds), pushed up along the face's normal.
     const detail::PlacedBlock at(m, pose, world);
     std::vector<Contact> alone;
-    detail::deep_ridge_contacts(at, patch, ds, depth, 0, alone);
+    detail::deep_ridge_contacts(at, patch, patch.candidates.ridges, ds, depth, 0, alone);
     if (sunk < 0.05 * ds) {
       EXPECT_TRUE(alone.empty());
       continue;

@@ -241,7 +241,7 @@ void detect_contacts(const PlacedBlock& at, const terrain::Surface& surface, dou
   const std::size_t first = out.size();
   detect_polyhedron(at, surface, search_distance, depth_limit, patch, out, filter);
   round_vertex_contacts(at, patch, out, first);
-  deep_ridge_contacts(at, patch, search_distance, depth_limit, first, out);
+  deep_ridge_contacts(at, patch, patch.candidates.ridges, search_distance, depth_limit, first, out);
 }
 
 void detect_contacts_brute_force(const Model& model, const terrain::Surface& surface, const Pose& pose,
@@ -258,7 +258,7 @@ void detect_contacts_brute_force(const Model& model, const terrain::Surface& sur
   const std::size_t first = out.size();
   detect_scanned(at, patch, search_distance, depth_limit, false, every, out);
   round_vertex_contacts(at, patch, out, first);
-  deep_ridge_contacts(at, patch, search_distance, depth_limit, first, out);
+  deep_ridge_contacts(at, patch, every.ridges, search_distance, depth_limit, first, out);
 }
 
 }  // namespace talus::dda::detail

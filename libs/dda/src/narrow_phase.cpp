@@ -79,8 +79,8 @@ namespace {
 constexpr double kDeepCrest = 0.05;
 }  // namespace
 
-void deep_ridge_contacts(const PlacedBlock& at, const TerrainPatch& patch, double ds, double depth, std::size_t first,
-                         std::vector<Contact>& out) {
+void deep_ridge_contacts(const PlacedBlock& at, const TerrainPatch& patch, const std::vector<std::int32_t>& ridges,
+                         double ds, double depth, std::size_t first, std::vector<Contact>& out) {
   const Model& model = at.model();
   if (!model.convex) return;
   const Pose& pose = at.pose();
@@ -90,31 +90,47 @@ void deep_ridge_contacts(const PlacedBlock& at, const TerrainPatch& patch, doubl
   // they hold it; a twentieth of ds deeper, it has slipped past them (docs/dda.md,
   // Detection: at a fiftieth, crests held as they should be got a second contact).
   const double beyond = kDeepCrest * ds;
-  for (const TerrainPatch::Ridge& te : patch.ridges) {
+  const double reach2 = (1.25 * model.radius) * (1.25 * model.radius);
+  for (const std::int32_t r : ridges) {
+    const TerrainPatch::Ridge& te = patch.ridges[static_cast<std::size_t>(r)];
     if (!te.convex || !overlaps(te.box, box)) continue;
+    // The circumscribed sphere first (S(u) ≤ radius), with room for a 12-DOF block's strains.
+    const Vec3 along = te.pb - te.pa;
+    const double t_near = std::clamp((pose.centre - te.pa).dot(along) / along.squaredNorm(), 0.0, 1.0);
+    const Vec3 towards = te.pa + t_near * along - pose.centre;
+    const double distance2 = towards.squaredNorm();
+    if (distance2 >= reach2) continue;
+    // A point x inside the block at depth d has u·(x − c) + d ≤ S(u) for every unit u, and
+    // u·(x − c) is least over the crest at an end: no point deeper than S(u) less that.
+    // Tight for u into the ground across the crest (a block resting on it) or under one of
+    // its triangles (a block beside it), or towards its point nearest the centre.
+    const auto deepest_along = [&](const Vec3& u) {
+      return at.support(u) - std::min(u.dot(te.pa - pose.centre), u.dot(te.pb - pose.centre));
+    };
+    double bound = te.out != Vec3::Zero() ? deepest_along(-te.out) : std::numeric_limits<double>::infinity();
+    if (bound <= beyond) continue;
+    bound = std::min({bound, deepest_along(-te.normals[0]), deepest_along(-te.normals[1])});
+    if (bound <= beyond) continue;
+    const double distance = std::sqrt(distance2);
+    if (distance > 0.0) bound = std::min(bound, at.support(towards / distance) - distance);
+    if (bound <= beyond) continue;
     // How deep the crossings found on this crest hold it.
     double held = 0.0;
     for (std::size_t k = first; k < found; ++k)
       if ((out[k].kind == ContactKind::edge_edge || out[k].kind == ContactKind::vertex_ridge) &&
           out[k].terrain_feature == te.key())
         held = std::max(held, -out[k].gap);
-    // A point x inside the block at depth d has u·(x − c) + d ≤ S(u) for every unit u;
-    // with u towards the crest's point nearest the centre, u·(x − c) is at least that
-    // distance for every point of the crest: no point deeper than S(u) − distance.
-    const Vec3 along = te.pb - te.pa;
-    const double t_near = std::clamp((pose.centre - te.pa).dot(along) / along.squaredNorm(), 0.0, 1.0);
-    const Vec3 towards = te.pa + t_near * along - pose.centre;
-    const double distance = towards.norm();
-    if (distance > 0.0 && at.support(towards / distance) - distance <= held + beyond) continue;
+    const double floor = held + beyond;
+    if (bound <= floor) continue;
     // The depth D(t) = min over faces of (offset − m·x(t)) along the crest is concave: its
-    // part inside every face plane, [t0, t1], by clipping, then its maximum there by
-    // golden-section search.
+    // part deeper than the floor under every face plane, [t0, t1], by clipping, then its
+    // maximum there by golden-section search.
     const Vec3 a = pose.inverse_map * (te.pa - pose.centre);
     const Vec3 ab = pose.inverse_map * (te.pb - pose.centre) - a;
     double t0 = 0.0, t1 = 1.0;
     bool inside = true;
     for (const BlockFace& f : model.faces) {
-      const double d0 = f.normal.dot(a) - f.offset, d1 = f.normal.dot(a + ab) - f.offset;
+      const double d0 = f.normal.dot(a) - f.offset + floor, d1 = f.normal.dot(a + ab) - f.offset + floor;
       if (d0 >= 0.0 && d1 >= 0.0) inside = false;
       if (d0 > 0.0) t0 = std::max(t0, d0 / (d0 - d1));
       if (d1 > 0.0) t1 = std::min(t1, d0 / (d0 - d1));
@@ -158,7 +174,7 @@ void deep_ridge_contacts(const PlacedBlock& at, const TerrainPatch& patch, doubl
     std::size_t face = 0;
     const double t = 0.5 * (lo + hi);
     const double deepest = depth_at(t, &face);
-    if (!(deepest > held + beyond && deepest < depth)) continue;
+    if (!(deepest > floor && deepest < depth)) continue;
     const BlockFace& f = model.faces[face];
     const Vec3 xb = a + t * ab;
     Contact& c = out.emplace_back();

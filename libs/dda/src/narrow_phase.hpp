@@ -223,12 +223,12 @@ inline geometry::Aabb edge_box(const Vec3& p0, const Vec3& p1, double margin) {
   return geometry::Aabb{p0.cwiseMin(p1), p0.cwiseMax(p1)}.inflated(margin);
 }
 
-// Terrain crests of `patch` inside a convex block deeper, by a twentieth of ds, than the
+// Terrain crests of `patch` (`ridges`, those that may meet the block's box) inside a convex block deeper, by a twentieth of ds, than the
 // crossings found on them (out[first..]) hold them (a crest that entered a face between
 // the block's edges, where no crossing reaches it): each held at its deepest point by the
 // face it is least deep under, as a terrain vertex deep inside is (terrain_vertex_contact).
-void deep_ridge_contacts(const PlacedBlock& at, const TerrainPatch& patch, double ds, double depth, std::size_t first,
-                         std::vector<Contact>& out);
+void deep_ridge_contacts(const PlacedBlock& at, const TerrainPatch& patch, const std::vector<std::int32_t>& ridges,
+                         double ds, double depth, std::size_t first, std::vector<Contact>& out);
 
 struct Live;
 

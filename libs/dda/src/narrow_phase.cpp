@@ -131,10 +131,13 @@ void deep_ridge_contacts(const PlacedBlock& at, const TerrainPatch& patch, const
     bool inside = true;
     for (const BlockFace& f : model.faces) {
       const double d0 = f.normal.dot(a) - f.offset + floor, d1 = f.normal.dot(a + ab) - f.offset + floor;
-      if (d0 >= 0.0 && d1 >= 0.0) inside = false;
+      if (d0 >= 0.0 && d1 >= 0.0) {
+        inside = false;
+        break;
+      }
       if (d0 > 0.0) t0 = std::max(t0, d0 / (d0 - d1));
       if (d1 > 0.0) t1 = std::min(t1, d0 / (d0 - d1));
-      if (!inside || t0 >= t1) {
+      if (t0 >= t1) {
         inside = false;
         break;
       }

@@ -8,6 +8,18 @@
 
 namespace talus::dda::detail {
 
+double depth_inside(const Model& model, const Vec3& qb, std::size_t& face) {
+  double least = std::numeric_limits<double>::infinity();
+  for (std::size_t f = 0; f < model.faces.size(); ++f) {
+    const double d = model.faces[f].offset - model.faces[f].normal.dot(qb);
+    if (d < least) {
+      least = d;
+      face = f;
+    }
+  }
+  return least;
+}
+
 void terrain_vertex_contact(const PlacedBlock& at, const TerrainPatch& patch, const TerrainPatch::Vertex& tv,
                             const Vec3& qb, const std::vector<std::int32_t>* faces, double ds, double depth,
                             double face_tol, std::vector<Contact>& out) {
@@ -52,15 +64,10 @@ void terrain_vertex_contact(const PlacedBlock& at, const TerrainPatch& patch, co
       for (const std::int32_t fi : *faces) near_least = std::max(near_least, gap_to(static_cast<std::size_t>(fi)));
       if (!(near_least < -ds + face_tol && near_least > -depth - face_tol)) return;
     }
-    double least = -std::numeric_limits<double>::infinity();
-    for (std::size_t f = 0; f < model.faces.size(); ++f) {
-      const double gap = gap_to(f);
-      if (gap > least) {
-        least = gap;
-        best = static_cast<int>(f);
-      }
-    }
-    if (!(least < -ds && least > -depth)) return;
+    std::size_t least = 0;
+    const double deep = depth_inside(model, qb, least);
+    if (!(deep > ds && deep < depth)) return;
+    best = static_cast<int>(least);
   }
   const BlockFace& face = model.faces[static_cast<std::size_t>(best)];
   const Vec3 foot_body = qb - (face.normal.dot(qb) - face.offset) * face.normal;
@@ -143,40 +150,29 @@ void deep_ridge_contacts(const PlacedBlock& at, const TerrainPatch& patch, const
       }
     }
     if (!inside) continue;
-    const auto depth_at = [&](double t, std::size_t* face) {
-      const Vec3 x = a + t * ab;
-      double least = std::numeric_limits<double>::infinity();
-      for (std::size_t f = 0; f < model.faces.size(); ++f) {
-        const double d = model.faces[f].offset - model.faces[f].normal.dot(x);
-        if (d < least) {
-          least = d;
-          if (face != nullptr) *face = f;
-        }
-      }
-      return least;
-    };
+    std::size_t face = 0;
+    const auto depth_at = [&](double t) { return depth_inside(model, a + t * ab, face); };
     constexpr double kGolden = 0.6180339887498949;
     double lo = t0, hi = t1;
     double x1 = hi - kGolden * (hi - lo), x2 = lo + kGolden * (hi - lo);
-    double d1 = depth_at(x1, nullptr), d2 = depth_at(x2, nullptr);
+    double d1 = depth_at(x1), d2 = depth_at(x2);
     for (int iteration = 0; iteration < 60; ++iteration) {
       if (d1 < d2) {
         lo = x1;
         x1 = x2;
         d1 = d2;
         x2 = lo + kGolden * (hi - lo);
-        d2 = depth_at(x2, nullptr);
+        d2 = depth_at(x2);
       } else {
         hi = x2;
         x2 = x1;
         d2 = d1;
         x1 = hi - kGolden * (hi - lo);
-        d1 = depth_at(x1, nullptr);
+        d1 = depth_at(x1);
       }
     }
-    std::size_t face = 0;
     const double t = 0.5 * (lo + hi);
-    const double deepest = depth_at(t, &face);
+    const double deepest = depth_at(t);
     if (!(deepest > floor && deepest < depth)) continue;
     const BlockFace& f = model.faces[face];
     const Vec3 xb = a + t * ab;

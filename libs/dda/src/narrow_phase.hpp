@@ -164,6 +164,10 @@ inline void add_vertex_contact(const TerrainPatch::Triangle& tri, std::int32_t v
   c.gap = gap;
 }
 
+// How deep the body-frame point qb lies behind every face plane of a convex block, the
+// least over the faces (m, < 0 outside), and in `face` the first face that deep.
+double depth_inside(const Model& model, const Vec3& qb, std::size_t& face);
+
 // Terrain vertex tv (qb, body frame) against a block face: only a spike (every terrain edge
 // from it leaves outside the face plane) can touch a face; `faces` those near qb, or null
 // for all.
@@ -223,10 +227,11 @@ inline geometry::Aabb edge_box(const Vec3& p0, const Vec3& p1, double margin) {
   return geometry::Aabb{p0.cwiseMin(p1), p0.cwiseMax(p1)}.inflated(margin);
 }
 
-// Terrain crests of `patch` (`ridges`, those that may meet the block's box) inside a convex block deeper, by a twentieth of ds, than the
-// crossings found on them (out[first..]) hold them (a crest that entered a face between
-// the block's edges, where no crossing reaches it): each held at its deepest point by the
-// face it is least deep under, as a terrain vertex deep inside is (terrain_vertex_contact).
+// Terrain crests of `patch` (`ridges`, those that may meet the block's box) inside a
+// convex block deeper, by a twentieth of ds, than the crossings found on them
+// (out[first..]) hold them (a crest that entered a face between the block's edges, where
+// no crossing reaches it): each held at its deepest point by the face it is least deep
+// under, as a terrain vertex deep inside is (terrain_vertex_contact).
 void deep_ridge_contacts(const PlacedBlock& at, const TerrainPatch& patch, const std::vector<std::int32_t>& ridges,
                          double ds, double depth, std::size_t first, std::vector<Contact>& out);
 

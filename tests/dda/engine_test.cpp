@@ -766,6 +766,64 @@ TEST(DdaSmooth, FacetedSpheresRollAsABall) {
   }
 }
 
+// Rolling resistance (docs/dda.md, Rolling resistance): a smooth sphere of 1 280 and of
+// 5 120 triangles rolls from rest down 20° (μ = 0.4) with μ_r = 0.1 as a ball whose
+// rolling is resisted by μ_r·R·F_n does, (5/7)·g·(sin θ − μ_r·cos θ)·t²/2, within 1 %;
+// launched rolling at 2 m/s down 3° (tan 3° < μ_r) it stops where that deceleration
+// stops a ball, v²/(2·(5/7)·g·(μ_r·cos θ − sin θ)), within 3 %, and ends at rest. No
+// invariant is broken.
+TEST(DdaRolling, SmoothSpheresRollAndStopAsAResistedBall) {
+  const double mu_r = 0.1;
+  for (const int resolution : {8, 16}) {
+    block::SolidSpec spec;
+    spec.kind = block::SolidKind::ellipsoid;
+    spec.volume = 1.0;
+    spec.dimensions = Vec3(1.24, 1.24, 1.24);
+    spec.resolution = resolution;
+    Settings set;
+    set.check_invariants = true;
+    set.smooth_turn_deg = 40.0;
+    set.rolling_resistance = mu_r;
+    const Model m = Model::build(set, block::make_solid(spec, "sphere"));
+    const std::vector<terrain::Material> mats{material(0.4)};
+    for (const double theta : {20.0, 3.0}) {
+      const terrain::Surface plane = incline(theta, 40.0);
+      const Ground g{&plane, mats};
+      const Vec3 n = testing::incline_normal(theta), down = testing::incline_down(theta);
+      double below = 0.0;
+      for (const Vec3& v : m.vertices) below = std::max(below, -n.dot(v));
+      Release r;
+      r.position = Vec3(-20.0, 5.0, 20.0 * std::tan(theta * M_PI / 180.0)) + (below + 1e-6) * n;
+      const double th = theta * M_PI / 180.0;
+      const double a = 5.0 / 7.0 * 9.81 * (std::sin(th) - mu_r * std::cos(th));
+      if (theta < 10.0) {
+        r.velocity = 2.0 * down;
+        r.angular_velocity = n.cross(down) * (2.0 / below);  // rolling without slip
+      }
+      State s = start(m, r, impacts());
+      Workspace ws;
+      const double duration = theta > 10.0 ? 1.5 : 20.0;
+      while (s.time < duration - 1e-9 && s.end == EndReason::running) step(m, g, s, ws);
+      EXPECT_EQ(s.counters.energy_violations, 0u);
+      EXPECT_EQ(s.counters.depth_violations, 0u);
+      const double distance = (s.position - r.position).dot(down);
+      if (theta > 10.0) {
+        EXPECT_EQ(s.end, EndReason::running);
+        const double ball = a * s.time * s.time / 2.0;
+        std::printf("%d triangles, %.0f deg: %.4f of a resisted ball's distance\n", 20 * resolution * resolution,
+                    theta, distance / ball);
+        EXPECT_NEAR(distance / ball, 1.0, 0.01) << resolution;
+      } else {
+        const double stop = 4.0 / (2.0 * -a);
+        std::printf("%d triangles, %.0f deg: stopped at %.4f of a resisted ball's distance after %.2f s (%s)\n",
+                    20 * resolution * resolution, theta, distance / stop, s.time, std::string(to_string(s.end)).c_str());
+        EXPECT_EQ(s.end, EndReason::rest);
+        EXPECT_NEAR(distance / stop, 1.0, 0.03) << resolution;
+      }
+    }
+  }
+}
+
 // The Platonic solids and boxes are all corners at the default of 40° (their faces turn by
 // 41.8° or more at every vertex): no vertex is rounded and no search is widened, so their
 // contacts are the polyhedron's. A geodesic sphere's vertices carry spheres within 1 % of

@@ -54,6 +54,8 @@ struct Persistent {
   Vec3 point;
   Vec3 normal;
   double friction_impulse = 0.0;
+  /// The angular impulse rolling resistance can give it over the step (μ_r·r·F_n·Δt, N·m·s).
+  double rolling_impulse = 0.0;
 };
 
 /// Removes the approaching normal velocity (and, for locked contacts, the tangential

@@ -578,7 +578,9 @@ bool ContactStep<N>::keep_contacts() {
     // compression, not at rest on the ground: it is not settled.
     if (b_.start_modes[i] != ContactMode::open && point_approach < set_.impact_min_normal_speed)
       b_.persistent.push_back(
-          {c.point + du, c.normal, c.mode == ContactMode::locked ? friction_ * c.normal_force * dt_ : 0.0});
+          {c.point + du, c.normal, c.mode == ContactMode::locked ? friction_ * c.normal_force * dt_ : 0.0,
+           set_.rolling_resistance * (c.point + du - pose_.centre - d_.template head<3>()).norm() *
+               c.normal_force * dt_});
     b_.closed_end.emplace_back(c.point + du, c.normal);
     s_.contacts.push_back(c);
   }

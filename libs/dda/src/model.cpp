@@ -110,6 +110,10 @@ void Settings::visit(core::SettingsVisitor& v) {
   v.bounded("smooth_turn_deg", smooth_turn_deg, "deg",
             "turn of the faces at a vertex below which they stand for a curved surface, 0 = none",
             core::Range::closed(0.0, 90.0));
+  v.bounded("rolling_resistance", rolling_resistance, "-",
+            "rolling resistance coefficient: a closed contact resists the block's rotation with at most "
+            "rolling_resistance * (its distance from the centroid) * (its normal force), 0 = none",
+            core::Range::closed(0.0, 1.0));
   v.field("impact_strains", impact_strains,
           "full12: strains respond during impact episodes (else held during impacts)");
   v.bounded("rest_kinetic_energy", rest_kinetic_energy, "J/kg",

@@ -86,9 +86,11 @@ void settle_contacts(const Model& model, State& s, const std::vector<Persistent>
         const double rk = -g[k].dot(v), rj = -g[j].dot(v);
         Eigen::Vector2d step((weight[j] * rk - wkj * rj) / det, (weight[k] * rj - wkj * rk) / det);
         const Eigen::Vector2d from(impulse[k], impulse[j]);
+        const double a2 = step.squaredNorm();
+        if (!(a2 > 0.0)) continue;
         if ((from + step).norm() > disc[k]) {
           // The largest a ≤ 1 with |from + a·step| ≤ radius (from lies inside).
-          const double a2 = step.squaredNorm(), b = from.dot(step), c = from.squaredNorm() - disc[k] * disc[k];
+          const double b = from.dot(step), c = from.squaredNorm() - disc[k] * disc[k];
           step *= std::clamp((-b + std::sqrt(std::max(0.0, b * b - a2 * c))) / a2, 0.0, 1.0);
         }
         v += step[0] * minv_g[k] + step[1] * minv_g[j];

@@ -497,13 +497,15 @@ roll_case() {
   # one, whose vertex contacts lie on the smooth surface the vertices sample
   # (smooth_turn_deg 40, docs/dda.md "Smooth surface"; measured within 0.3 % at both).
   case $sphere in sphere5120) target=0.02 ;; *) target=0.05 ;; esac
-  roll_analytic="{\"kind\": \"slide\", \"angle\": 20, \"mu\": 0, \"rolling\": 0.7142857142857143, \"target\": $target}"
+  # Rolling resistance 0.1 (the default, set here so the case stays what it checks): a
+  # ball rolls with (5/7) g (sin t - 0.1 cos t), the check's "mu" being (5/7)·0.1.
+  roll_analytic="{\"kind\": \"slide\", \"angle\": 20, \"mu\": 0.07142857142857142, \"rolling\": 0.7142857142857143, \"target\": $target}"
   roll_settings=(terrain="$I/analytic-plane20.h5" block_file="$I/spheres.h5" "blocks=[$sphere]"
     "materials=[{name: ground, friction_angle_mean_deg: $(atan_deg 0.4)}]"
     release.kind=line 'release.points=[[10.3,10.2],[11.7,13.8]]' release.height_reference=lowest_point
     release.height=1e-6 release.orientation=fixed "release.orientation_deg=[$yaw,17,5]" stochastic.roughness=false
     stochastic.restitution=false stochastic.friction=false stochastic.lateral_tilt=false
-    engine.time_step=1e-3 engine.max_time=3 engine.smooth_turn_deg=40)
+    engine.time_step=1e-3 engine.max_time=3 engine.smooth_turn_deg=40 engine.rolling_resistance=0.1)
 }
 if want_group analytic; then
   # Both DOF paths in --full: the 12-DOF path adds the block's strains.
@@ -569,7 +571,7 @@ if want_group analytic; then
   # Rolling: a sphere-like block (icosphere of 5120 and 1280 triangles, 1 m^3) released at
   # rest on a 20 deg plane with friction enough to roll (mu = 0.4 > 2/7 tan 20 deg), the
   # restitution law on (R_v = 0.9): distance after T s against the sphere's
-  # a = (5/7) g sin(theta). Its vertex contacts lie on the smooth surface the vertices
+  # a = (5/7) g (sin(theta) - mu_r cos(theta)), mu_r = 0.1. Its vertex contacts lie on the smooth surface the vertices
   # sample (smooth_turn_deg 40, docs/dda.md): the 5120-triangle block must roll within
   # 2 %, the 1280-triangle one within 5 %.
   for sphere in "${roll_spheres[@]}"; do

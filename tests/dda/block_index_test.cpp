@@ -192,7 +192,7 @@ Tally compare_blocks(const terrain::Surface& surface, double x0, double x1, doub
                      std::uint64_t count, std::uint64_t seed) {
   Tally all;
   for (const geometry::Polyhedron& poly : detailed_blocks()) {
-    const Model m = Model::build(Settings{}, poly);
+    const Model m = Model::build(testing::faceted_settings(), poly);
     for (const bool stretched : {false, true}) {
       const Tally tally = compare(m, surface, x0, x1, stretched ? y1 : y0, stretched, count, seed++);
       all.contacts += tally.contacts;
@@ -239,7 +239,7 @@ TEST(DdaBlockIndex, ValleyCrossingsAreCarriedByNearerContacts) {
   double shortfall = 0.0, depth_limit = std::numeric_limits<double>::infinity();
   std::uint64_t seed = 90;
   for (const int resolution : {16, 32}) {
-    const Model m = Model::build(Settings{}, solid(block::SolidKind::ellipsoid, resolution, 0.0));
+    const Model m = Model::build(testing::faceted_settings(), solid(block::SolidKind::ellipsoid, resolution, 0.0));
     ASSERT_FALSE(m.crosses_valleys()) << resolution;
     ASSERT_LT(m.longest_edge, m.penetration_limit());
     for (const terrain::Surface* surface : {&on_grid, &on_tin}) {
@@ -404,7 +404,7 @@ TEST(DdaBlockIndex, RollingBlockKeepsItsWalkedPairs) {
   const std::vector<geometry::Polyhedron> blocks = detailed_blocks();
   ASSERT_EQ(blocks.size(), fewest.size());
   for (std::size_t block = 0; block < blocks.size(); ++block) {
-    const Model m = Model::build(Settings{}, blocks[block]);
+    const Model m = Model::build(testing::faceted_settings(), blocks[block]);
     std::size_t contacts = 0;
     PairsTally pairs;
     for (const terrain::Surface* surface : {&on_grid, &on_tin}) {

@@ -14,6 +14,16 @@
 
 namespace talus::dda::testing {
 
+/// Default settings but the block touching through its polyhedron only: every vertex a
+/// corner (no smooth surface) and no rolling resistance. The tests of how the contacts of a
+/// polyhedron are found and carried use it.
+inline Settings faceted_settings() {
+  Settings set;
+  set.smooth_turn_deg = 0.0;
+  set.rolling_resistance = 0.0;
+  return set;
+}
+
 /// Axis-aligned box centred at the origin, edges ax, ay, az (m).
 inline geometry::Polyhedron box(double ax, double ay, double az) {
   block::SolidSpec spec;

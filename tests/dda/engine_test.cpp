@@ -613,7 +613,7 @@ struct FacetedOnIncline {
     spec.volume = 1.0;
     spec.dimensions = dimensions;
     spec.resolution = resolution;
-    Settings set;
+    Settings set = testing::faceted_settings();
     set.check_invariants = true;
     set.smooth_turn_deg = smooth_turn_deg;
     m = Model::build(set, block::make_solid(spec, "ellipsoid"));

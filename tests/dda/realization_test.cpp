@@ -328,7 +328,7 @@ TEST(DdaContacts, PenetratedCandidatesAreInsideTheGround) {
   std::size_t vertices = 0, crossings = 0, crests = 0;
   for (const geometry::Polyhedron& poly :
        {testing::tetrahedron(2.04), testing::cube(1.0), bench_ellipsoid(8), bench_ellipsoid(8, 0.15)}) {
-    const Model m = Model::build(Settings{}, poly);
+    const Model m = Model::build(testing::faceted_settings(), poly);
     for (std::uint64_t k = 0; k < 3000; ++k) {
       const double x = 2.0 + 50.0 * rng.uniform(8 * k);
       const double y = 4.0 + 32.0 * rng.uniform(8 * k + 1);

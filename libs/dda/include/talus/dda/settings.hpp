@@ -76,15 +76,15 @@ struct Settings {
   std::string restitution_bound = "normal_approach";
   /// A block's facets stand for a curved surface where the faces around a vertex turn by
   /// less than this (deg): vertex contacts lie on the surface blended from the spheres
-  /// tangent at the vertices (docs/dda.md, Smooth surface); 0 (default) = the polyhedron
-  /// exactly, every vertex a corner. 40 keeps every Platonic solid a polyhedron.
-  double smooth_turn_deg = 0.0;
+  /// tangent at the vertices (docs/dda.md, Smooth surface); 0 = the polyhedron exactly,
+  /// every vertex a corner. 40 (default) keeps every Platonic solid a polyhedron.
+  double smooth_turn_deg = 40.0;
   /// Rolling resistance coefficient μ_r (-): a contact closed through a step resists the
   /// block's rotation relative to the ground with a torque of at most μ_r·r·F_n (r the
   /// contact's distance from the centroid), which stops a rotation and never reverses it;
   /// a ball rolls down θ with (5/7)·g·(sin θ − μ_r·cos θ) (docs/dda.md, Rolling
   /// resistance). 0 = none.
-  double rolling_resistance = 0.0;
+  double rolling_resistance = 0.1;
   /// full12 only: let the strains respond during impact episodes (the reference model's
   /// behaviour; the strain mode then keeps most of the impact energy, docs/dda.md).
   bool impact_strains = false;

@@ -19,8 +19,13 @@ critical value 1.358 sqrt((n + m) / (n m)).
 
 Usage:
   mesh_convergence.py --bin build/bin --out DIR [--realizations 1000] [--set KEY=VALUE ...]
-`--set` is passed to every dda-run (e.g. engine.smooth_turn_deg=40). Prints Markdown and
-writes it to DIR/convergence.md. Only the standard library, numpy and h5py.
+                      [--shapes ellipsoid rough rounded] [--levels 3 8 16 32] [--check]
+`--set` is passed to every dda-run (e.g. engine.smooth_turn_deg=0). Prints Markdown and
+writes it to DIR/convergence.md. The pairs compared are those of the levels given but the
+coarsest (3: about 200 faces, a different shape). `--check` exits 1 unless, for every
+pair, every KS distance is within its 5 % critical value, the shares past the toe differ
+by no more than a two-proportion test allows at 5 % (1.96 standard errors), and no
+realization failed or met the time limit. Only the standard library, numpy and h5py.
 """
 import argparse
 import math
@@ -33,6 +38,7 @@ import numpy as np
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 LEVELS = [3, 8, 16, 32]
+SHAPES = ["ellipsoid", "rough", "rounded"]
 
 
 def run(cmd, log):
@@ -99,7 +105,13 @@ def main():
     ap.add_argument("--realizations", type=int, default=1000)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--set", action="append", default=[], help="KEY=VALUE passed to every dda-run")
+    ap.add_argument("--shapes", nargs="+", default=SHAPES, choices=SHAPES)
+    ap.add_argument("--levels", nargs="+", type=int, default=LEVELS, choices=LEVELS)
+    ap.add_argument("--check", action="store_true", help="exit 1 unless the levels agree (see above)")
     args = ap.parse_args()
+    levels = sorted(set(args.levels))
+    compared = [n for n in levels if n != LEVELS[0]]
+    problems = []
     os.makedirs(args.out, exist_ok=True)
     log = os.path.join(args.out, "log.txt")
     terrain = os.path.join(args.out, "terrain-S2.h5")
@@ -116,8 +128,8 @@ def main():
     for kv in args.set:
         extra += ["--set", kv]
     data = {}
-    for shape in ["ellipsoid", "rough", "rounded"]:
-        for n in LEVELS:
+    for shape in args.shapes:
+        for n in levels:
             name = f"{shape}-{n}"
             path = os.path.join(args.out, f"run-{name}.h5")
             if not os.path.exists(path):
@@ -130,14 +142,16 @@ def main():
                 data[name] = {k: r[k][()] for k in ["end_reason", "runout", "lateral", "max_speed", "max_jump_height",
                                                     "impacts", "final_position"]}
     md = []
-    for shape in ["ellipsoid", "rough", "rounded"]:
+    for shape in args.shapes:
         md.append(f"\n**{shape}**\n")
         md.append("| faces | rest / left / time limit / failed | past the toe | runout P50 (m) | max speed P50 (m/s) | jump P50 (m) | impacts |")
         md.append("|---:|---|---:|---:|---:|---:|---:|")
-        for n in LEVELS:
+        for n in levels:
             d = data[f"{shape}-{n}"]
             e = d["end_reason"]
             rest = e == 1
+            if n in compared and (e >= 3).any():
+                problems.append(f"{shape}-{n}: {int((e >= 3).sum())} realizations failed or met the time limit")
             md.append("| {} | {} / {} / {} / {} | {:.3f} | {:.1f} | {:.2f} | {:.2f} | {:.1f} |".format(
                 faces[f"{shape}-{n}"], int(rest.sum()), int((e == 2).sum()), int((e == 3).sum()), int((e >= 4).sum()),
                 float((d["final_position"][:, 0] >= 36.0).mean()),
@@ -145,22 +159,42 @@ def main():
                 float(np.median(d["max_speed"])), float(np.median(d["max_jump_height"])), float(d["impacts"].mean())))
         md.append("\n| levels | KS runout | KS lateral | KS max speed | KS jump | KS final x | critical (all / at rest) |")
         md.append("|---|---:|---:|---:|---:|---:|---:|")
-        for i in range(1, len(LEVELS)):
-            for j in range(i + 1, len(LEVELS)):
-                a, b = data[f"{shape}-{LEVELS[i]}"], data[f"{shape}-{LEVELS[j]}"]
+        for i in range(len(compared)):
+            for j in range(i + 1, len(compared)):
+                a, b = data[f"{shape}-{compared[i]}"], data[f"{shape}-{compared[j]}"]
                 ra, rb = a["end_reason"] == 1, b["end_reason"] == 1
                 n1, n2 = len(a["end_reason"]), len(b["end_reason"])
                 m1, m2 = max(int(ra.sum()), 1), max(int(rb.sum()), 1)
+                crit_all = 1.358 * math.sqrt((n1 + n2) / (n1 * n2))
+                crit_rest = 1.358 * math.sqrt((m1 + m2) / (m1 * m2))
+                measured = {"runout": (ks(a["runout"][ra], b["runout"][rb]), crit_rest),
+                            "lateral": (ks(a["lateral"][ra], b["lateral"][rb]), crit_rest),
+                            "max speed": (ks(a["max_speed"], b["max_speed"]), crit_all),
+                            "jump": (ks(a["max_jump_height"], b["max_jump_height"]), crit_all),
+                            "final x": (ks(a["final_position"][:, 0], b["final_position"][:, 0]), crit_all)}
+                pair = f"{shape} {faces[f'{shape}-{compared[i]}']} / {faces[f'{shape}-{compared[j]}']} faces"
+                for what, (distance, critical) in measured.items():
+                    if not distance <= critical:
+                        problems.append(f"{pair}: KS {what} {distance:.3f} above the critical {critical:.3f}")
+                p1 = float((a["final_position"][:, 0] >= 36.0).mean())
+                p2 = float((b["final_position"][:, 0] >= 36.0).mean())
+                pooled = (p1 * n1 + p2 * n2) / (n1 + n2)
+                allowed = 1.96 * math.sqrt(pooled * (1.0 - pooled) * (1.0 / n1 + 1.0 / n2))
+                if abs(p1 - p2) > allowed:
+                    problems.append(f"{pair}: shares past the toe {p1:.3f} and {p2:.3f} differ by more than {allowed:.3f}")
                 md.append("| {} / {} | {:.3f} | {:.3f} | {:.3f} | {:.3f} | {:.3f} | {:.3f} / {:.3f} |".format(
-                    faces[f"{shape}-{LEVELS[i]}"], faces[f"{shape}-{LEVELS[j]}"],
-                    ks(a["runout"][ra], b["runout"][rb]), ks(a["lateral"][ra], b["lateral"][rb]),
-                    ks(a["max_speed"], b["max_speed"]), ks(a["max_jump_height"], b["max_jump_height"]),
-                    ks(a["final_position"][:, 0], b["final_position"][:, 0]),
-                    1.358 * math.sqrt((n1 + n2) / (n1 * n2)), 1.358 * math.sqrt((m1 + m2) / (m1 * m2))))
+                    faces[f"{shape}-{compared[i]}"], faces[f"{shape}-{compared[j]}"],
+                    *(v[0] for v in measured.values()), crit_all, crit_rest))
     text = "\n".join(md) + "\n"
     with open(os.path.join(args.out, "convergence.md"), "w") as f:
         f.write(text)
     print(text)
+    if args.check:
+        for p in problems:
+            print(f"mesh_convergence.py: {p}", file=sys.stderr)
+        if problems:
+            sys.exit(1)
+        print(f"mesh_convergence.py: the levels {', '.join(map(str, compared))} agree")
 
 
 if __name__ == "__main__":

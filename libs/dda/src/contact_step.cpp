@@ -576,12 +576,15 @@ bool ContactStep<N>::keep_contacts() {
     spring_energy_ += 0.5 * p * std::min(0.0, g) * std::min(0.0, g);
     // A contact whose point still approaches at an impact's speed is in an impact's
     // compression, not at rest on the ground: it is not settled.
-    if (b_.start_modes[i] != ContactMode::open && point_approach < set_.impact_min_normal_speed)
-      b_.persistent.push_back(
-          {c.point + du, c.normal, c.mode == ContactMode::locked ? friction_ * c.normal_force * dt_ : 0.0,
-           set_.rolling_resistance * (c.point + du - pose_.centre - d_.template head<3>()).norm() *
-               c.normal_force * dt_});
-    b_.closed_end.emplace_back(c.point + du, c.normal);
+    const Vec3 end = c.point + du;
+    if (b_.start_modes[i] != ContactMode::open && point_approach < set_.impact_min_normal_speed) {
+      // The rolling couple's lever: the end point's distance from the end centroid.
+      const double lever = (end - pose_.centre - d_.template head<3>()).norm();
+      b_.persistent.push_back({end, c.normal,
+                               c.mode == ContactMode::locked ? friction_ * c.normal_force * dt_ : 0.0,
+                               set_.rolling_resistance * lever * c.normal_force * dt_});
+    }
+    b_.closed_end.emplace_back(end, c.normal);
     s_.contacts.push_back(c);
   }
   return true;

@@ -39,6 +39,7 @@ import numpy as np
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 LEVELS = [3, 8, 16, 32]
 SHAPES = ["ellipsoid", "rough", "rounded"]
+TOE = 36.0  # the bench slope's toe (m): a block past it has final x >= TOE
 
 
 def run(cmd, log):
@@ -154,7 +155,7 @@ def main():
                 problems.append(f"{shape}-{n}: {int((e >= 3).sum())} realizations failed or met the time limit")
             md.append("| {} | {} / {} / {} / {} | {:.3f} | {:.1f} | {:.2f} | {:.2f} | {:.1f} |".format(
                 faces[f"{shape}-{n}"], int(rest.sum()), int((e == 2).sum()), int((e == 3).sum()), int((e >= 4).sum()),
-                float((d["final_position"][:, 0] >= 36.0).mean()),
+                float((d["final_position"][:, 0] >= TOE).mean()),
                 float(np.median(d["runout"][rest])) if rest.any() else float("nan"),
                 float(np.median(d["max_speed"])), float(np.median(d["max_jump_height"])), float(d["impacts"].mean())))
         md.append("\n| levels | KS runout | KS lateral | KS max speed | KS jump | KS final x | critical (all / at rest) |")
@@ -176,8 +177,8 @@ def main():
                 for what, (distance, critical) in measured.items():
                     if not distance <= critical:
                         problems.append(f"{pair}: KS {what} {distance:.3f} above the critical {critical:.3f}")
-                p1 = float((a["final_position"][:, 0] >= 36.0).mean())
-                p2 = float((b["final_position"][:, 0] >= 36.0).mean())
+                p1 = float((a["final_position"][:, 0] >= TOE).mean())
+                p2 = float((b["final_position"][:, 0] >= TOE).mean())
                 pooled = (p1 * n1 + p2 * n2) / (n1 + n2)
                 allowed = 1.96 * math.sqrt(pooled * (1.0 - pooled) * (1.0 / n1 + 1.0 / n2))
                 if abs(p1 - p2) > allowed:

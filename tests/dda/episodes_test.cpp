@@ -3,6 +3,7 @@
 // impact draws, and what its end leaves of the rebound.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -24,8 +25,13 @@ struct Impact {
   Ground g;
   State s;
   double kinetic(const Vec3& v) const { return 0.5 * m.mass * v.squaredNorm(); }
-  // An episode begun at velocity v_in (m/s), along the ground's normal.
-  void begin(const Vec3& v_in) { detail::start_episode_along(m, g, s, v_in, kinetic(v_in), Vec3::UnitZ(), 0); }
+  // An episode begun at velocity v_in (m/s), along the ground's normal, by the face under
+  // the centroid: its points approach as the centroid does, on the block's whole mass.
+  void begin(const Vec3& v_in) {
+    const double approach = std::max(0.0, -v_in.z());
+    detail::start_episode_along(m, g, s, v_in, kinetic(v_in), Vec3::UnitZ(), 0,
+                                {approach, 0.5 * m.mass * approach * approach});
+  }
 };
 
 // A normal impact: the law draws R_v (no spread: 0.8) and leaves |V_out| = R_v·SF·|V_in|,

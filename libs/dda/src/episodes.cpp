@@ -76,9 +76,10 @@ void start_episode_along(const Model& model, const Ground& ground, State& s, con
   const double approach = -v_in.dot(e.normal);
   e.approach_speed = std::max(0.0, approach);
   e.point_approach_energy = point.energy;
-  // A corner of a tumbling or rocking block strikes the ground however slowly its centroid
-  // approaches it: the faster of the two decides.
-  if (std::max(approach, point.speed) < model.settings.impact_min_normal_speed) return;
+  // What strikes the ground is the contact point, not the centroid: a corner of a tumbling
+  // block strikes however slowly the centroid approaches, and a rocking block touching down
+  // again after a hop of micrometres does not strike however fast its centroid sinks.
+  if (point.speed < model.settings.impact_min_normal_speed) return;
   const terrain::Material& mat = material_of(ground, triangle);
   // Three draws per impact, always in this order, so a setting never shifts later draws.
   const double z_r = s.impacts_rng.normal();

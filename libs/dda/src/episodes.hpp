@@ -21,15 +21,15 @@ struct PointApproach {
 };
 
 /// Starts a contact episode with the centroid velocity `v_in` (m/s) and rigid kinetic
-/// energy `kinetic_in` (J) of the step start; an impact when the normal approach speed of
-/// the centroid or of the closing contact point is at least impact_min_normal_speed
-/// (draws R_v, μ and the lateral tilt).
+/// energy `kinetic_in` (J) of the step start; an impact when the closing contact point
+/// approaches the ground at impact_min_normal_speed or faster (draws R_v, μ and the lateral
+/// tilt).
 void start_episode(const Model& model, const Ground& ground, State& s, const Vec3& v_in, double kinetic_in,
-                   PointApproach point = {});
+                   PointApproach point);
 /// The same along a given ground `normal` (unit), the material that of `triangle`: an
 /// impact that arrives while other contacts are closed (docs/dda.md, Impact–rebound).
 void start_episode_along(const Model& model, const Ground& ground, State& s, const Vec3& v_in, double kinetic_in,
-                         const Vec3& normal, std::int32_t triangle, PointApproach point = {});
+                         const Vec3& normal, std::int32_t triangle, PointApproach point);
 /// The last contact to let go in a step that ends an impact: its end gap (m, > 0), unit
 /// normal, block point at the step's end (world, m) and the step's length (s). The block
 /// flew from that moment at the raw rebound; the law's rebound belongs to that moment.

@@ -103,7 +103,7 @@ void Settings::visit(core::SettingsVisitor& v) {
   v.choice("restitution", restitution, {"scaled", "normal_component", "off"},
            "impact-rebound law applied when a contact episode ends");
   v.bounded("impact_min_normal_speed", impact_min_normal_speed, "m/s",
-            "normal approach speed below which a contact episode is rolling/sliding, not an impact",
+            "normal approach speed of the closing contact point below which a contact episode is rolling/sliding, not an impact",
             core::Range{0.0, kInf});
   v.choice("restitution_bound", restitution_bound, {"normal_approach", "none"},
            "scaled law: remove at most the kinetic energy of the impact's normal approach, or no bound");

@@ -116,7 +116,7 @@ def main():
     tool("calibrate", "-c", os.path.join(SAMPLE, "summaries.yaml"),
          "--set", "set=[terrain=%s, block_file=%s, 'release.points=[[20, 50]]']" % (terrain, blocks),
          "--set", "groups[0].name=drop B", "--set", "groups[0].summaries=" + summaries(obs_b), "--set", "plots=false",
-         "--set", "realizations=%d" % BLOCKS, "--set", "predictive_draws=16", "--set", "seed=2",
+         "--set", "realizations=%d" % BLOCKS, "--set", "predictive_draws=40", "--set", "seed=2",
          "--predict", os.path.join(fit, "posterior.h5"), "-o", predict, "-q")
     with open(os.path.join(predict, "predictive.csv")) as f:
         rows = list(csv.DictReader(f))

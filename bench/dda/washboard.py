@@ -4,7 +4,7 @@ the same shape at several mesh sizes, through terrain-gen, block-gen and dda-run
 (docs/dda.md, "Impacts that do not depend on the mesh").
 
 The ground is a 20 degree slope of 0.5 m cells whose every other row of grid points is
-raised by 5 cm: a crest every metre, faces of 9 and 31 degrees (R_v 0.5, K 12 m/s,
+raised by 5 cm: a crest every metre, faces of 15 and 25 degrees (R_v 0.5, K 12 m/s,
 friction angle 30 degrees, no spread, no roughness). The block is the ellipsoid
 1.6 x 1.12 x 0.8 m (1 m^3, block-gen `ellipsoid` at resolution n: 20 n^2 faces), released
 touching the ground 1 cm above it at x = 5 m in a random orientation per realization, for

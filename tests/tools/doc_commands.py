@@ -86,6 +86,7 @@ OVERRIDES = [
     ("docs/benchmarks.md", r"bench_bullet_peer ", "-n {n}"),
     # The level-of-detail benchmark (12 runs of 1000 realizations) at N realizations per run.
     ("docs/block.md", r"bench/dda/mesh_convergence\.py ", "--realizations {n}"),
+    ("docs/dda.md", r"bench/dda/washboard\.py ", "--realizations {n} --levels 8 16"),
     # The 2001 x 2001 DEM of the speed measurements, cut to 31 x 101 points.
     ("docs/benchmarks.md", r"--set synthetic\.width=4000 -o big-S2\.h5",
      "--set 'synthetic.profile=[[0,30],[6,24],[8,24],[14,18],[16,18],[22,12],[24,12],[36,0],[60,0]]' "

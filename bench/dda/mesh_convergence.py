@@ -19,8 +19,10 @@ critical value 1.358 sqrt((n + m) / (n m)).
 
 Usage:
   mesh_convergence.py --bin build/bin --out DIR [--realizations 1000] [--set KEY=VALUE ...]
-                      [--shapes ellipsoid rough rounded] [--levels 3 8 16 32] [--check]
-`--set` is passed to every dda-run (e.g. engine.smooth_turn_deg=0). Prints Markdown and
+                      [--shapes ellipsoid rough rounded] [--levels 3 8 16 32] [--check] [--fresh]
+`--set` is passed to every dda-run (e.g. engine.smooth_turn_deg=0). The terrain, block and
+run files found in DIR are reused (an interrupted benchmark goes on); `--fresh` removes them
+first. Prints Markdown and
 writes it to DIR/convergence.md. The pairs compared are those of the levels given but the
 coarsest (3: about 200 faces, a different shape). `--check` exits 1 unless, for every
 pair, every KS distance is within its 5 % critical value, the shares past the toe differ
@@ -106,6 +108,7 @@ def main():
     ap.add_argument("--realizations", type=int, default=1000)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--set", action="append", default=[], help="KEY=VALUE passed to every dda-run")
+    ap.add_argument("--fresh", action="store_true", help="remove the outputs of an earlier run in --out first")
     ap.add_argument("--shapes", nargs="+", default=SHAPES, choices=SHAPES)
     ap.add_argument("--levels", nargs="+", type=int, default=LEVELS, choices=LEVELS)
     ap.add_argument("--check", action="store_true", help="exit 1 unless the levels agree (see above)")
@@ -116,6 +119,11 @@ def main():
     os.makedirs(args.out, exist_ok=True)
     log = os.path.join(args.out, "log.txt")
     terrain = os.path.join(args.out, "terrain-S2.h5")
+    if args.fresh:
+        # Earlier outputs are reused otherwise: after an engine change they would be stale.
+        for name in os.listdir(args.out):
+            if name.endswith((".h5", ".xmf", ".xyz", ".yaml", ".journal", ".lock")):
+                os.remove(os.path.join(args.out, name))
     if not os.path.exists(terrain):
         run([f"{args.bin}/terrain-gen", "-c", os.path.join(REPO, "samples/bench-slope/terrain.yaml"), "-o", terrain], log)
     blocks = os.path.join(args.out, "blocks.h5")

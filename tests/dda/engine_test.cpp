@@ -598,12 +598,13 @@ TEST(DdaStep, SlowBlockTakesLongerStepsAndStopsWhereItShould) {
 }
 
 // A faceted sphere (1 280 triangles, 1 m³) dropped 3 cm onto a 20° plane (μ = 0.4), so
-// that its impact exercises the step's checks, rolls down it for 1 s with the contact step's candidates set aside as usual (twice their point's
-// motion), with none set aside (every candidate in every solve: the reference), and with
-// nearly all set aside (a margin of 1e-9 of the motion, so that the step must widen again
-// and again). Each accepted solution leaves every candidate consistent, so the three roll
-// alike (to 1e-6 of the distance); the invariants hold throughout. Passing over the
-// candidates set aside instead of building them changes nothing.
+// that its impact exercises the step's checks, rolls down it for 1 s with the contact
+// step's candidates set aside as usual (twice their point's motion), with none set aside
+// (every candidate in every solve: the reference), and with nearly all set aside (a
+// margin of 1e-9 of the motion, so that the step must widen again and again). Each
+// accepted solution leaves every candidate consistent, so the three roll alike (to 1e-6
+// of the distance); the invariants hold throughout. Passing over the candidates set aside
+// instead of building them changes nothing.
 // A faceted ellipsoid of 1 m³ (1 280 triangles, invariants checked) and an incline of 20°
 // with friction 0.4: the ground of the tests of candidates set aside.
 struct FacetedOnIncline {

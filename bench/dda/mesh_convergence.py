@@ -32,24 +32,17 @@ realization failed or met the time limit. Only the standard library, numpy and h
 import argparse
 import math
 import os
-import subprocess
 import sys
 
 import h5py
 import numpy as np
 
+from logged_run import run
+
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 LEVELS = [3, 8, 16, 32]
 SHAPES = ["ellipsoid", "rough", "rounded"]
 TOE = 36.0  # the bench slope's toe (m): a block past it has final x >= TOE
-
-
-def run(cmd, log):
-    with open(log, "a") as f:
-        f.write(" ".join(cmd) + "\n")
-        r = subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT)
-    if r.returncode != 0:
-        sys.exit(f"mesh_convergence.py: {os.path.basename(cmd[0])} failed (exit {r.returncode}); see {log}")
 
 
 def geodesic_directions(n):

@@ -25,21 +25,14 @@ tolerance (relative, on the speed). Only the standard library, numpy and h5py.
 import argparse
 import math
 import os
-import subprocess
 import sys
 
 import h5py
 import numpy as np
 
+from logged_run import run
+
 G = 9.81
-
-
-def run(cmd, log):
-    with open(log, "a") as f:
-        f.write(" ".join(cmd) + "\n")
-        r = subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT)
-    if r.returncode != 0:
-        sys.exit(f"restitution.py: {' '.join(cmd[:2])} failed (exit {r.returncode}); see {log}")
 
 
 def terrain(args, rv, path, log):

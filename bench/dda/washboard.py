@@ -24,21 +24,14 @@ Only the standard library, numpy and h5py.
 import argparse
 import math
 import os
-import subprocess
 import sys
 
 import h5py
 import numpy as np
 
+from logged_run import run
+
 ENDS = ["running", "rest", "left_terrain", "step_limit", "non_finite", "no_convergence", "penetration"]
-
-
-def run(cmd, log):
-    with open(log, "a") as f:
-        f.write(" ".join(cmd) + "\n")
-        r = subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT)
-    if r.returncode != 0:
-        sys.exit(f"washboard.py: {os.path.basename(cmd[0])} failed (exit {r.returncode}); see {log}")
 
 
 def write_dem(path):

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <numbers>
 #include <tuple>
 #include <vector>
 
@@ -442,6 +443,50 @@ TEST(DdaContacts, CrestDeepInsideIsHeldWhereNoCrossingHoldsIt) {
       EXPECT_NEAR(crest.x(), 3.0, 1e-12);
       EXPECT_NEAR(crest.z(), 0.5, 1e-12);
     }
+  }
+}
+
+// A crest that passes under a block edge, deep, is deepest where the two faces of the edge
+// are equally deep: it is held across itself, at the edge's distance, whichever face the
+// search meets first. Here the roof's crest along y under the lowest edge (along x) of a
+// cube tilted 20° about x, 3 cm below the crest. Either face alone pushed the block along
+// its own normal, one of them down onto the crest; a cube resting on a spike sank by that.
+TEST(DdaContacts, CrestUnderABlockEdgeIsHeldAcrossItself) {
+  terrain::DemGrid dem;
+  dem.spec = {0.0, 0.0, 1.0, 1.0, 7, 7};
+  dem.z.resize(dem.spec.point_count());
+  for (std::size_t iy = 0; iy < 7; ++iy)
+    for (std::size_t ix = 0; ix < 7; ++ix)
+      dem.z[dem.spec.index(static_cast<std::int32_t>(ix), static_cast<std::int32_t>(iy))] =
+          0.5 - 0.5 * std::abs(static_cast<double>(ix) - 3.0);
+  const terrain::Terrain t = terrain::build_grid_terrain(dem, terrain::Diagonal::alternating, 1, "roof");
+  const terrain::Surface surface = terrain::Surface::realize(t, std::nullopt);
+  const Model m = Model::build(Settings{}, testing::cube(1.0));
+  const double ds = 0.01, depth = 0.1, sunk = 0.03;
+  for (const double tilt : {20.0, 20.0 + 1e-7, 20.0 - 1e-7, -35.0}) {
+    detail::Pose pose;
+    pose.rotation = Eigen::AngleAxisd(tilt * std::numbers::pi / 180.0, Vec3::UnitX()).toRotationMatrix();
+    pose.map = pose.rotation;
+    pose.inverse_map = pose.rotation.transpose();
+    std::size_t low = 0;
+    for (std::size_t v = 1; v < m.vertices.size(); ++v)
+      if ((pose.map * m.vertices[v]).z() < (pose.map * m.vertices[low]).z()) low = v;
+    const Vec3 corner = pose.map * m.vertices[low];
+    pose.centre = Vec3(3.1, 3.5 - corner.y(), 0.5 - sunk - corner.z());  // the edge's middle over x = 3
+    std::vector<Vec3> world;
+    TerrainPatch patch;
+    search_at(m, surface, pose, ds, depth, world, patch);
+    const detail::PlacedBlock at(m, pose, world);
+    std::vector<Contact> alone;
+    detail::deep_ridge_contacts(at, patch, patch.candidates.ridges, ds, depth, 0, alone);
+    ASSERT_EQ(alone.size(), 1u) << tilt;
+    const Contact& c = alone[0];
+    EXPECT_EQ(c.kind, ContactKind::ridge_face);
+    EXPECT_NEAR(c.normal.z(), 1.0, 1e-9) << tilt;
+    EXPECT_NEAR(c.gap, -sunk, 1e-9) << tilt;
+    const Vec3 crest = c.point - c.gap * c.normal;
+    EXPECT_NEAR(crest.x(), 3.0, 1e-9);
+    EXPECT_NEAR(crest.z(), 0.5, 1e-9);
   }
 }
 

@@ -174,8 +174,34 @@ void deep_ridge_contacts(const PlacedBlock& at, const TerrainPatch& patch, const
     const double t = 0.5 * (lo + hi);
     const double deepest = depth_at(t);
     if (!(deepest > floor && deepest < depth)) continue;
-    const BlockFace& f = model.faces[face];
     const Vec3 xb = a + t * ab;
+    // The deepest point is where two faces are equally deep (the crest passes under the
+    // edge between them) unless it is an end of the crest: there the depth is the blend of
+    // theirs whose gradient is across the crest, the two faces weighted by how steeply the
+    // crest rises under the other. Either face alone flips from step to step, one of them
+    // pushing the block down onto the crest, and the block sinks.
+    const double tie = deepest + 1e-9 * std::sqrt(ab.squaredNorm() + model.radius * model.radius);
+    int rising = -1, falling = -1;  // the tied faces whose depth grows fastest along +t, along −t
+    double rise = 0.0, fall = 0.0;
+    for (std::size_t k = 0; k < model.faces.size(); ++k) {
+      const BlockFace& fk = model.faces[k];
+      if (fk.offset - fk.normal.dot(xb) > tie) continue;
+      const double slope = -fk.normal.dot(ab);
+      if (slope > rise) rise = slope, rising = static_cast<int>(k);
+      if (slope < fall) fall = slope, falling = static_cast<int>(k);
+    }
+    Vec3 push = model.faces[face].normal;  // outward, body frame
+    double held_depth = deepest;
+    if (rising >= 0 && falling >= 0) {
+      const Vec3 blend = (-fall * model.faces[static_cast<std::size_t>(rising)].normal +
+                          rise * model.faces[static_cast<std::size_t>(falling)].normal) /
+                         (rise - fall);
+      const double length = blend.norm();
+      if (length > 1e-6) {
+        push = blend / length;
+        held_depth = deepest / length;
+      }
+    }
     Contact& c = out.emplace_back();
     c.kind = ContactKind::ridge_face;
     // No block feature: the contact follows its crest from face to face as the deepest
@@ -183,8 +209,8 @@ void deep_ridge_contacts(const PlacedBlock& at, const TerrainPatch& patch, const
     c.block_feature = -1;
     c.terrain_feature = te.key();
     c.triangle = te.triangle;
-    c.point = world_point(pose, xb + deepest * f.normal);
-    c.normal = -(pose.rotation * f.normal).normalized();
+    c.point = world_point(pose, xb + held_depth * push);
+    c.normal = -(pose.rotation * push).normalized();
     c.gap = (c.point - world_point(pose, xb)).dot(c.normal);
   }
 }

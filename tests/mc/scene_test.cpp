@@ -6,8 +6,11 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <functional>
+#include <tuple>
 
+#include "../support/temp_path.hpp"
 #include "mc_fixtures.hpp"
 #include "talus/core/error.hpp"
 #include "talus/mc/clearance.hpp"
@@ -610,6 +613,81 @@ TEST(Release, BlocksAreDrawnByTheirWeightsByDefault) {
   }
   // One block is used whatever its weight.
   EXPECT_NO_THROW(Scene::build(s, bench_terrain(), {blocks[0]}, "s.yaml"));
+}
+
+// A file of orientations at `name` in the temporary directory, holding `text`.
+std::string orientation_file(const std::string& name, const std::string& text) {
+  const std::string path = talus::testing::temp_path("mc_scene", name);
+  std::ofstream(path) << text;
+  return path;
+}
+
+// Orientations from a file: with blocks cycled, B consecutive realizations share a row, so
+// B·N realizations meet every block in every row; else row i mod N. A header row and
+// comments are skipped; Euler rows are orientation_deg's rotations.
+TEST(Release, OrientationsFromAFileAreTakenInTurn) {
+  const double h = std::sqrt(0.5);
+  const std::vector<Eigen::Quaterniond> rows = {Eigen::Quaterniond(h, 0.0, 0.0, h), Eigen::Quaterniond(0.0, 1.0, 0.0, 0.0),
+                                                Eigen::Quaterniond(0.5, 0.5, -0.5, 0.5)};
+  SceneSettings s = bench_scene();
+  s.release.clearance = "lift";
+  s.release.orientation = "list";
+  s.release.orientation_file = orientation_file(
+      "q.txt", "q0\tq1\tq2\tq3\n# from the data's drop conditions\n0.7071067812 0 0 0.7071067812\n0 1 0 0\n\n"
+               "0.5, 0.5, -0.5, 0.5  # the last\n");
+  s.block_selection = "cycle";
+  const auto blocks = library({block::SolidKind::cube, block::SolidKind::octahedron});
+  const Scene cycled = Scene::build(s, bench_terrain(), blocks, "s.yaml");
+  const terrain::Surface ground = cycled.base_surface().realization(std::nullopt);
+  for (std::uint32_t i = 0; i < 12; ++i) {
+    const ReleaseDraw d = draw_release(cycled, ground, i);
+    EXPECT_EQ(d.block, static_cast<std::int32_t>(i % 2));
+    EXPECT_LT((d.release.orientation.coeffs() - rows[(i / 2) % 3].coeffs()).norm(), 1e-10) << i;
+  }
+  s.block_selection = "weighted";
+  const Scene one = Scene::build(s, bench_terrain(), {blocks[0]}, "s.yaml");
+  for (std::uint32_t i = 0; i < 6; ++i)
+    EXPECT_LT((draw_release(one, ground, i).release.orientation.coeffs() - rows[i % 3].coeffs()).norm(), 1e-10) << i;
+  // Euler rows: the rotation orientation_deg gives.
+  s.release.orientation_format = "euler_zyx_deg";
+  s.release.orientation_file = orientation_file("e.txt", "30 -20 75\n");
+  const Eigen::Quaterniond euler = draw_release(Scene::build(s, bench_terrain(), {blocks[0]}, "s.yaml"), ground, 5).release.orientation;
+  s.release.orientation = "fixed";
+  s.release.orientation_file.clear();
+  s.release.orientation_deg = {30.0, -20.0, 75.0};
+  EXPECT_EQ(draw_release(Scene::build(s, bench_terrain(), {blocks[0]}, "s.yaml"), ground, 5).release.orientation.coeffs(),
+            euler.coeffs());
+  // A quarter turn about the vertical of y-up axes is one about z.
+  s.release.orientation = "list";
+  s.release.orientation_format = "quaternion";
+  s.release.orientation_up_axis = "y";
+  s.release.orientation_file = orientation_file("y.txt", "0.7071067811865476 0 0.7071067811865476 0\n");
+  const Eigen::Quaterniond turned = draw_release(Scene::build(s, bench_terrain(), {blocks[0]}, "s.yaml"), ground, 0).release.orientation;
+  EXPECT_LT((turned.coeffs() - Eigen::Quaterniond(h, 0.0, 0.0, h).coeffs()).norm(), 1e-12);
+}
+
+TEST(Release, RefusesBadOrientationFilesWithOneLineReasons) {
+  const std::string missing = talus::testing::temp_path("mc_scene", "none.txt");
+  const std::string three = orientation_file("three.txt", "w x y z\n1 0 0\n");
+  const std::string scaled = orientation_file("scaled.txt", "1 0 0 0\n2 0 0 0\n");
+  const std::string empty = orientation_file("empty.txt", "# nothing\n");
+  const std::string text = orientation_file("text.txt", "1 0 0 0\none two three four\n");
+  const std::vector<std::tuple<std::string, std::string, std::string>> cases = {
+      {"list", "", "scene.yaml: release.orientation list needs release.orientation_file"},
+      {"random", three, "release.orientation_file needs release.orientation: list (it is random)"},
+      {"list", missing, missing + ": cannot open the release orientation file"},
+      {"list", three, three + ": line 2: expected 4 numbers (a quaternion w x y z), got 3"},
+      {"list", scaled, scaled + ": line 2: quaternion norm 2 is not 1 (w x y z, scalar first)"},
+      {"list", empty, empty + ": the release orientation file has no orientations"},
+      {"list", text, text + ": line 2: expected 4 numbers (a quaternion w x y z), got 'one two three four'"},
+  };
+  for (const auto& [orientation, file, message] : cases) {
+    SceneSettings s = bench_scene();
+    s.release.orientation = orientation;
+    s.release.orientation_file = file;
+    const std::string error = build_error(s);
+    EXPECT_NE(error.find(message), std::string::npos) << error;
+  }
 }
 
 // Three release points written inline: each realization starts at one of them, all

@@ -158,6 +158,7 @@ def make_fixtures(bin_dir, root):
     write(os.path.join(root, "local.csv"), "x,y\n1012,2005\n1014,2005.5\n")
     write(os.path.join(root, "runouts.csv"), "runout\n9\n40\n")
     write(os.path.join(root, "flat.csv"), "runout,lateral\n9,0\n11,0\n")
+    write(os.path.join(root, "scaled-q.txt"), "q0 q1 q2 q3\n1 0 0 0\n0 2 0 0\n")
     write(os.path.join(root, "dem.asc"), DEM_ASC)
     write(os.path.join(root, "cube.obj"), CUBE_OBJ)
     # The cube's top face missing: an open surface.
@@ -354,6 +355,12 @@ CASES = [
      ["--set release.velocity", "[-1000, 1000] m/s", "1e+200"]),
     (["dda-run", "-c", "scene.yaml", "--set", "release.angular_velocity=[0,0,1e9]", "-o", "x.h5"], BAD_INPUT,
      ["--set release.angular_velocity", "rad/s"]),
+    (["dda-run", "-c", "scene.yaml", "--set", "release.orientation=list", "--set", "release.orientation_file=scaled-q.txt",
+      "-o", "x.h5"], BAD_INPUT, ["scaled-q.txt: line 3", "quaternion norm 2 is not 1"]),
+    (["dda-run", "-c", "scene.yaml", "--set", "release.orientation=list", "--set", "release.orientation_file=missing.txt",
+      "-o", "x.h5"], BAD_INPUT, ["missing.txt", "cannot open"]),
+    (["dda-run", "-c", "scene.yaml", "--set", "release.orientation_file=scaled-q.txt", "-o", "x.h5"], BAD_INPUT,
+     ["--set release.orientation_file", "needs release.orientation: list"]),
     (["dda-run", "-c", "scene.yaml", "--set", "materials=[{name: rock, restitution_mean: 5}]", "-o", "x.h5"], BAD_INPUT,
      ["--set materials", "restitution_mean", "[0, 1]"]),
     (["dda-run", "-c", "scene.yaml", "--set", "realizations=0", "-o", "x.h5"], BAD_INPUT, ["--set realizations", "[1, 4294967295]"]),

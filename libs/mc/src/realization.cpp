@@ -348,11 +348,13 @@ ReleaseDraw draw_release(const Scene& scene, const terrain::Surface& ground, std
   dda::Release& rel = draw.release;
   if (r.orientation == "random") {
     rel.orientation = uniform_rotation(rs.uniform(3), rs.uniform(4), rs.uniform(5));
+  } else if (r.orientation == "list") {
+    // With blocks cycled, B consecutive realizations share a row: every block meets every row.
+    const std::vector<Eigen::Quaterniond>& rows = scene.release_orientations();
+    const std::uint32_t step = s.block_selection == "cycle" ? index / blocks : index;
+    rel.orientation = rows[step % rows.size()];
   } else {
-    const double k = M_PI / 180.0;
-    rel.orientation = Eigen::AngleAxisd(r.orientation_deg[0] * k, Vec3::UnitZ()) *
-                      Eigen::AngleAxisd(r.orientation_deg[1] * k, Vec3::UnitY()) *
-                      Eigen::AngleAxisd(r.orientation_deg[2] * k, Vec3::UnitX());
+    rel.orientation = zyx_rotation(r.orientation_deg);
   }
   place_block(scene, scene.blocks()[static_cast<std::size_t>(draw.block)], ground, index, xy, hit->z, rel);
   rel.velocity = Vec3(r.velocity[0], r.velocity[1], r.velocity[2]);

@@ -3,6 +3,7 @@
 #include <charconv>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <set>
 #include <utility>
@@ -55,11 +56,20 @@ void ReleaseSettings::visit(core::SettingsVisitor& v) {
   v.bounded("clearance_gap", clearance_gap, "m",
           "vertical gap required between a centroid-placed block and the ground (refused or lifted below it)",
             core::Range::closed(0.0, 1e3));
-  v.choice("orientation", orientation, {"random", "fixed"},
-           "block orientation: uniform random rotation per realization, or orientation_deg");
+  v.choice("orientation", orientation, {"random", "fixed", "list"},
+           "block orientation: uniform random rotation per realization, orientation_deg, or the rows of "
+           "orientation_file (realization i: row floor(i/B) mod N with block_selection cycle over B blocks, "
+           "else i mod N)");
   v.bounded("orientation_deg", orientation_deg, "deg",
             "fixed orientation: z-y-x Euler angles (yaw about z, pitch about y, roll about x)",
             core::Range::symmetric(360.0));
+  v.field("orientation_file", orientation_file,
+          "text file of orientations for orientation list, one per row (body to world, in the block file's body "
+          "axes); a header row and # comments are skipped");
+  v.choice("orientation_format", orientation_format, {"quaternion", "euler_zyx_deg"},
+           "orientation_file rows: quaternion w x y z (scalar first, unit norm) or z-y-x Euler angles in deg");
+  v.choice("orientation_up_axis", orientation_up_axis, {"z", "y"},
+           "y: the orientations are in y-up axes (a mesh read with block-gen input.up_axis y)");
   v.bounded("velocity", velocity, "m/s", "initial centroid velocity", core::Range::symmetric(1e3));
   v.bounded("angular_velocity", angular_velocity, "rad/s", "initial spin (world frame)", core::Range::symmetric(1e3));
   v.bounded("main_direction_deg", main_direction_deg, "deg",
@@ -421,6 +431,12 @@ void check_release(const SceneSettings& s, const terrain::Surface& base, const E
   for (double c : r.orientation_deg)
     if (!std::isfinite(c))
       throw InputError(origins.of("release.orientation_deg"), "release.orientation_deg must be finite");
+  if (r.orientation == "list" && r.orientation_file.empty())
+    throw InputError(origins.of({"release.orientation", "release.orientation_file"}),
+                     "release.orientation list needs release.orientation_file");
+  if (r.orientation != "list" && !r.orientation_file.empty())
+    throw InputError(origins.of({"release.orientation_file", "release.orientation"}),
+                     "release.orientation_file needs release.orientation: list (it is " + r.orientation + ")");
   if (!std::isfinite(r.main_direction_deg))
     throw InputError(origins.of("release.main_direction_deg"), "release.main_direction_deg must be finite");
 }
@@ -463,7 +479,80 @@ std::vector<std::string> engine_keys(const std::string& detail) {
   return keys;
 }
 
+// A row of numbers separated by blanks, commas or semicolons; false if a token is not one.
+bool parse_row(const std::string& line, std::vector<double>& out) {
+  out.clear();
+  std::size_t at = 0;
+  while (at < line.size()) {
+    at = line.find_first_not_of(" \t\r,;", at);
+    if (at == std::string::npos) break;
+    const std::size_t end = std::min(line.find_first_of(" \t\r,;", at), line.size());
+    double value = 0.0;
+    const auto [ptr, ec] = std::from_chars(line.data() + at, line.data() + end, value);
+    if (ec != std::errc{} || ptr != line.data() + end) return false;
+    out.push_back(value);
+    at = end;
+  }
+  return true;
+}
+
+// The rows of release.orientation_file, body → world in the engine's z-up axes.
+std::vector<Eigen::Quaterniond> read_orientations(const ReleaseSettings& r) {
+  const std::string& path = r.orientation_file;
+  std::ifstream in(path);
+  if (!in) throw InputError(path, "cannot open the release orientation file");
+  const bool quaternion = r.orientation_format == "quaternion";
+  const std::size_t columns = quaternion ? 4 : 3;
+  const char* what = quaternion ? "4 numbers (a quaternion w x y z)" : "3 numbers (z-y-x Euler angles, deg)";
+  // y-up axes to z-up ones: (x, y, z) → (x, −z, y), a quarter turn about x.
+  const Eigen::Quaterniond up(Eigen::AngleAxisd(r.orientation_up_axis == "y" ? M_PI / 2.0 : 0.0, Eigen::Vector3d::UnitX()));
+  std::vector<Eigen::Quaterniond> out;
+  std::vector<double> row;
+  std::string line;
+  bool header_allowed = true;
+  for (std::size_t number = 1; std::getline(in, line); ++number) {
+    line = line.substr(0, line.find('#'));
+    if (line.find_first_not_of(" \t\r,;") == std::string::npos) continue;
+    const std::string at = path + ": line " + std::to_string(number);
+    if (!parse_row(line, row)) {
+      if (header_allowed) {  // a header row of column names
+        header_allowed = false;
+        continue;
+      }
+      throw InputError(at, "expected " + std::string(what) + ", got '" + line + "'");
+    }
+    header_allowed = false;
+    if (row.size() != columns)
+      throw InputError(at, "expected " + std::string(what) + ", got " + std::to_string(row.size()) +
+                               " (release.orientation_format is " + r.orientation_format + ")");
+    for (const double v : row)
+      if (!std::isfinite(v)) throw InputError(at, "orientation values must be finite");
+    Eigen::Quaterniond q;
+    if (quaternion) {
+      q = Eigen::Quaterniond(row[0], row[1], row[2], row[3]);
+      // Rows rounded to a few digits are unit to about 1e-4; anything further is not a
+      // rotation (a scaled quaternion or another column order).
+      if (std::abs(q.norm() - 1.0) > 1e-3)
+        throw InputError(at, "quaternion norm " + format_number(q.norm()) + " is not 1 (w x y z, scalar first)");
+      q.normalize();
+    } else {
+      for (const double v : row)
+        if (std::abs(v) > 360.0) throw InputError(at, "Euler angle " + format_number(v) + " deg is outside [-360, 360]");
+      q = zyx_rotation({row[0], row[1], row[2]});
+    }
+    out.push_back(up * q * up.conjugate());
+  }
+  if (out.empty()) throw InputError(path, "the release orientation file has no orientations");
+  return out;
+}
+
 }  // namespace
+
+Eigen::Quaterniond zyx_rotation(const std::array<double, 3>& deg) {
+  const double k = M_PI / 180.0;
+  return Eigen::AngleAxisd(deg[0] * k, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(deg[1] * k, Eigen::Vector3d::UnitY()) *
+         Eigen::AngleAxisd(deg[2] * k, Eigen::Vector3d::UnitX());
+}
 
 Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
                    const std::vector<block::Block>& library, const core::SettingsOrigins& origins,
@@ -630,6 +719,7 @@ Scene Scene::build(const SceneSettings& settings, terrain::Terrain terrain,
   } else {
     scene.release_features_ = local_release_features(s.release, vectors.release, *scene.base_, input_shift);
   }
+  if (s.release.orientation == "list") scene.release_orientations_ = read_orientations(s.release);
   const double azimuth = s.release.main_direction_deg * M_PI / 180.0;
   scene.main_direction_ = Eigen::Vector2d(std::cos(azimuth), std::sin(azimuth));
 

@@ -67,9 +67,22 @@ struct ReleaseSettings {
   std::string clearance = "refuse";
   /// Vertical gap required between a centroid-placed block and the ground (m), ≥ 0.
   double clearance_gap = 0.0;
-  std::string orientation = "random";  ///< "random" (uniform over rotations) or "fixed"
+  /// "random" (uniform over rotations), "fixed" (orientation_deg) or "list" (the rows of
+  /// orientation_file: realization i takes row ⌊i/B⌋ mod N with block_selection "cycle"
+  /// over B blocks, so B·N realizations run every block in every orientation once; row
+  /// i mod N otherwise).
+  std::string orientation = "random";
   /// Fixed orientation as z-y-x Euler angles (yaw about z, then pitch about y, roll about x) (deg).
   std::array<double, 3> orientation_deg = {0.0, 0.0, 0.0};
+  /// Text file of orientations for "list", one per row (path relative to the working
+  /// directory): body → world, in the block file's body axes (the input mesh's, translated).
+  std::string orientation_file;
+  /// The rows of orientation_file: "quaternion" (w x y z, scalar first, unit norm) or
+  /// "euler_zyx_deg" (z-y-x Euler angles as orientation_deg, deg).
+  std::string orientation_format = "quaternion";
+  /// "z", or "y" for orientations given in y-up axes (those of a mesh read with block-gen
+  /// input.up_axis y): turned into the z-up axes as the mesh was.
+  std::string orientation_up_axis = "z";
   std::array<double, 3> velocity = {0.0, 0.0, 0.0};          ///< centroid (m/s)
   std::array<double, 3> angular_velocity = {0.0, 0.0, 0.0};  ///< world frame (rad/s)
   /// Azimuth of the main slope direction, counter-clockwise from +x (deg): runout is
@@ -202,6 +215,10 @@ struct StopZone {
   std::vector<Eigen::Vector2d> polygon;  ///< m
 };
 
+/// The rotation of z-y-x Euler angles (deg): yaw about z, then pitch about y, roll about x
+/// (release.orientation_deg and orientation_format euler_zyx_deg).
+Eigen::Quaterniond zyx_rotation(const std::array<double, 3>& deg);
+
 /// A validated scene, ready to run: terrain, materials after overrides and switches,
 /// block models, barriers, zones. Immutable; realizations read it from any thread.
 class Scene {
@@ -244,6 +261,8 @@ class Scene {
   /// The release zone as features: an inline line or polygon is one feature of one part,
   /// inline points one feature each (as a file of Point features without weight_field).
   const std::vector<ReleaseFeature>& release_features() const { return release_features_; }
+  /// The rows of release.orientation_file (orientation "list"), body → world.
+  const std::vector<Eigen::Quaterniond>& release_orientations() const { return release_orientations_; }
   Eigen::Vector2d main_direction() const { return main_direction_; }
   std::uint32_t realizations() const { return static_cast<std::uint32_t>(settings_.realizations); }
   /// The smooth surface (or the TIN template whose search structure realizations share).
@@ -264,6 +283,7 @@ class Scene {
   HazardGridSpec hazard_;
   std::vector<Eigen::Vector2d> release_zone_;
   std::vector<ReleaseFeature> release_features_;
+  std::vector<Eigen::Quaterniond> release_orientations_;
   Eigen::Vector2d main_direction_ = Eigen::Vector2d::UnitX();
 };
 

@@ -1,0 +1,290 @@
+#!/usr/bin/python3
+"""The Authume quarry field experiment through the tools: where Talus's blocks stop against
+where the 89 boulders released there stopped.
+
+The data (Garcia et al. 2022, Engineering Geology 310, 106855; published with the
+Data in Brief paper) are not part of Talus: clone them and give their folder,
+
+  git clone https://github.com/richefeu/AuthumeQuarryRockfalls_Data-in-Brief authume
+
+then
+
+  bench/field/authume.py --data authume --bin build/bin --out out/authume
+
+builds the lidar TIN with its three substrate zones (terrain-gen; the files are y-up), the
+four photogrammetric blocks (block-gen), and for each profile releases them at the four
+drop points of the data, in the data's 64 orientations (`release.orientation: list`, every
+block in every orientation, block i mod 4, 1 024 realizations by default: Rockable's
+design), from the drop points' elevation. Then, per material set and profile, it compares
+the horizontal distance of each stop from the mean drop point with the measured ones:
+
+  - the measured and simulated P10 / P50 / P90, and the simulated 5-95 % band;
+  - KS distance over every realization, a block that did not come to rest on the survey
+    counted as stopping beyond every measured one (censored: every measured block
+    stopped), and KS among the blocks at rest;
+  - the share at rest on the survey, and the lateral standard deviation of the stops
+    across the direction from the mean drop point to the mean measured stop.
+
+Material sets: `defaults` (terrain-gen's default material on all three zones) and
+`classes` (classes of docs/materials.md chosen from the substrate descriptions of the
+data: gray, hard ground and rock walls, `bedrock`; red, rocky slope, `compact_scree`;
+blue, vegetated slope, `soil`). Writes table.md and stops.png in --out; the run files
+stay there for `stats`.
+
+Only the standard library, numpy, h5py and matplotlib (Debian python3-numpy, -h5py,
+-matplotlib) are used.
+"""
+
+import argparse
+import math
+import os
+import subprocess
+import sys
+
+import numpy as np
+
+ZONES = {"DTM_Gray_zone": "bedrock", "DTM_Red_zone": "compact_scree", "DTM_Blue_zone": "soil"}
+BLOCKS = ["SP1A", "SP2A", "SP2B", "SP3A"]
+PROFILES = ["P1", "P2"]
+
+
+def fail(message):
+    sys.exit(f"authume.py: {message}")
+
+
+def run(cmd, log):
+    with open(log, "a") as f:
+        f.write(" ".join(cmd) + "\n")
+        try:
+            r = subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT)
+        except OSError as e:
+            fail(f"{cmd[0]}: {e.strerror}")
+    if r.returncode != 0:
+        fail(f"{os.path.basename(cmd[0])} failed (exit {r.returncode}); see {log}")
+
+
+def read_rows(path, columns):
+    """Numeric rows of a whitespace-separated text file (a header row is skipped)."""
+    rows = []
+    try:
+        lines = open(path).read().splitlines()
+    except OSError as e:
+        fail(f"{path}: {e.strerror}")
+    for n, line in enumerate(lines, 1):
+        fields = line.split()
+        if not fields:
+            continue
+        try:
+            values = [float(v) for v in fields]
+        except ValueError:
+            if not rows:
+                continue
+            fail(f"{path}: line {n}: not numbers: {line!r}")
+        if len(values) < columns:
+            fail(f"{path}: line {n}: expected {columns} columns, got {len(values)}")
+        rows.append(values[:columns])
+    if not rows:
+        fail(f"{path}: no rows")
+    return np.array(rows)
+
+
+def plan(xyz):
+    """The data's y-up (x, y, z) as Talus's plan (x, -z) (terrain-gen tin.up_axis y)."""
+    return np.stack([xyz[:, 0], -xyz[:, 2]], axis=1)
+
+
+def ks_censored(measured, simulated, at_rest):
+    """KS distance between the measured distances and the simulated ones, realizations not
+    at rest counted beyond every measured distance (their CDF never reaches them)."""
+    m = np.sort(measured)
+    s = np.sort(simulated[at_rest])
+    n = len(simulated)
+    grid = np.concatenate([m, s])
+    f_m = np.searchsorted(m, grid, side="right") / len(m)
+    f_s = np.searchsorted(s, grid, side="right") / n
+    f_m_left = np.searchsorted(m, grid, side="left") / len(m)
+    f_s_left = np.searchsorted(s, grid, side="left") / n
+    return float(max(np.max(np.abs(f_m - f_s)), np.max(np.abs(f_m_left - f_s_left))))
+
+
+def ks(a, b):
+    if len(a) == 0 or len(b) == 0:
+        return float("nan")
+    return ks_censored(a, b, np.ones(len(b), dtype=bool))
+
+
+def build(args, work, log):
+    stl = os.path.join(args.data, "Geometries", "STL")
+    for name in list(ZONES) + BLOCKS:
+        if not os.path.exists(os.path.join(stl, name + ".stl")):
+            fail(f"{os.path.join(stl, name + '.stl')}: missing (is --data the dataset's folder?)")
+    terrain = os.path.join(work, "terrain.h5")
+    blocks = os.path.join(work, "blocks.h5")
+    with open(os.path.join(work, "terrain.yaml"), "w") as f:
+        f.write("# The Authume lidar TIN (0.5 m), y up; one material per zone file.\n"
+                "name: authume\nseed: 1\nsource: tin\ntin: {mode: keep, up_axis: y}\n"
+                f"roughness: {{sigma: {args.sigma}}}  # m\n")
+    run([os.path.join(args.bin, "terrain-gen"), "-c", os.path.join(work, "terrain.yaml")] +
+        [os.path.join(stl, z + ".stl") for z in ZONES] + ["-o", terrain], log)
+    with open(os.path.join(work, "blocks.yaml"), "w") as f:
+        f.write(f"density: {args.density}  # kg/m^3\nblocks:\n")
+        for b in BLOCKS:
+            f.write(f"  - {{name: {b}, mesh: {os.path.join(stl, b + '.stl')}, "
+                    "input: {up_axis: y, repair: {orient: true, stitch: true, fill_holes: true}}}\n")
+    run([os.path.join(args.bin, "block-gen"), "-c", os.path.join(work, "blocks.yaml"), "-o", blocks], log)
+    return terrain, blocks
+
+
+def scene(args, work, terrain, blocks, profile, materials):
+    drops = read_rows(os.path.join(args.data, "Drop_conditions", f"positions_{profile}.xyz"), 3)
+    stops = read_rows(os.path.join(args.data, "EXP_endpoints", f"Endpoints_{profile}.txt"), 3)
+    drop_plan = plan(drops)
+    origin = drop_plan.mean(axis=0)
+    towards = plan(stops).mean(axis=0) - origin
+    azimuth = math.degrees(math.atan2(towards[1], towards[0]))
+    path = os.path.join(work, f"{materials}-{profile}.yaml")
+    with open(path, "w") as f:
+        f.write(f"# Authume {profile}, {materials}: the data's drop points and orientations.\n"
+                f"schema_version: \"1.0\"\nterrain: {terrain}\nblock_file: {blocks}\n"
+                "block_selection: cycle\n")
+        if materials == "classes":
+            f.write("materials:\n")
+            for zone, cls in ZONES.items():
+                f.write(f"  - {{name: {zone}, class: {cls}}}\n")
+        points = ", ".join(f"[{p[0]:.4f}, {p[1]:.4f}]" for p in drop_plan)
+        f.write("release:\n  kind: point\n"
+                f"  points: [{points}]   # m, plan (x, -z) of the data's y-up drop points\n"
+                "  height_reference: elevation\n"
+                f"  height: {drops[:, 1].mean():.4f}   # m, the drop points' elevation (their y)\n"
+                "  clearance: lift\n  orientation: list\n"
+                f"  orientation_file: {os.path.join(args.data, 'Drop_conditions', 'orientations.txt')}\n"
+                "  orientation_up_axis: y\n"
+                f"  main_direction_deg: {azimuth:.3f}   # from the mean drop point to the mean measured stop\n"
+                f"realizations: {args.realizations}\nseed: {args.seed}\n")
+    return path, origin, azimuth
+
+
+def measure(args, run_file, origin, azimuth, profile):
+    import h5py
+
+    stops = read_rows(os.path.join(args.data, "EXP_endpoints", f"Endpoints_{profile}.txt"), 3)
+    with h5py.File(run_file, "r") as f:
+        r = f["records"]
+        final = np.array(r["final_position"])[:, :2]
+        end = np.array(r["end_reason"])
+    at_rest = end == 1
+    u = np.array([math.cos(math.radians(azimuth)), math.sin(math.radians(azimuth))])
+    v = np.array([-u[1], u[0]])
+    measured = plan(stops) - origin
+    simulated = final - origin
+    d_m = np.hypot(measured[:, 0], measured[:, 1])
+    d_s = np.hypot(simulated[:, 0], simulated[:, 1])
+    rested = d_s[at_rest]
+    q = lambda x, p: float(np.quantile(x, p)) if len(x) else float("nan")
+    return {
+        "n": len(d_s), "rest": int(at_rest.sum()),
+        "measured": (q(d_m, 0.1), q(d_m, 0.5), q(d_m, 0.9)),
+        "simulated": (q(rested, 0.05), q(rested, 0.1), q(rested, 0.5), q(rested, 0.9), q(rested, 0.95)),
+        "ks_censored": ks_censored(d_m, d_s, at_rest), "ks_rest": ks(d_m, rested),
+        "lateral_sd": (float(np.std(measured @ v, ddof=1)), float(np.std(simulated[at_rest] @ v, ddof=1))
+                       if at_rest.sum() > 1 else float("nan")),
+        "plan_measured": measured, "plan_simulated": simulated, "at_rest": at_rest, "d_m": d_m, "d_s": d_s,
+        "u": u,
+    }
+
+
+def table(results, args):
+    lines = [f"| materials | profile | at rest on the survey | distance P10 / P50 / P90 (m), measured | "
+             "simulated P10 / P50 / P90 (m), at rest | simulated 5-95 % (m) | measured P10-P90 inside | "
+             "KS (censored) | KS (at rest) | lateral sd (m), measured / simulated |",
+             "|---|---|---:|---|---|---|---|---:|---:|---|"]
+    for (materials, profile), m in results.items():
+        s = m["simulated"]
+        inside = s[0] <= m["measured"][0] and m["measured"][2] <= s[4]
+        lines.append(
+            f"| {materials} | {profile} | {m['rest']} of {m['n']} ({100.0 * m['rest'] / m['n']:.1f} %) | "
+            f"{m['measured'][0]:.1f} / {m['measured'][1]:.1f} / {m['measured'][2]:.1f} | "
+            f"{s[1]:.1f} / {s[2]:.1f} / {s[3]:.1f} | {s[0]:.1f}-{s[4]:.1f} | {'yes' if inside else 'no'} | "
+            f"{m['ks_censored']:.3f} | {m['ks_rest']:.3f} | {m['lateral_sd'][0]:.1f} / {m['lateral_sd'][1]:.1f} |")
+    return "\n".join(lines) + "\n"
+
+
+def plot(results, path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    keys = list(results)
+    fig, axes = plt.subplots(2, len(keys), figsize=(4.2 * len(keys), 8.0), squeeze=False)
+    for k, key in enumerate(keys):
+        m = results[key]
+        ax = axes[0][k]
+        sim, rest = m["plan_simulated"], m["at_rest"]
+        ax.scatter(sim[rest, 0], sim[rest, 1], s=3, c="tab:blue", alpha=0.35, label="simulated, at rest")
+        ax.scatter(m["plan_measured"][:, 0], m["plan_measured"][:, 1], s=14, c="tab:red", label="measured")
+        ax.plot([0], [0], "k^", label="mean drop point")
+        ax.set_aspect("equal")
+        ax.set_xlabel("x from the mean drop point (m)")
+        ax.set_ylabel("y from the mean drop point (m)")
+        ax.set_title(f"{key[1]}, {key[0]}: stops in plan")
+        ax.legend(fontsize=7, loc="best")
+        ax = axes[1][k]
+        d_m = np.sort(m["d_m"])
+        ax.step(d_m, np.arange(1, len(d_m) + 1) / len(d_m), where="post", color="tab:red", label="measured")
+        d_s = np.sort(m["d_s"][rest])
+        ax.step(d_s, np.arange(1, len(d_s) + 1) / m["n"], where="post", color="tab:blue",
+                label="simulated (share of all realizations)")
+        ax.set_xlabel("distance of the stop from the mean drop point (m)")
+        ax.set_ylabel("cumulative share")
+        ax.set_ylim(0, 1.02)
+        ax.set_title(f"KS {m['ks_censored']:.2f} (blocks not at rest count as beyond)", fontsize=9)
+        ax.legend(fontsize=7, loc="lower right")
+    fig.tight_layout()
+    tmp = path + ".tmp.png"
+    fig.savefig(tmp, dpi=110)
+    os.replace(tmp, path)
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--data", required=True, help="the dataset's folder (a clone of AuthumeQuarryRockfalls_Data-in-Brief)")
+    p.add_argument("--bin", default="build/bin", help="folder of the Talus tools")
+    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--realizations", type=int, default=1024, help="per profile and material set (default 1024)")
+    p.add_argument("--materials", nargs="+", default=["defaults", "classes"], choices=["defaults", "classes"])
+    p.add_argument("--profiles", nargs="+", default=PROFILES, choices=PROFILES)
+    p.add_argument("--sigma", type=float, default=0.05, help="roughness sd of the TIN's vertices (m, default 0.05)")
+    p.add_argument("--density", type=float, default=2700.0, help="block density (kg/m^3, default 2700)")
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--threads", type=int, default=0, help="dda-run threads (0: all cores)")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="passed to every dda-run")
+    args = p.parse_args()
+    if args.realizations < 1:
+        fail("--realizations must be at least 1")
+    if not os.path.isdir(args.data):
+        fail(f"{args.data}: not a folder (clone the dataset first; see --help)")
+    os.makedirs(args.out, exist_ok=True)
+    log = os.path.join(args.out, "log.txt")
+    terrain, blocks = build(args, args.out, log)
+    results = {}
+    for materials in args.materials:
+        for profile in args.profiles:
+            path, origin, azimuth = scene(args, args.out, terrain, blocks, profile, materials)
+            run_file = os.path.join(args.out, f"{materials}-{profile}.h5")
+            cmd = [os.path.join(args.bin, "dda-run"), "-c", path, "-q", "-o", run_file]
+            if args.threads > 0:
+                cmd += ["--threads", str(args.threads)]
+            for kv in args.set:
+                cmd += ["--set", kv]
+            run(cmd, log)
+            results[(materials, profile)] = measure(args, run_file, origin, azimuth, profile)
+    text = table(results, args)
+    with open(os.path.join(args.out, "table.md"), "w") as f:
+        f.write(text)
+    plot(results, os.path.join(args.out, "stops.png"))
+    sys.stdout.write(text)
+
+
+if __name__ == "__main__":
+    main()

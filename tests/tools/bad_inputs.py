@@ -502,6 +502,8 @@ CASES = [
     (["calibrate", "-c", "calibrate.yaml", "--set", "parameters[0].parameter=density", "-o", "c"], BAD_INPUT,
      ["'density' is not one of"]),
     (["calibrate", "-c", "calibrate.yaml", "--set", "groups=[]", "-o", "c"], BAD_INPUT, ["at least one observed case"]),
+    (["calibrate", "-c", "calibrate.yaml", "--set", "groups[0].observed=flat.csv", "--set", "variables=distance",
+      "-o", "c"], BAD_INPUT, ["flat.csv", "variables distance needs x, y"]),
     # A prior is stated, never defaulted: bounds required, a normal one's mean and sd too.
     (["calibrate", "-c", "calibrate.yaml", "--set", "parameters=[{material: rock, parameter: restitution_mean}]",
       "-o", "c"], BAD_INPUT, ["rock.restitution_mean", "needs finite min < max (both given)"]),

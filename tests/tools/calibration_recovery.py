@@ -17,6 +17,8 @@ parameters to drop point A, then predicts drop point B with the posterior. Check
   of a calibration killed before its end;
 - a calibration whose simulations leave no block at rest stops after generation 0 with
   an error (it never ended);
+- compared by the stops' horizontal distance from the drop point alone (variables:
+  distance), each true value lies inside the posterior's [P5, P95] too;
 - with --mpiexec (a build with MPI), the same calibration on 2 MPI ranks of one thread
   gives that posterior too.
 
@@ -142,6 +144,20 @@ def main():
         tolerances = [float(r["tolerance"]) for r in csv.DictReader(f)][1:]
     if statistical and not all(b < a for a, b in zip(tolerances, tolerances[1:])):
         failures.append("the tolerance did not fall at every generation: %s" % tolerances)
+
+    # Stops compared by their horizontal distance from the drop point alone (variables:
+    # distance, as field data measured from the drop point are): the truth recovered too.
+    if statistical:
+        by_distance = os.path.join(work, "distance")
+        tool("calibrate", *common, "--set", "variables=distance", "-o", by_distance, "--threads", "2", "-q")
+        with open(os.path.join(by_distance, "summary.csv")) as f:
+            drows = {r["parameter"]: r for r in csv.DictReader(f)}
+        for name, true in TRUTH.items():
+            p5, p95 = float(drows[name]["P5"]), float(drows[name]["P95"])
+            print("%s, by distance: posterior P5 %.4g, P95 %.4g" % (name, p5, p95))
+            if not p5 <= true <= p95:
+                failures.append("%s (variables: distance): the truth %g is outside [P5, P95] = [%.4g, %.4g]"
+                                % (name, true, p5, p95))
 
     predict = os.path.join(work, "predict")
     draws = ["predictive_draws=3", "realizations=8"] if args.sanitized else \

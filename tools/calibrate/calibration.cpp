@@ -239,7 +239,8 @@ Problem::Problem(const Settings& settings, const core::SettingsOrigins& origins,
                          "simulations and generation 1 at least as many, so no posterior could be computed "
                          "(0 = no limit)");
   if (s.predictive_draws < 2) throw InputError(origins.of("predictive_draws"), "predictive_draws must be at least 2");
-  variables_ = s.variables == "runout" ? std::vector<std::string>{"runout"} : std::vector<std::string>{"runout", "lateral"};
+  variables_ = s.variables == "runout_lateral" ? std::vector<std::string>{"runout", "lateral"}
+                                              : std::vector<std::string>{s.variables};
 
   base_scene_ = read_scene(s, origins, std::nullopt);
   std::set<std::string> labels;
@@ -362,12 +363,10 @@ Problem::Problem(const Settings& settings, const core::SettingsOrigins& origins,
         io::read_observed_stops(group.observed, group.layer, terrain->crs_wkt, "groups[" + std::to_string(g) + "].observed");
     check_on_terrain(stops, c, scene.base_surface(), terrain->origin_shift.head<2>(), group.observed);
     if (stops.has_points()) {
-      for (const auto& p : stops.points) {
-        const Eigen::Vector2d d = Eigen::Vector2d(p[0], p[1]) - c.origin;
-        const double runout = c.direction.dot(d), lateral = c.direction.x() * d.y() - c.direction.y() * d.x();
-        c.observed.push_back(variables_.size() == 1 ? std::vector<double>{runout} : std::vector<double>{runout, lateral});
-      }
+      for (const auto& p : stops.points) c.observed.push_back(compared(c, Eigen::Vector2d(p[0], p[1]) - c.origin));
     } else {
+      if (s.variables == "distance")
+        throw InputError(group.observed, "gives runouts, not stop points: variables distance needs x, y of each stop");
       if (variables_.size() == 2 && stops.lateral.empty())
         throw InputError(group.observed, "gives runouts without lateral offsets: set variables: runout, or add a "
                                          "lateral column");
@@ -404,7 +403,9 @@ Problem::Problem(const Settings& settings, const core::SettingsOrigins& origins,
       for (const auto& o : c.observed) all.push_back(o[v]);
     const double sd = sample_sd(all);
     if (!(sd > 1e-6))
-      throw InputError(observed_source, "the observed " + std::string(variables_[v] == "runout" ? "runouts" : "lateral offsets") +
+      throw InputError(observed_source, "the observed " + std::string(variables_[v] == "runout"     ? "runouts"
+                                                                      : variables_[v] == "distance" ? "distances"
+                                                                                                    : "lateral offsets") +
                                             " do not spread (standard deviation " + core::format_number(sd) +
                                             " m): the distance measures each variable in units of that spread" +
                                             (variables_[v] == "lateral" ? "; compare runouts alone (variables: runout)" : ""));
@@ -426,6 +427,13 @@ mc::SceneSettings Problem::with_parameters(const mc::SceneSettings& base, const 
     set_property(*it, p.parameter, theta[k]);
   }
   return s;
+}
+
+std::vector<double> Problem::compared(const Case& c, const Eigen::Vector2d& d) const {
+  if (settings_.variables == "distance") return {d.norm()};
+  const double runout = c.direction.dot(d);
+  if (settings_.variables == "runout") return {runout};
+  return {runout, c.direction.x() * d.y() - c.direction.y() * d.x()};
 }
 
 Simulated Problem::simulate(const std::vector<double>& theta, std::size_t c, std::uint64_t draw) const {
@@ -466,15 +474,16 @@ Simulated Problem::simulate(const std::vector<double>& theta, std::size_t c, std
       out.blocks[2].push_back(r.max_speed);
       out.blocks[3].push_back(r.max_jump_height);
     }
-    // Compared as observed stops are: where blocks came to rest (those that left the
-    // terrain or ran out of steps are counted, not compared).
+    // Every observed block stopped: one that left the terrain is compared at its exit, a
+    // lower bound of its runout, so sending blocks away is not rewarded by their absence
+    // (unstopped: drop leaves them out).
     if (r.end != dda::EndReason::rest) {
       ++out.not_at_rest;
-      continue;
+      if (settings_.unstopped == "drop") continue;
+    } else {
+      ++out.at_rest;
     }
-    const Eigen::Vector2d d = r.final_position.head<2>() + shift - cs.origin;
-    const double runout = cs.direction.dot(d), lateral = cs.direction.x() * d.y() - cs.direction.y() * d.x();
-    out.values.push_back(variables_.size() == 1 ? std::vector<double>{runout} : std::vector<double>{runout, lateral});
+    out.values.push_back(compared(cs, r.final_position.head<2>() + shift - cs.origin));
   }
   realizations_run_ += static_cast<std::int64_t>(records.size());
   failures_ += out.failures;
@@ -499,7 +508,8 @@ double Problem::distance(const std::vector<double>& theta) const {
       total += stats::summary_distance(compare(c, sim));
       continue;
     }
-    if (sim.values.size() < 2) return std::numeric_limits<double>::infinity();
+    // Fewer than 2 at rest: the scene's blocks do not stop, whatever is compared.
+    if (sim.at_rest < 2) return std::numeric_limits<double>::infinity();
     total += stats::energy_distance(sim.values, cases_[c].observed, scale_);
   }
   return total / static_cast<double>(cases_.size());

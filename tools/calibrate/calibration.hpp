@@ -44,15 +44,17 @@ struct Case {
   bool has_summaries() const { return !summaries.empty(); }
 };
 
-/// One simulation of a case: the compared values of its realizations at rest, how many
-/// ended elsewhere (left the terrain, step limit) and how many in a numerical failure
-/// (both left out of the comparison, and reported).
+/// One simulation of a case: the compared values of its realizations (at rest, and unless
+/// unstopped is "drop" those that ended elsewhere, where they ended), how many ended
+/// elsewhere (left the terrain, step limit) and how many in a numerical failure (left out
+/// of the comparison, and reported).
 struct Simulated {
-  std::vector<std::vector<double>> values;  ///< [realizations at rest][variables] (m)
+  std::vector<std::vector<double>> values;  ///< [compared realizations][variables] (m)
   /// Every realization without a numerical failure, in realization order, wherever it
   /// ended: runout and lateral offset of its final position (m), its largest speed (m/s)
   /// and jump height (m), indexed by SummaryVariable. What summary statistics are of.
   std::array<std::vector<double>, 4> blocks;
+  std::int64_t at_rest = 0;
   std::int64_t not_at_rest = 0;
   std::int64_t failures = 0;
 };
@@ -92,6 +94,9 @@ class Problem {
   mc::SceneSettings with_parameters(const mc::SceneSettings& base, const std::vector<double>& theta) const;
   /// The scene file and common overrides, without any group's.
   const mc::SceneSettings& base_scene() const { return base_scene_; }
+
+  /// The compared values of a point at plan offset d (m) from case c's origin.
+  std::vector<double> compared(const Case& c, const Eigen::Vector2d& d) const;
 
   /// Realizations simulated and numerical failures among them, so far.
   std::int64_t realizations_run() const { return realizations_run_; }

@@ -685,7 +685,8 @@ int main(int argc, char** argv) {
     if (not_at_rest > 0)
       core::log_info(std::to_string(not_at_rest) + " realizations of this invocation did not come to rest (left the "
                      "terrain or reached the step limit) and were " +
-                     (problem.summaries() ? "counted at their final position" : "not compared"));
+                     (problem.summaries() || settings.unstopped == "count" ? "compared at their final position"
+                                                                           : "not compared (unstopped: drop)"));
     if (cp.failures > 0)
       core::log_warn(std::to_string(cp.failures) + " of " + std::to_string(cp.realizations) +
                      " realizations ended in a numerical failure and were left out of the comparison");

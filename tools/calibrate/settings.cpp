@@ -52,8 +52,12 @@ void Settings::visit(core::SettingsVisitor& v) {
   v.field("set", set, "scene overrides for every group, KEY=VALUE as dda-run --set");
   v.list_of("groups", "observed cases, each simulated with its own scene overrides", groups);
   v.list_of("parameters", "fitted material properties and their priors", parameters);
-  v.choice("variables", variables, {"runout_lateral", "runout"},
-           "compared: stop points in plan (runout and lateral offset, m) or runout alone (m)");
+  v.choice("variables", variables, {"runout_lateral", "runout", "distance"},
+           "compared: stop points in plan (runout and lateral offset, m), runout alone (m) or the horizontal "
+           "distance from the group's origin (m)");
+  v.choice("unstopped", unstopped, {"count", "drop"},
+           "simulated blocks not at rest: count them where they ended (one that left the terrain at its exit, a "
+           "lower bound of its runout) or drop them from the comparison");
   v.field("realizations", realizations, "", "realizations per simulation and group");
   v.field("particles", particles, "", "particles of each generation (ABC population)");
   v.field("generations", generations, "", "generations after the prior's, at most");

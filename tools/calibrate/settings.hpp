@@ -62,7 +62,12 @@ struct Settings {
   std::vector<std::string> set;           ///< scene overrides for every group (KEY=VALUE)
   std::vector<Group> groups;              ///< observed cases, at least one
   std::vector<FittedParameter> parameters;
-  std::string variables = "runout_lateral";  ///< compared: "runout_lateral" (stop points in plan) or "runout"
+  /// Compared: "runout_lateral" (stop points in plan), "runout" (along the runout
+  /// direction) or "distance" (horizontal distance from the group's origin).
+  std::string variables = "runout_lateral";
+  /// Simulated blocks not at rest (left the terrain, step limit): "count" them where they
+  /// ended (a block that left the terrain at its exit) or "drop" them from the comparison.
+  std::string unstopped = "count";
   std::int64_t realizations = 100;        ///< realizations per simulation and group
   std::int64_t particles = 100;           ///< ABC population size
   std::int64_t generations = 6;           ///< generations after the prior's

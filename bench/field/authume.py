@@ -29,7 +29,9 @@ Material sets: `defaults` (terrain-gen's default material on all three zones) an
 `classes` (classes of docs/materials.md chosen from the substrate descriptions of the
 data: gray, hard ground and rock walls, `bedrock`; red, rocky slope, `compact_scree`;
 blue, vegetated slope, `soil`). Writes table.md and stops.png in --out; the run files
-stay there for `stats`.
+stay there for `stats`. When the data folder holds the Rockable simulations published
+with it (SIM_Trajectories), their final positions are measured the same way, as a row
+"Rockable" per profile.
 
 Only the standard library, numpy, h5py and matplotlib (Debian python3-numpy, -h5py,
 -matplotlib) are used.
@@ -164,15 +166,16 @@ def scene(args, work, terrain, blocks, profile, materials):
     return path, origin, azimuth
 
 
-def measure(args, run_file, origin, azimuth, profile):
+def read_run(run_file):
     import h5py
 
-    stops = read_rows(os.path.join(args.data, "EXP_endpoints", f"Endpoints_{profile}.txt"), 3)
     with h5py.File(run_file, "r") as f:
         r = f["records"]
-        final = np.array(r["final_position"])[:, :2]
-        end = np.array(r["end_reason"])
-    at_rest = end == 1
+        return np.array(r["final_position"])[:, :2], np.array(r["end_reason"]) == 1  # 1: rest
+
+
+def measure(args, final, at_rest, origin, azimuth, profile):
+    stops = read_rows(os.path.join(args.data, "EXP_endpoints", f"Endpoints_{profile}.txt"), 3)
     u = np.array([math.cos(math.radians(azimuth)), math.sin(math.radians(azimuth))])
     v = np.array([-u[1], u[0]])
     measured = plan(stops) - origin
@@ -193,12 +196,37 @@ def measure(args, run_file, origin, azimuth, profile):
     }
 
 
+def rockable(args, origin, azimuth, profile):
+    """The Rockable simulations published with the data (SIM_Trajectories: 4 shapes x 4
+    drop points x 64 orientations, 19 s each), measured as ours: None if absent. A block
+    is at rest when its last sample moves slower than 0.1 m/s."""
+    root = os.path.join(args.data, "SIM_Trajectories", profile)
+    if not os.path.isdir(root):
+        return None
+    ends, speeds = [], []
+    for folder, _, files in sorted(os.walk(root)):
+        for name in sorted(files):
+            if not name.endswith(".txt"):
+                continue
+            last = None
+            with open(os.path.join(folder, name)) as f:
+                for line in f:
+                    if line.strip():
+                        last = line
+            row = [float(v) for v in last.split()]
+            ends.append(row[1:4])
+            speeds.append(math.sqrt(row[4] ** 2 + row[5] ** 2 + row[6] ** 2))
+    if not ends:
+        return None
+    return plan(np.array(ends)), np.array(speeds) < 0.1
+
+
 def table(results, args):
     lines = [f"| materials | profile | at rest on the survey | distance P10 / P50 / P90 (m), measured | "
              "simulated P10 / P50 / P90 (m), at rest | simulated 5-95 % (m) | measured P10-P90 inside | "
              "KS (censored) | KS (at rest) | lateral sd (m), measured / simulated |",
              "|---|---|---:|---|---|---|---|---:|---:|---|"]
-    for (materials, profile), m in results.items():
+    for (materials, profile), m in sorted(results.items(), key=lambda kv: (kv[0][1], kv[0][0] != "Rockable")):
         s = m["simulated"]
         inside = s[0] <= m["measured"][0] and m["measured"][2] <= s[4]
         lines.append(
@@ -215,7 +243,7 @@ def plot(results, path):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    keys = list(results)
+    keys = [k for k in results if k[0] != "Rockable"]
     fig, axes = plt.subplots(2, len(keys), figsize=(4.2 * len(keys), 8.0), squeeze=False)
     for k, key in enumerate(keys):
         m = results[key]
@@ -278,7 +306,12 @@ def main():
             for kv in args.set:
                 cmd += ["--set", kv]
             run(cmd, log)
-            results[(materials, profile)] = measure(args, run_file, origin, azimuth, profile)
+            final, at_rest = read_run(run_file)
+            results[(materials, profile)] = measure(args, final, at_rest, origin, azimuth, profile)
+            if ("Rockable", profile) not in results:
+                peer = rockable(args, origin, azimuth, profile)
+                if peer is not None:
+                    results[("Rockable", profile)] = measure(args, peer[0], peer[1], origin, azimuth, profile)
     text = table(results, args)
     with open(os.path.join(args.out, "table.md"), "w") as f:
         f.write(text)

@@ -398,11 +398,8 @@ TEST(DdaContacts, TerrainVertexDeepInsideIsHeldByTheNearestFace) {
   }
 }
 
-// A terrain crest inside a convex block that no crossing holds is held at its deepest point
-// by the face it is least deep under; one its crossings hold where it is deepest gets
-// nothing more. Here a roof-shaped crest along y under a cube's bottom face, the cube sunk
-// `sunk` into it: the crossings of the bottom edges hold it.
-TEST(DdaContacts, CrestDeepInsideIsHeldWhereNoCrossingHoldsIt) {
+// A roof on a 7 × 7 m grid: its crest along y at x = 3 m, 0.5 m high, flanks falling 1 in 2.
+terrain::Terrain roof() {
   terrain::DemGrid dem;
   dem.spec = {0.0, 0.0, 1.0, 1.0, 7, 7};
   dem.z.resize(dem.spec.point_count());
@@ -410,7 +407,15 @@ TEST(DdaContacts, CrestDeepInsideIsHeldWhereNoCrossingHoldsIt) {
     for (std::size_t ix = 0; ix < 7; ++ix)
       dem.z[dem.spec.index(static_cast<std::int32_t>(ix), static_cast<std::int32_t>(iy))] =
           0.5 - 0.5 * std::abs(static_cast<double>(ix) - 3.0);
-  const terrain::Terrain t = terrain::build_grid_terrain(dem, terrain::Diagonal::alternating, 1, "roof");
+  return terrain::build_grid_terrain(dem, terrain::Diagonal::alternating, 1, "roof");
+}
+
+// A terrain crest inside a convex block that no crossing holds is held at its deepest point
+// by the face it is least deep under; one its crossings hold where it is deepest gets
+// nothing more. Here a roof-shaped crest along y under a cube's bottom face, the cube sunk
+// `sunk` into it: the crossings of the bottom edges hold it.
+TEST(DdaContacts, CrestDeepInsideIsHeldWhereNoCrossingHoldsIt) {
+  const terrain::Terrain t = roof();
   const terrain::Surface surface = terrain::Surface::realize(t, std::nullopt);
   const Model m = Model::build(Settings{}, testing::cube(1.0));
   const double ds = 0.01, depth = 0.1;
@@ -452,14 +457,7 @@ TEST(DdaContacts, CrestDeepInsideIsHeldWhereNoCrossingHoldsIt) {
 // cube tilted 20° about x, 3 cm below the crest. Either face alone pushed the block along
 // its own normal, one of them down onto the crest; a cube resting on a spike sank by that.
 TEST(DdaContacts, CrestUnderABlockEdgeIsHeldAcrossItself) {
-  terrain::DemGrid dem;
-  dem.spec = {0.0, 0.0, 1.0, 1.0, 7, 7};
-  dem.z.resize(dem.spec.point_count());
-  for (std::size_t iy = 0; iy < 7; ++iy)
-    for (std::size_t ix = 0; ix < 7; ++ix)
-      dem.z[dem.spec.index(static_cast<std::int32_t>(ix), static_cast<std::int32_t>(iy))] =
-          0.5 - 0.5 * std::abs(static_cast<double>(ix) - 3.0);
-  const terrain::Terrain t = terrain::build_grid_terrain(dem, terrain::Diagonal::alternating, 1, "roof");
+  const terrain::Terrain t = roof();
   const terrain::Surface surface = terrain::Surface::realize(t, std::nullopt);
   const Model m = Model::build(Settings{}, testing::cube(1.0));
   const double ds = 0.01, depth = 0.1, sunk = 0.03;

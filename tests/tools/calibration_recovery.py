@@ -15,6 +15,7 @@ parameters to drop point A, then predicts drop point B with the posterior. Check
 - a simulation budget that runs out during generation 1 is an error, not the prior's
   sample returned as a posterior, and --predict refuses the checkpoint it leaves, and that
   of a calibration killed before its end;
+- progress comes as lines per generation (simulations, accepted particles, ETA);
 - a calibration whose simulations leave no block at rest stops after generation 0 with
   an error (it never ended);
 - compared by the stops' horizontal distance from the drop point alone (variables:
@@ -104,6 +105,17 @@ def main():
             with open(os.path.join(fit, name)) as a, open(os.path.join(other, name)) as b:
                 if a.read() != b.read():
                     failures.append("%s differs between the uninterrupted calibration and the %s one" % (name, label))
+
+    # Progress: each generation's simulations, accepted particles and ETA, as lines
+    # (TALUS_PROGRESS_INTERVAL=0: one per simulation).
+    r = tool("calibrate", *common, "--set", "particles=4", "--set", "generations=1", "--set", "realizations=4",
+             "-o", os.path.join(work, "progress"), "--threads", "1",
+             env=dict(os.environ, TALUS_PROGRESS_INTERVAL="0"))
+    lines = [l for l in r.stderr.splitlines() if " ETA " in l]
+    if not (any(l.startswith("calibrate: generation 0 (prior): 2 of 4 simulations, elapsed ") for l in lines) and
+            any(l.startswith("calibrate: generation 1: ") and " particles accepted, elapsed " in l and
+                l.endswith(" s (this batch)") for l in lines)):
+        failures.append("no progress lines per generation: %s" % r.stderr.strip()[-600:])
 
     # A budget that runs out during generation 1 leaves only the prior's sample: an error,
     # no posterior, and a checkpoint that --predict refuses (docs/calibration.md, Method).

@@ -9,6 +9,8 @@
 #include <optional>
 #include <sstream>
 
+#include <unistd.h>
+
 #include "calibration.hpp"
 #include "settings.hpp"
 #include "talus/cli/plot_helper.hpp"
@@ -42,6 +44,12 @@ constexpr const char* kPosterior = "posterior.h5";
 const std::vector<double> kQuantiles = {0.05, 0.10, 0.25, 0.50, 0.75, 0.90, 0.95};
 
 std::string num(double x) { return core::format_number(x); }
+// x to `n` significant digits, for progress lines.
+std::string digits(double x, int n) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.*g", n, x);
+  return text;
+}
 
 // Test hook: exit abruptly after writing the checkpoint of this generation (0 = never), as
 // a killed job would (tests/tools/calibration_recovery.py).
@@ -471,13 +479,70 @@ std::int64_t sum_over(const Ranks& ranks, std::int64_t value) {
 // The distances of a batch: rank r simulates candidates r, r + n, … and every rank gets
 // all of them. A distance is a pure function of its parameters, so the split changes no
 // value. A rank that fails makes every rank fail (none waits for it).
-std::vector<double> distances(const Problem& problem, const Ranks& ranks, const std::vector<std::vector<double>>& batch) {
+// A generation's progress at the default log level (-q hides it): a line every 30 s, 10 s
+// on a terminal (TALUS_PROGRESS_INTERVAL sets the seconds), with the simulations of the
+// batch, the particles accepted and when the batch ends. A generation proposes in
+// batches sized from the last acceptance; another batch follows only when one falls short.
+class GenerationProgress {
+ public:
+  GenerationProgress() {
+    interval_ = ::isatty(STDERR_FILENO) == 1 ? 10.0 : 30.0;
+    if (const char* text = std::getenv("TALUS_PROGRESS_INTERVAL")) interval_ = std::max(0.0, std::strtod(text, nullptr));
+  }
+  // A generation begins: its index, the particles it needs and the tolerance they meet.
+  void begin(std::int64_t index, std::int64_t particles, double tolerance) {
+    index_ = index;
+    particles_ = particles;
+    tolerance_ = tolerance;
+    accepted_ = 0;
+    clock_ = core::Stopwatch{};
+    shown_ = 0.0;
+  }
+  void batch(std::size_t size, int ranks) {
+    batch_ = size;
+    batch_done_ = 0;
+    ranks_ = ranks;
+    batch_clock_ = core::Stopwatch{};
+  }
+  // One simulation of this rank done, at distance d.
+  void simulated(double d, bool writer) {
+    ++batch_done_;
+    if (d <= tolerance_) ++accepted_;
+    const double t = clock_.seconds();
+    if (!writer || t - shown_ < interval_) return;
+    shown_ = t;
+    // This rank runs one of every `ranks` simulations of the batch.
+    const auto done = std::min(batch_, batch_done_ * static_cast<std::size_t>(ranks_));
+    const double eta = batch_clock_.seconds() / static_cast<double>(done) * static_cast<double>(batch_ - done);
+    std::string line = "generation " + std::to_string(index_) + (index_ == 0 ? " (prior)" : "") + ": " +
+                       std::to_string(done) + " of " + std::to_string(batch_) + " simulations";
+    if (index_ > 0)
+      line += ", " + std::to_string(std::min(accepted_ * ranks_, particles_)) + " of " + std::to_string(particles_) + " particles accepted";
+    line += ", elapsed " + std::to_string(std::lround(t)) + " s, ETA " + std::to_string(std::lround(eta)) + " s" +
+            (index_ > 0 ? " (this batch)" : "");
+    core::log_notice(line);
+  }
+
+ private:
+  double interval_ = 30.0, tolerance_ = 0.0, shown_ = 0.0;
+  std::int64_t index_ = 0, particles_ = 0, accepted_ = 0;
+  std::size_t batch_ = 0, batch_done_ = 0;
+  int ranks_ = 1;
+  core::Stopwatch clock_, batch_clock_;
+};
+
+std::vector<double> distances(const Problem& problem, const Ranks& ranks, const std::vector<std::vector<double>>& batch,
+                              GenerationProgress& progress) {
   std::vector<double> d(batch.size(), -1.0);
   int ok = 1;
   std::exception_ptr failure;
+  progress.batch(batch.size(), ranks.count);
   try {
     for (std::size_t k = 0; k < batch.size(); ++k)
-      if (static_cast<int>(k % static_cast<std::size_t>(ranks.count)) == ranks.rank) d[k] = problem.distance(batch[k]);
+      if (static_cast<int>(k % static_cast<std::size_t>(ranks.count)) == ranks.rank) {
+        d[k] = problem.distance(batch[k]);
+        progress.simulated(d[k], ranks.writer());
+      }
   } catch (...) {
     ok = 0;
     failure = std::current_exception();
@@ -570,8 +635,9 @@ int main(int argc, char** argv) {
     abc_settings.max_simulations = settings.max_simulations;
     abc_settings.seed = settings.seed;
     const stats::AbcSmc abc(problem.priors(), abc_settings);
+    GenerationProgress progress;
     const stats::AbcSimulator simulate = [&](const std::vector<std::vector<double>>& batch) {
-      return distances(problem, ranks, batch);
+      return distances(problem, ranks, batch, progress);
     };
 
     Checkpoint cp;
@@ -599,10 +665,12 @@ int main(int argc, char** argv) {
     };
     if (cp.generations.empty()) {
       core::Stopwatch g_clock;
+      progress.begin(0, settings.particles, std::numeric_limits<double>::infinity());
       cp.generations.push_back(abc.first(simulate));
       checkpoint(false);
-      if (ranks.writer()) core::log_info("generation 0 (prior): " + std::to_string(cp.generations.back().proposed) + " simulations in " +
-                     num(g_clock.seconds()) + " s");
+      if (ranks.writer())
+        core::log_notice("generation 0 (prior): " + std::to_string(cp.generations.back().proposed) + " simulations in " +
+                         digits(g_clock.seconds(), 3) + " s");
     }
     while (!cp.finished && !abc.finished(cp.generations.back())) {
       core::Stopwatch g_clock;
@@ -624,6 +692,7 @@ int main(int argc, char** argv) {
             "the scene's blocks leave the terrain or reach the step limit over much of the prior (check the "
             "terrain's extent, engine.max_time and the priors)");
       }
+      progress.begin(prev.index + 1, settings.particles, abc.tolerance(prev));
       AbcGeneration g = abc.next(prev, simulate, budget);
       if (static_cast<std::int64_t>(g.theta.size()) < settings.particles) {
         // Generation 0 is the prior's sample: returned as the posterior, it would say the
@@ -644,9 +713,9 @@ int main(int argc, char** argv) {
       if (cp.generations.back().index == abort_after_generation()) std::_Exit(137);
       const auto& last = cp.generations.back();
       if (ranks.writer())
-        core::log_info("generation " + std::to_string(last.index) + ": tolerance " + num(last.tolerance) + ", " +
-                     std::to_string(last.proposed) + " simulations (acceptance " + num(last.acceptance()) + ") in " +
-                     num(g_clock.seconds()) + " s");
+        core::log_notice("generation " + std::to_string(last.index) + ": tolerance " + digits(last.tolerance, 4) + ", " +
+                         std::to_string(last.proposed) + " simulations (acceptance " + digits(last.acceptance(), 3) +
+                         ") in " + digits(g_clock.seconds(), 3) + " s");
     }
 
     count_all();

@@ -29,7 +29,9 @@ Material sets: `defaults` (terrain-gen's default material on all three zones) an
 `classes` (classes of docs/materials.md chosen from the substrate descriptions of the
 data: gray, hard ground and rock walls, `bedrock`; red, rocky slope, `compact_scree`;
 blue, vegetated slope, `soil`). Writes table.md and stops.png in --out; the run files
-stay there for `stats`. When the data folder holds the Rockable simulations published
+stay there for `stats`, with each profile's measured stops as calibrate's observed CSV
+(observed-P1.csv) and a calibrate settings file fitting the zones' restitution to them
+(calibrate-P1.yaml; a starting point). When the data folder holds the Rockable simulations published
 with it (SIM_Trajectories), their final positions are measured the same way, as a row
 "Rockable" per profile.
 
@@ -166,6 +168,32 @@ def scene(args, work, terrain, blocks, profile, materials):
     return path, origin, azimuth
 
 
+def calibration_files(args, work, profile, origin):
+    """The measured stops as calibrate's observed CSV (plan x, y in the terrain's input
+    coordinates) and a calibrate settings file fitting the classes' three zones to them,
+    compared by distance from the mean drop point (docs/calibration.md)."""
+    stops = plan(read_rows(os.path.join(args.data, "EXP_endpoints", f"Endpoints_{profile}.txt"), 3))
+    observed = os.path.join(work, f"observed-{profile}.csv")
+    with open(observed, "w") as f:
+        f.write("x,y\n")
+        for x, y in stops:
+            f.write(f"{x:.3f},{y:.3f}\n")
+    path = os.path.join(work, f"calibrate-{profile}.yaml")
+    with open(path, "w") as f:
+        f.write(f"# Fits the zones' restitution to the measured stops of {profile}; a starting point:\n"
+                f"#   calibrate -c {path} -o {os.path.join(work, 'fit-' + profile)}\n"
+                f"scene: {os.path.join(work, 'classes-' + profile + '.yaml')}\n"
+                "groups:\n"
+                f"  - name: {profile}\n    observed: {observed}\n"
+                f"    origin: [{origin[0]:.4f}, {origin[1]:.4f}]   # m, the mean drop point\n"
+                "parameters:\n"
+                "  - {material: DTM_Gray_zone, parameter: restitution_mean, min: 0.1, max: 0.95}\n"
+                "  - {material: DTM_Gray_zone, parameter: restitution_scale, min: 3, max: 40}   # m/s\n"
+                "  - {material: DTM_Blue_zone, parameter: restitution_mean, min: 0.1, max: 0.95}\n"
+                "variables: distance\nrealizations: 64\nparticles: 30\ngenerations: 3\n")
+    return observed, path
+
+
 def read_run(run_file):
     import h5py
 
@@ -299,6 +327,8 @@ def main():
     for materials in args.materials:
         for profile in args.profiles:
             path, origin, azimuth = scene(args, args.out, terrain, blocks, profile, materials)
+            if materials == "classes":
+                calibration_files(args, args.out, profile, origin)
             run_file = os.path.join(args.out, f"{materials}-{profile}.h5")
             cmd = [os.path.join(args.bin, "dda-run"), "-c", path, "-q", "-o", run_file]
             if args.threads > 0:

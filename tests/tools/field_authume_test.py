@@ -3,7 +3,8 @@
 zones and blocks, drop points, orientations, measured stops), so the field validation runs
 from a clean clone without the data: the table's measured quantiles are the synthetic
 stops', every realization is accounted for, the censored KS distance is exact on small
-cases, and a folder that is not the dataset is a one-line error.
+cases, the observed stops written for calibrate are the data's in plan, and a folder
+that is not the dataset is a one-line error.
 
   field_authume_test.py --bin build/bin --out DIR
 """
@@ -130,6 +131,16 @@ def main():
         check(0.0 <= ks <= 1.0, f"{materials} {profile}: KS {ks}")
         check(rest >= 1, f"{materials} {profile}: no block at rest")
     check(os.path.getsize(os.path.join(out, "stops.png")) > 10000, "no overlay plot")
+    # calibrate's observed stops: the data's y-up (x, z) as plan (x, -z), and a settings
+    # file calibrate reads (--print-config parses it: an unknown key or a bad value fails).
+    rows = open(os.path.join(out, "observed-P1.csv")).read().splitlines()
+    first = [float(v) for v in open(os.path.join(data, "EXP_endpoints", "Endpoints_P1.txt")).readline().split()]
+    check(rows[0] == "x,y" and len(rows) == 13 and
+          np.allclose([float(v) for v in rows[1].split(",")], [first[0], -first[2]], atol=1e-3),
+          f"observed-P1.csv: {rows[:2]}")
+    r = subprocess.run([os.path.join(args.bin, "calibrate"), "-c", os.path.join(out, "calibrate-P1.yaml"),
+                        "--print-config"], capture_output=True, text=True)
+    check(r.returncode == 0 and "variables: distance" in r.stdout, f"calibrate-P1.yaml: {r.stderr.strip()}")
     # Not the dataset: one line naming the file.
     r = subprocess.run([sys.executable, SCRIPT, "--data", args.out, "--bin", args.bin, "--out", out],
                        capture_output=True, text=True)

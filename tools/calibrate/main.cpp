@@ -476,19 +476,13 @@ std::int64_t sum_over(const Ranks& ranks, std::int64_t value) {
   return value;
 }
 
-// The distances of a batch: rank r simulates candidates r, r + n, … and every rank gets
-// all of them. A distance is a pure function of its parameters, so the split changes no
-// value. A rank that fails makes every rank fail (none waits for it).
 // A generation's progress at the default log level (-q hides it): a line every 30 s, 10 s
 // on a terminal (TALUS_PROGRESS_INTERVAL sets the seconds), with the simulations of the
 // batch, the particles accepted and when the batch ends. A generation proposes in
 // batches sized from the last acceptance; another batch follows only when one falls short.
 class GenerationProgress {
  public:
-  GenerationProgress() {
-    interval_ = ::isatty(STDERR_FILENO) == 1 ? 10.0 : 30.0;
-    if (const char* text = std::getenv("TALUS_PROGRESS_INTERVAL")) interval_ = std::max(0.0, std::strtod(text, nullptr));
-  }
+  GenerationProgress() : interval_(cli::progress_interval(::isatty(STDERR_FILENO) == 1)) {}
   // A generation begins: its index, the particles it needs and the tolerance they meet.
   void begin(std::int64_t index, std::int64_t particles, double tolerance) {
     index_ = index;
@@ -531,6 +525,9 @@ class GenerationProgress {
   core::Stopwatch clock_, batch_clock_;
 };
 
+// The distances of a batch: rank r simulates candidates r, r + n, … and every rank gets
+// all of them. A distance is a pure function of its parameters, so the split changes no
+// value. A rank that fails makes every rank fail (none waits for it).
 std::vector<double> distances(const Problem& problem, const Ranks& ranks, const std::vector<std::vector<double>>& batch,
                               GenerationProgress& progress) {
   std::vector<double> d(batch.size(), -1.0);

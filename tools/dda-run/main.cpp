@@ -50,9 +50,7 @@ class Progress {
     enabled_ = core::log_level() >= core::LogLevel::warn;
     const bool tty = enabled_ && ::isatty(STDERR_FILENO) == 1;
     refresh_ = tty && !sharded && !under_parallel_make();
-    interval_ = tty ? 10.0 : 30.0;
-    const char* interval = std::getenv("TALUS_PROGRESS_INTERVAL");
-    if (interval) interval_ = std::max(0.0, std::strtod(interval, nullptr));
+    interval_ = cli::progress_interval(tty);
   }
   void advance() {
     ++done_;

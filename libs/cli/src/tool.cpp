@@ -174,4 +174,9 @@ bool started_by_mpi_launcher() {
   return std::getenv("OMPI_COMM_WORLD_SIZE") || std::getenv("PMI_SIZE") || std::getenv("PMIX_RANK");
 }
 
+double progress_interval(bool tty) {
+  const char* text = std::getenv("TALUS_PROGRESS_INTERVAL");
+  return text ? std::max(0.0, std::strtod(text, nullptr)) : tty ? 10.0 : 30.0;
+}
+
 }  // namespace talus::cli

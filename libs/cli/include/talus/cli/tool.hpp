@@ -74,6 +74,10 @@ unsigned parse_threads(const std::string& text);
 /// with MPI start it only then, so a plain start stays a one-process run.
 bool started_by_mpi_launcher();
 
+/// Seconds between whole progress lines (docs/errors.md, "Progress"): 10 on a terminal
+/// (`tty`), 30 in logs, or TALUS_PROGRESS_INTERVAL when set.
+double progress_interval(bool tty);
+
 /// Parses the command line, reads settings, runs the tool and maps every failure to a
 /// one-line message "TOOL: error: …" on stderr and a documented exit code. Never throws.
 int run_tool(int argc, char** argv, const ToolSpec& spec);

@@ -467,23 +467,20 @@ Simulated Problem::simulate(const std::vector<double>& theta, std::size_t c, std
     // Summaries are of every block, wherever it ended: one that left the terrain is
     // counted at its exit (a lower bound of its runout, past any line it crossed), so a
     // parameter set that sends blocks off the terrain is not rewarded by their absence.
-    {
-      const Eigen::Vector2d d = r.final_position.head<2>() + shift - cs.origin;
-      out.blocks[0].push_back(cs.direction.dot(d));
-      out.blocks[1].push_back(cs.direction.x() * d.y() - cs.direction.y() * d.x());
-      out.blocks[2].push_back(r.max_speed);
-      out.blocks[3].push_back(r.max_jump_height);
-    }
-    // Every observed block stopped: one that left the terrain is compared at its exit, a
-    // lower bound of its runout, so sending blocks away is not rewarded by their absence
-    // (unstopped: drop leaves them out).
+    const Eigen::Vector2d d = r.final_position.head<2>() + shift - cs.origin;
+    out.blocks[0].push_back(cs.direction.dot(d));
+    out.blocks[1].push_back(cs.direction.x() * d.y() - cs.direction.y() * d.x());
+    out.blocks[2].push_back(r.max_speed);
+    out.blocks[3].push_back(r.max_jump_height);
+    // Stops are compared so too: every observed block stopped (unstopped: drop leaves
+    // out those that did not).
     if (r.end != dda::EndReason::rest) {
       ++out.not_at_rest;
       if (settings_.unstopped == "drop") continue;
     } else {
       ++out.at_rest;
     }
-    out.values.push_back(compared(cs, r.final_position.head<2>() + shift - cs.origin));
+    out.values.push_back(compared(cs, d));
   }
   realizations_run_ += static_cast<std::int64_t>(records.size());
   failures_ += out.failures;

@@ -40,12 +40,15 @@ Only the standard library, numpy, h5py and matplotlib (Debian python3-numpy, -h5
 """
 
 import argparse
+import collections
 import math
 import os
-import subprocess
 import sys
 
 import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "dda"))
+from logged_run import run  # noqa: E402
 
 ZONES = {"DTM_Gray_zone": "bedrock", "DTM_Red_zone": "compact_scree", "DTM_Blue_zone": "soil"}
 BLOCKS = ["SP1A", "SP2A", "SP2B", "SP3A"]
@@ -54,17 +57,6 @@ PROFILES = ["P1", "P2"]
 
 def fail(message):
     sys.exit(f"authume.py: {message}")
-
-
-def run(cmd, log):
-    with open(log, "a") as f:
-        f.write(" ".join(cmd) + "\n")
-        try:
-            r = subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT)
-        except OSError as e:
-            fail(f"{cmd[0]}: {e.strerror}")
-    if r.returncode != 0:
-        fail(f"{os.path.basename(cmd[0])} failed (exit {r.returncode}); see {log}")
 
 
 def read_rows(path, columns):
@@ -95,6 +87,19 @@ def read_rows(path, columns):
 def plan(xyz):
     """The data's y-up (x, y, z) as Talus's plan (x, -z) (terrain-gen tin.up_axis y)."""
     return np.stack([xyz[:, 0], -xyz[:, 2]], axis=1)
+
+
+# A profile's drop points (the data's y-up x, y, z), its measured stops in plan, the mean
+# drop point in plan and the azimuth (deg) from it to the mean measured stop.
+Profile = collections.namedtuple("Profile", "name drops stops origin azimuth")
+
+
+def read_profile(args, name):
+    drops = read_rows(os.path.join(args.data, "Drop_conditions", f"positions_{name}.xyz"), 3)
+    stops = plan(read_rows(os.path.join(args.data, "EXP_endpoints", f"Endpoints_{name}.txt"), 3))
+    origin = plan(drops).mean(axis=0)
+    towards = stops.mean(axis=0) - origin
+    return Profile(name, drops, stops, origin, math.degrees(math.atan2(towards[1], towards[0])))
 
 
 def ks_censored(measured, simulated, at_rest):
@@ -140,58 +145,51 @@ def build(args, work, log):
 
 
 def scene(args, work, terrain, blocks, profile, materials):
-    drops = read_rows(os.path.join(args.data, "Drop_conditions", f"positions_{profile}.xyz"), 3)
-    stops = read_rows(os.path.join(args.data, "EXP_endpoints", f"Endpoints_{profile}.txt"), 3)
-    drop_plan = plan(drops)
-    origin = drop_plan.mean(axis=0)
-    towards = plan(stops).mean(axis=0) - origin
-    azimuth = math.degrees(math.atan2(towards[1], towards[0]))
-    path = os.path.join(work, f"{materials}-{profile}.yaml")
+    path = os.path.join(work, f"{materials}-{profile.name}.yaml")
     with open(path, "w") as f:
-        f.write(f"# Authume {profile}, {materials}: the data's drop points and orientations.\n"
+        f.write(f"# Authume {profile.name}, {materials}: the data's drop points and orientations.\n"
                 f"schema_version: \"1.0\"\nterrain: {terrain}\nblock_file: {blocks}\n"
                 "block_selection: cycle\n")
         if materials == "classes":
             f.write("materials:\n")
             for zone, cls in ZONES.items():
                 f.write(f"  - {{name: {zone}, class: {cls}}}\n")
-        points = ", ".join(f"[{p[0]:.4f}, {p[1]:.4f}]" for p in drop_plan)
+        points = ", ".join(f"[{p[0]:.4f}, {p[1]:.4f}]" for p in plan(profile.drops))
         f.write("release:\n  kind: point\n"
                 f"  points: [{points}]   # m, plan (x, -z) of the data's y-up drop points\n"
                 "  height_reference: elevation\n"
-                f"  height: {drops[:, 1].mean():.4f}   # m, the drop points' elevation (their y)\n"
+                f"  height: {profile.drops[:, 1].mean():.4f}   # m, the drop points' elevation (their y)\n"
                 "  clearance: lift\n  orientation: list\n"
                 f"  orientation_file: {os.path.join(args.data, 'Drop_conditions', 'orientations.txt')}\n"
                 "  orientation_up_axis: y\n"
-                f"  main_direction_deg: {azimuth:.3f}   # from the mean drop point to the mean measured stop\n"
+                f"  main_direction_deg: {profile.azimuth:.3f}   # from the mean drop point to the mean measured stop\n"
                 f"realizations: {args.realizations}\nseed: {args.seed}\n")
-    return path, origin, azimuth
+    return path
 
 
-def calibration_files(args, work, profile, origin):
+def calibration_files(work, profile):
     """The measured stops as calibrate's observed CSV (plan x, y in the terrain's input
     coordinates) and a calibrate settings file fitting the classes' three zones to them,
     compared by distance from the mean drop point (docs/calibration.md)."""
-    stops = plan(read_rows(os.path.join(args.data, "EXP_endpoints", f"Endpoints_{profile}.txt"), 3))
-    observed = os.path.join(work, f"observed-{profile}.csv")
+    name = profile.name
+    observed = os.path.join(work, f"observed-{name}.csv")
     with open(observed, "w") as f:
         f.write("x,y\n")
-        for x, y in stops:
+        for x, y in profile.stops:
             f.write(f"{x:.3f},{y:.3f}\n")
-    path = os.path.join(work, f"calibrate-{profile}.yaml")
+    path = os.path.join(work, f"calibrate-{name}.yaml")
     with open(path, "w") as f:
-        f.write(f"# Fits the zones' restitution to the measured stops of {profile}; a starting point:\n"
-                f"#   calibrate -c {path} -o {os.path.join(work, 'fit-' + profile)}\n"
-                f"scene: {os.path.join(work, 'classes-' + profile + '.yaml')}\n"
+        f.write(f"# Fits the zones' restitution to the measured stops of {name}; a starting point:\n"
+                f"#   calibrate -c {path} -o {os.path.join(work, 'fit-' + name)}\n"
+                f"scene: {os.path.join(work, 'classes-' + name + '.yaml')}\n"
                 "groups:\n"
-                f"  - name: {profile}\n    observed: {observed}\n"
-                f"    origin: [{origin[0]:.4f}, {origin[1]:.4f}]   # m, the mean drop point\n"
+                f"  - name: {name}\n    observed: {observed}\n"
+                f"    origin: [{profile.origin[0]:.4f}, {profile.origin[1]:.4f}]   # m, the mean drop point\n"
                 "parameters:\n"
                 "  - {material: DTM_Gray_zone, parameter: restitution_mean, min: 0.1, max: 0.95}\n"
                 "  - {material: DTM_Gray_zone, parameter: restitution_scale, min: 3, max: 40}   # m/s\n"
                 "  - {material: DTM_Blue_zone, parameter: restitution_mean, min: 0.1, max: 0.95}\n"
                 "variables: distance\nrealizations: 64\nparticles: 30\ngenerations: 3\n")
-    return observed, path
 
 
 def read_run(run_file):
@@ -202,12 +200,13 @@ def read_run(run_file):
         return np.array(r["final_position"])[:, :2], np.array(r["end_reason"]) == 1  # 1: rest
 
 
-def measure(args, final, at_rest, origin, azimuth, profile):
-    stops = read_rows(os.path.join(args.data, "EXP_endpoints", f"Endpoints_{profile}.txt"), 3)
-    u = np.array([math.cos(math.radians(azimuth)), math.sin(math.radians(azimuth))])
-    v = np.array([-u[1], u[0]])
-    measured = plan(stops) - origin
-    simulated = final - origin
+def measure(profile, final, at_rest):
+    """Simulated final plan positions (and whether each came to rest) against the measured
+    stops of `profile`."""
+    azimuth = math.radians(profile.azimuth)
+    v = np.array([-math.sin(azimuth), math.cos(azimuth)])  # across the direction to the stops
+    measured = profile.stops - profile.origin
+    simulated = final - profile.origin
     d_m = np.hypot(measured[:, 0], measured[:, 1])
     d_s = np.hypot(simulated[:, 0], simulated[:, 1])
     rested = d_s[at_rest]
@@ -220,11 +219,10 @@ def measure(args, final, at_rest, origin, azimuth, profile):
         "lateral_sd": (float(np.std(measured @ v, ddof=1)), float(np.std(simulated[at_rest] @ v, ddof=1))
                        if at_rest.sum() > 1 else float("nan")),
         "plan_measured": measured, "plan_simulated": simulated, "at_rest": at_rest, "d_m": d_m, "d_s": d_s,
-        "u": u,
     }
 
 
-def rockable(args, origin, azimuth, profile):
+def rockable(args, profile):
     """The Rockable simulations published with the data (SIM_Trajectories: 4 shapes x 4
     drop points x 64 orientations, 19 s each), measured as ours: None if absent. A block
     is at rest when its last sample moves slower than 0.1 m/s."""
@@ -323,25 +321,25 @@ def main():
     os.makedirs(args.out, exist_ok=True)
     log = os.path.join(args.out, "log.txt")
     terrain, blocks = build(args, args.out, log)
+    profiles = [read_profile(args, name) for name in args.profiles]
     results = {}
+    for profile in profiles:
+        peer = rockable(args, profile.name)
+        if peer is not None:
+            results[("Rockable", profile.name)] = measure(profile, *peer)
     for materials in args.materials:
-        for profile in args.profiles:
-            path, origin, azimuth = scene(args, args.out, terrain, blocks, profile, materials)
+        for profile in profiles:
+            path = scene(args, args.out, terrain, blocks, profile, materials)
             if materials == "classes":
-                calibration_files(args, args.out, profile, origin)
-            run_file = os.path.join(args.out, f"{materials}-{profile}.h5")
+                calibration_files(args.out, profile)
+            run_file = os.path.join(args.out, f"{materials}-{profile.name}.h5")
             cmd = [os.path.join(args.bin, "dda-run"), "-c", path, "-q", "-o", run_file]
             if args.threads > 0:
                 cmd += ["--threads", str(args.threads)]
             for kv in args.set:
                 cmd += ["--set", kv]
             run(cmd, log)
-            final, at_rest = read_run(run_file)
-            results[(materials, profile)] = measure(args, final, at_rest, origin, azimuth, profile)
-            if ("Rockable", profile) not in results:
-                peer = rockable(args, origin, azimuth, profile)
-                if peer is not None:
-                    results[("Rockable", profile)] = measure(args, peer[0], peer[1], origin, azimuth, profile)
+            results[(materials, profile.name)] = measure(profile, *read_run(run_file))
     text = table(results, args)
     with open(os.path.join(args.out, "table.md"), "w") as f:
         f.write(text)

@@ -153,7 +153,9 @@ def scene(args, work, terrain, blocks, profile, materials):
         if materials == "classes":
             f.write("materials:\n")
             for zone, cls in ZONES.items():
-                f.write(f"  - {{name: {zone}, class: {cls}}}\n")
+                extra = "".join(f", {kv.split('=', 1)[0]}: {kv.split('=', 1)[1]}"
+                                for c, kv in (o.split(":", 1) for o in args.material) if c == cls)
+                f.write(f"  - {{name: {zone}, class: {cls}{extra}}}\n")
         points = ", ".join(f"[{p[0]:.4f}, {p[1]:.4f}]" for p in plan(profile.drops))
         f.write("release:\n  kind: point\n"
                 f"  points: [{points}]   # m, plan (x, -z) of the data's y-up drop points\n"
@@ -313,6 +315,8 @@ def main():
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--threads", type=int, default=0, help="dda-run threads (0: all cores)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="passed to every dda-run")
+    p.add_argument("--material", action="append", default=[], metavar="CLASS:KEY=VALUE",
+                   help="with the classes: a property of the zones of that class (e.g. soil:ploughing=0.3)")
     args = p.parse_args()
     if args.realizations < 1:
         fail("--realizations must be at least 1")

@@ -98,7 +98,8 @@ TEST(MaterialSettings, ZoneAndMaterialDeclareTheirFields) {
   m.visit(rm);
   EXPECT_EQ(rm.units["friction_angle_mean_deg"], "deg");
   EXPECT_EQ(rm.units["restitution_scale"], "m/s");
-  EXPECT_EQ(rm.units.size(), 8u);  // name, class and the six properties
+  EXPECT_EQ(rm.units["ploughing"], "-");
+  EXPECT_EQ(rm.units.size(), 9u);  // name, class and the seven properties
   EXPECT_EQ(rm.choices["class"].front(), "none");
 }
 

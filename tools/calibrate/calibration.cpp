@@ -61,6 +61,7 @@ void set_property(mc::MaterialOverride& o, const std::string& parameter, double 
   else if (parameter == "friction_angle_mean_deg") o.friction_angle_mean_deg = value;
   else if (parameter == "friction_coefficient_sd") o.friction_coefficient_sd = value;
   else if (parameter == "lateral_tilt_sd_deg") o.lateral_tilt_sd_deg = value;
+  else if (parameter == "ploughing") o.ploughing = value;
   else throw std::logic_error("unknown material property " + parameter);
 }
 
@@ -285,6 +286,7 @@ Problem::Problem(const Settings& settings, const core::SettingsOrigins& origins,
                                : p.parameter == "restitution_scale"       ? r.restitution_scale
                                : p.parameter == "friction_angle_mean_deg" ? r.friction_angle_mean_deg
                                : p.parameter == "friction_coefficient_sd" ? r.friction_coefficient_sd
+                               : p.parameter == "ploughing"               ? r.ploughing
                                                                           : r.lateral_tilt_sd_deg;
     if (!range.contains(p.min) || !range.contains(p.max))
       throw InputError(origins.of({key("min"), key("max")}), where + "the prior [" + core::format_number(p.min) + ", " +

@@ -6,8 +6,8 @@ void FittedParameter::visit(core::SettingsVisitor& v) {
   v.field("material", material, "name of the terrain material whose property is fitted (empty for roughness_sigma)");
   v.choice("parameter", parameter,
            {"restitution_mean", "restitution_sd", "restitution_scale", "friction_angle_mean_deg",
-            "friction_coefficient_sd", "lateral_tilt_sd_deg", "roughness_sigma"},
-           "the material property fitted (its unit: -, -, m/s, deg, -, deg), or the terrain's roughness_sigma (m)");
+            "friction_coefficient_sd", "lateral_tilt_sd_deg", "ploughing", "roughness_sigma"},
+           "the material property fitted (its unit: -, -, m/s, deg, -, deg, -), or the terrain's roughness_sigma (m)");
   v.choice("prior", prior, {"uniform", "normal"}, "prior: uniform on [min, max], or normal(mean, sd) truncated to it");
   v.field("min", min, "", "lower bound of the prior, in the parameter's unit");
   v.field("max", max, "", "upper bound of the prior, in the parameter's unit");

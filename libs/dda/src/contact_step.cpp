@@ -122,6 +122,7 @@ struct StepBuffers {
 struct Approach {
   double speed = 0.0;
   double energy = 0.0;
+  Vec3 point = Vec3::Zero();
   Vec3 normal = Vec3::Zero();
   std::int32_t triangle = -1;
 };
@@ -177,6 +178,7 @@ class ContactStep {
   const double limit_;  // the largest vertex displacement of a step (m)
   const double depth_;  // the penetration limit (m)
   const Vec3 v_start_;
+  const Vec3 w_start_;
   const double kinetic_now_;    // kinetic energy at the step start (J)
   const double kinetic_start_;  // its rigid part (J)
   const double energy_start_;   // total energy at the step start (J)
@@ -206,6 +208,10 @@ class ContactStep {
   // Of the contacts kept at the step end.
   bool any_closed_ = false;
   double spring_energy_ = 0.0;
+  // The normal impulse of the kept contacts (N·s) and its moment about the step-start
+  // centroid (N·s·m): where an impact acts.
+  double impulse_ = 0.0;
+  Vec3 impulse_moment_ = Vec3::Zero();
   Approach arrival_, closing_;
   // The contact that opened in the step with the least end gap: the last to let go
   // (finish_impact).
@@ -225,6 +231,7 @@ ContactStep<N>::ContactStep(const Model& model, const Ground& ground, State& s, 
       limit_(model.max_step_displacement()),
       depth_(model.penetration_limit()),
       v_start_(s.velocity.head<3>()),
+      w_start_(s.velocity.segment<3>(3)),
       // The kinetic energy once for both (total_energy written out).
       kinetic_now_(kinetic_energy(model, s)),
       kinetic_start_(model.dof == DofPath::rigid6 ? kinetic_now_ : rigid_kinetic_energy(model, s)),
@@ -567,13 +574,16 @@ bool ContactStep<N>::keep_contacts() {
     const bool closes_fastest = b_.start_modes[i] == ContactMode::open && point_approach > closing_.speed;
     if (arrives || closes_fastest) {
       const double energy = approach_energy(gn, point_approach);
-      if (arrives) arrival_ = {point_approach, energy, c.normal, c.triangle};
+      if (arrives) arrival_ = {point_approach, energy, c.point - pose_.centre, c.normal, c.triangle};
       if (closes_fastest) {
         closing_.speed = point_approach;
         closing_.energy = energy;
+        closing_.point = c.point - pose_.centre;
       }
     }
     spring_energy_ += 0.5 * p * std::min(0.0, g) * std::min(0.0, g);
+    impulse_ += c.normal_force * dt_;
+    impulse_moment_ += c.normal_force * dt_ * (c.point - pose_.centre);
     // A contact whose point still approaches at an impact's speed is in an impact's
     // compression, not at rest on the ground: it is not settled.
     const Vec3 end = c.point + du;
@@ -629,11 +639,15 @@ double ContactStep<N>::end_approach() const {
 // (rebound_complete).
 template <int N>
 void ContactStep<N>::update_episode() {
-  if (any_closed_ && !s_.episode.active) {
-    start_episode(model_, ground_, s_, v_start_, kinetic_start_, {closing_.speed, closing_.energy});
-  } else if (s_.episode.active && !s_.episode.impact && arrival_.triangle >= 0) {
-    start_episode_along(model_, ground_, s_, v_start_, kinetic_start_, arrival_.normal, arrival_.triangle,
-                        {arrival_.speed, arrival_.energy});
+  const bool starts = any_closed_ && !s_.episode.active;
+  const bool arrives = !starts && s_.episode.active && !s_.episode.impact && arrival_.triangle >= 0;
+  if (starts || arrives) {
+    if (starts) start_episode(model_, ground_, s_, v_start_, kinetic_start_, {closing_.speed, closing_.energy, closing_.point});
+    else
+      start_episode_along(model_, ground_, s_, v_start_, kinetic_start_, arrival_.normal, arrival_.triangle,
+                          {arrival_.speed, arrival_.energy, arrival_.point});
+    s_.episode.spin_in = w_start_;
+    add_impulse(s_, impulse_, impulse_moment_);
   } else if (!any_closed_ && s_.episode.active) {
     const Vec3 before = s_.position;
     end_episode(model_, s_, separation_);
@@ -648,7 +662,10 @@ void ContactStep<N>::update_episode() {
     s_.position = before + keep * moved;
   } else if (s_.episode.active && s_.episode.impact && end_approach() < set_.impact_min_normal_speed &&
              rebound_complete(model_, s_, spring_energy_)) {
+    add_impulse(s_, impulse_, impulse_moment_);
     finish_impact(model_, s_);
+  } else if (s_.episode.active && s_.episode.impact) {
+    add_impulse(s_, impulse_, impulse_moment_);
   }
 }
 

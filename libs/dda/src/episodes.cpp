@@ -27,6 +27,42 @@ Vec3 travel_axis(const Vec3& v_in, const Release& release) {
   return h.normalized();
 }
 
+// The rebound of a rigid impact at one contact point r (from the centroid) on ground of
+// unit normal n (Stronge 2000, Impact Mechanics, ch. 2–4): the point leaves along n at e
+// times its approach speed, and friction stops its tangential slip, by an impulse within
+// the Coulomb cone |P_t| ≤ μ·P_n; beyond the cone it slips against its approach's slip
+// direction. The block's velocity v, spin w (world) and inverse world inertia are changed
+// in place; false if the point does not approach the ground.
+bool point_impact(Vec3& v, Vec3& w, const Vec3& r, const Vec3& n, double mass, const Eigen::Matrix3d& inverse_inertia,
+                  double e, double mu, double plough) {
+  const Vec3 u = v + w.cross(r);
+  const double un = u.dot(n);
+  if (!(un < 0.0)) return false;
+  Eigen::Matrix3d rx;
+  rx << 0.0, -r.z(), r.y(), r.z(), 0.0, -r.x(), -r.y(), r.x(), 0.0;
+  // The point's velocity change per unit impulse at the point.
+  const Eigen::Matrix3d W = Eigen::Matrix3d::Identity() / mass - rx * inverse_inertia * rx;
+  const Vec3 ut = u - un * n;
+  Vec3 impulse = W.ldlt().solve(Vec3(-e * un * n - u));
+  const double pn = impulse.dot(n);
+  const Vec3 pt = impulse - pn * n;
+  if (pt.norm() > mu * pn && ut.norm() > 0.0) {
+    // Slip through the impact: the friction impulse opposes the approach's slip.
+    const Vec3 direction = n - mu * ut.normalized();
+    const double response = n.dot(W * direction);
+    if (!(response > 0.0)) return false;
+    impulse = (-(1.0 + e) * un / response) * direction;
+  }
+  v += impulse / mass;
+  w += inverse_inertia * r.cross(impulse);
+  // Ground that gives way is ploughed: it resists the block's sliding along it, not only
+  // the point's slip, by up to `plough` times the normal impulse, never reversing it.
+  const Vec3 vt = v - v.dot(n) * n;
+  const double sliding = vt.norm();
+  if (plough > 0.0 && sliding > 0.0) v -= std::min(plough * impulse.dot(n) / mass, sliding) / sliding * vt;
+  return true;
+}
+
 }  // namespace
 
 const terrain::Material& material_of(const Ground& ground, std::int32_t triangle) {
@@ -76,6 +112,7 @@ void start_episode_along(const Model& model, const Ground& ground, State& s, con
   const double approach = -v_in.dot(e.normal);
   e.approach_speed = std::max(0.0, approach);
   e.point_approach_energy = point.energy;
+  e.point_in = point.point;
   // What strikes the ground is the contact point, not the centroid: a corner of a tumbling
   // block strikes however slowly the centroid approaches, and a rocking block touching down
   // again after a hop of micrometres does not strike however fast its centroid sinks.
@@ -92,6 +129,7 @@ void start_episode_along(const Model& model, const Ground& ground, State& s, con
   e.tilt_deg = mat.lateral_tilt_sd_deg * z_t;
   e.normal = rotate_about(e.normal, travel_axis(v_in, s.release), e.tilt_deg * kPi / 180.0);
   e.restitution_scale = mat.restitution_scale;
+  e.ploughing = mat.ploughing;
   ++s.impacts;
 }
 
@@ -161,6 +199,38 @@ void finish_impact(const Model& model, State& s, const Separation& separation) {
     w = rotate_about(w, axis, tilt);
     const double turned = rotational(w);
     if (turned > 0.0) w *= std::sqrt(spin_energy / turned);
+  } else if (model.restitution == RestitutionLaw::point) {
+    // The impact as a rigid one at its contact point, from the velocity the block brought
+    // in: the penalty springs' raw rebound only kept the block out of the ground. The
+    // point is where the impact's contact impulse acted (the fastest closing point when
+    // that does not approach); the ground carried the weight while the impact lasted.
+    const Vec3 vin = e.velocity_in;
+    const double vin_norm = vin.norm();
+    const double sf = 1.0 / (1.0 + (vin_norm / e.restitution_scale) * (vin_norm / e.restitution_scale));
+    const Eigen::Matrix3d rotation = s.orientation.toRotationMatrix();
+    const Eigen::Matrix3d inverse_inertia = rotation * model.inertia.inverse() * rotation.transpose();
+    const double mu = s.friction;
+    Vec3 v_law = vin;
+    Vec3 w_law = e.spin_in;
+    const bool acted = e.impulse > 0.0 && point_impact(v_law, w_law, e.impulse_moment / e.impulse, e.normal,
+                                                       model.mass, inverse_inertia, e.restitution * sf, mu, e.ploughing);
+    if (!acted) {
+      v_law = vin;
+      w_law = e.spin_in;
+      point_impact(v_law, w_law, e.point_in, e.normal, model.mass, inverse_inertia, e.restitution * sf, mu,
+                   e.ploughing);
+    }
+    // No impact gains energy (Newton's restitution with friction can, when the slip
+    // reverses): the rebound never holds more than the block brought in.
+    const double kinetic_law = 0.5 * model.mass * v_law.squaredNorm() + rotational(w_law);
+    if (kinetic_law > e.kinetic_in && kinetic_law > 0.0) {
+      const double factor = std::sqrt(e.kinetic_in / kinetic_law);
+      v_law *= factor;
+      w_law *= factor;
+    }
+    v = v_law;
+    w = w_law;
+    ++s.counters.impacts_rescaled;
   } else if (model.restitution == RestitutionLaw::normal_component) {
     const double vin_n = std::abs(e.velocity_in.dot(e.normal));
     const double sf = 1.0 / (1.0 + (vin_n / e.restitution_scale) * (vin_n / e.restitution_scale));
@@ -192,6 +262,11 @@ void finish_impact(const Model& model, State& s, const Separation& separation) {
 void end_episode(const Model& model, State& s, const Separation& separation) {
   finish_impact(model, s, separation);
   s.episode.active = false;
+}
+
+void add_impulse(State& s, double impulse, const Vec3& moment) {
+  s.episode.impulse += impulse;
+  s.episode.impulse_moment += moment;
 }
 
 // An impact whose block stays in contact has rebounded once it no longer approaches along

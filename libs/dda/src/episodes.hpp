@@ -18,6 +18,7 @@ double mean_friction(const terrain::Material& mat);
 struct PointApproach {
   double speed = 0.0;
   double energy = 0.0;
+  Vec3 point = Vec3::Zero();  ///< the point, from the centroid at the step start (m)
 };
 
 /// Starts a contact episode with the centroid velocity `v_in` (m/s) and rigid kinetic
@@ -47,6 +48,9 @@ struct Separation {
 void finish_impact(const Model& model, State& s, const Separation& separation = {});
 /// Ends the episode (applying the law if it is an impact); `separation` as for finish_impact.
 void end_episode(const Model& model, State& s, const Separation& separation = {});
+/// Adds a step's contact impulse (N·s) and its moment about the centroid (N·s·m) to the
+/// impact in progress: where the contact-point law acts.
+void add_impulse(State& s, double impulse, const Vec3& moment);
 /// True once an impact whose block stays in contact has rebounded (docs/dda.md).
 bool rebound_complete(const Model& model, const State& s, double spring_energy);
 

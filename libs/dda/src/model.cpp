@@ -100,7 +100,7 @@ void Settings::visit(core::SettingsVisitor& v) {
             "penetration over block diameter that ends a realization as a numerical failure",
             core::Range::positive(0.5));
   v.bounded("gravity", gravity, "m/s^2", "gravitational acceleration (along -z)", core::Range::closed(0.0, 1000.0));
-  v.choice("restitution", restitution, {"scaled", "normal_component", "off"},
+  v.choice("restitution", restitution, {"scaled", "normal_component", "point", "off"},
            "impact-rebound law applied when a contact episode ends");
   v.bounded("impact_min_normal_speed", impact_min_normal_speed, "m/s",
             "normal approach speed of the closing contact point below which a contact episode is rolling/sliding, not an impact",
@@ -174,9 +174,10 @@ DofPath parse_dof(const std::string& text) {
 RestitutionLaw parse_restitution(const std::string& text) {
   if (text == "scaled") return RestitutionLaw::scaled;
   if (text == "normal_component") return RestitutionLaw::normal_component;
+  if (text == "point") return RestitutionLaw::point;
   if (text == "off") return RestitutionLaw::off;
   throw core::InputError(kSettings,
-                         "restitution = '" + text + "': expected scaled, normal_component or off");
+                         "restitution = '" + text + "': expected scaled, normal_component, point or off");
 }
 
 // Checks the polyhedron is closed and consistently oriented and returns its edges with

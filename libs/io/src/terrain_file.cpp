@@ -36,6 +36,7 @@ constexpr MaterialColumn kMaterialColumns[] = {
     {"friction_angle_mean_deg", &Material::friction_angle_mean_deg, "deg"},
     {"friction_coefficient_sd", &Material::friction_coefficient_sd, "-"},
     {"lateral_tilt_sd_deg", &Material::lateral_tilt_sd_deg, "deg"},
+    {"ploughing", &Material::ploughing, "-"},
 };
 
 }  // namespace
@@ -65,8 +66,9 @@ std::string terrain_problem(const Terrain& t) {
   // The ranges terrain-gen and dda-run read materials with (parallel to kMaterialColumns).
   const Material::Ranges r = Material::ranges();
   const core::Range* ranges[] = {&r.restitution_mean,        &r.restitution_sd,         &r.restitution_scale,
-                                 &r.friction_angle_mean_deg, &r.friction_coefficient_sd, &r.lateral_tilt_sd_deg};
-  static_assert(std::size(kMaterialColumns) == 6);
+                                 &r.friction_angle_mean_deg, &r.friction_coefficient_sd, &r.lateral_tilt_sd_deg,
+                                 &r.ploughing};
+  static_assert(std::size(kMaterialColumns) == 7);
   for (const Material& m : t.materials)
     for (std::size_t c = 0; c < std::size(kMaterialColumns); ++c) {
       const double value = m.*(kMaterialColumns[c].field);
@@ -273,6 +275,7 @@ terrain::Terrain read_terrain_file(const std::string& path, TerrainFileInfo& inf
     for (std::size_t m = 0; m < names.size(); ++m) t.materials[m].class_name = classes[m];
   }
   for (const auto& c : kMaterialColumns) {
+    if (std::string_view(c.name) == "ploughing" && !g_mat.has(c.name)) continue;  // earlier files: 0
     const auto column = g_mat.read_doubles(c.name, {u64(names.size())});
     for (std::size_t m = 0; m < names.size(); ++m) t.materials[m].*(c.field) = column[m];
   }
@@ -329,7 +332,9 @@ std::string terrain_fingerprint(const terrain::Terrain& t) {
   f.bytes(t.material_of_triangle.data(), t.material_of_triangle.size() * sizeof(std::int32_t));
   for (const auto& m : t.materials) {
     f.bytes(m.name.data(), m.name.size());
-    for (const auto& c : kMaterialColumns) f.value(m.*(c.field));
+    // A column that holds its default leaves the fingerprint of earlier files as it was.
+    for (const auto& c : kMaterialColumns)
+      if (std::string_view(c.name) != "ploughing" || m.*(c.field) != 0.0) f.value(m.*(c.field));
   }
   f.value(t.roughness.sigma);
   f.value(t.roughness.seed);

@@ -452,13 +452,14 @@ void apply_override(terrain::Material& m, const MaterialOverride& o, const std::
   if (o.friction_angle_mean_deg) m.friction_angle_mean_deg = *o.friction_angle_mean_deg;
   if (o.friction_coefficient_sd) m.friction_coefficient_sd = *o.friction_coefficient_sd;
   if (o.lateral_tilt_sd_deg) m.lateral_tilt_sd_deg = *o.lateral_tilt_sd_deg;
+  if (o.ploughing) m.ploughing = *o.ploughing;
 }
 
 void check_material(const terrain::Material& m, const std::string& source) {
   const std::string where = "material '" + m.name + "': ";
   auto ok = [](double x) { return std::isfinite(x) && x >= 0.0; };
   if (!ok(m.restitution_mean) || !ok(m.restitution_sd) || !ok(m.friction_coefficient_sd) ||
-      !ok(m.lateral_tilt_sd_deg) || !std::isfinite(m.friction_angle_mean_deg))
+      !ok(m.lateral_tilt_sd_deg) || !ok(m.ploughing) || !std::isfinite(m.friction_angle_mean_deg))
     throw InputError(source, where + "values must be finite and the means and sds non-negative");
   if (!(m.restitution_scale > 0.0) || !std::isfinite(m.restitution_scale))
     throw InputError(source, where + "restitution_scale must be positive");

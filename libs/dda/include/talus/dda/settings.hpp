@@ -18,6 +18,7 @@ enum class RestitutionLaw : std::uint8_t {
   off,               ///< the raw DDA rebound is kept
   scaled,            ///< |V_out| ≤ R_v·SF·|V_in| on the whole velocity (SPEC §4)
   normal_component,  ///< |V_out·n| ≤ R_v·SF·|V_in·n| on the normal component only
+  point,             ///< a rigid impact at the contact point: normal restitution, Coulomb friction
 };
 
 /// Numerical and physical settings of the engine, with defaults (SI units). A driver may
@@ -67,7 +68,7 @@ struct Settings {
   double penetration_limit_ratio = 0.05;
   double gravity = 9.81;                    ///< m/s², along −z
 
-  std::string restitution = "scaled";       ///< "scaled", "normal_component" or "off"
+  std::string restitution = "scaled";       ///< "scaled", "normal_component", "point" or "off"
   /// An episode whose normal approach speed is below this is rolling/sliding, not an
   /// impact: no restitution limit, no draws, no 12-DOF strain hold (m/s).
   double impact_min_normal_speed = 0.5;

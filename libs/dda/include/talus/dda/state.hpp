@@ -133,6 +133,12 @@ struct Episode {
   double restitution = 1.0;      ///< R_v drawn for this impact (-)
   double tilt_deg = 0.0;         ///< lateral tilt drawn for this impact (deg)
   double restitution_scale = 12.0;  ///< K of the material hit (m/s)
+  double ploughing = 0.0;           ///< of the material hit (-)
+  // What the contact-point law (RestitutionLaw::point) needs of the impact.
+  Vec3 spin_in = Vec3::Zero();   ///< angular velocity at the start, world frame (rad/s)
+  Vec3 point_in = Vec3::Zero();  ///< fastest closing point at the start, from the centroid (m)
+  double impulse = 0.0;          ///< normal impulse of the impact's contacts so far (N·s)
+  Vec3 impulse_moment = Vec3::Zero();  ///< Σ impulse × contact point from the centroid (N·s·m)
 };
 
 /// What the block is doing at a trajectory sample (part of the run-file format).

@@ -32,6 +32,7 @@ struct MaterialOverride {
   std::optional<double> friction_angle_mean_deg;  ///< deg
   std::optional<double> friction_coefficient_sd;  ///< sd of tan φ (-)
   std::optional<double> lateral_tilt_sd_deg;      ///< deg
+  std::optional<double> ploughing;                ///< -
   void visit(core::SettingsVisitor& v);
 };
 

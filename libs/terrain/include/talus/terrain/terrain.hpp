@@ -64,6 +64,9 @@ struct Material {
   double friction_angle_mean_deg = 10.0;   ///< mean friction angle (deg)
   double friction_coefficient_sd = 0.05;   ///< sd of the friction coefficient tan φ (-)
   double lateral_tilt_sd_deg = 0.0;        ///< sd of the lateral ground tilt at impact (deg)
+  /// Ground that gives way under an impact resists the block's sliding beyond friction:
+  /// a tangential impulse of at most this times the normal one (-), contact-point law only.
+  double ploughing = 0.0;
   void visit(core::SettingsVisitor& v);
 
   /// Allowed values, refused outside them where they are read (terrain-gen settings and
@@ -75,10 +78,11 @@ struct Material {
     core::Range friction_angle_mean_deg = core::Range::right_open(0.0, 90.0);
     core::Range friction_coefficient_sd = core::Range::closed(0.0, 10.0);
     core::Range lateral_tilt_sd_deg = core::Range::right_open(0.0, 90.0);
+    core::Range ploughing = core::Range::closed(0.0, 10.0);
   };
   static Ranges ranges() { return {}; }
 
-  /// Visits the six properties of `m` — a Material, or an override of one whose fields
+  /// Visits the seven properties of `m` — a Material, or an override of one whose fields
   /// are optional — with their units, documentation and ranges.
   template <class Properties>
   static void visit_properties(core::SettingsVisitor& v, Properties& m) {
@@ -92,6 +96,10 @@ struct Material {
               "standard deviation of the friction coefficient tan(phi)", r.friction_coefficient_sd);
     v.bounded("lateral_tilt_sd_deg", m.lateral_tilt_sd_deg, "deg",
               "standard deviation of the lateral ground tilt drawn at each impact", r.lateral_tilt_sd_deg);
+    v.bounded("ploughing", m.ploughing, "-",
+              "restitution: point only; tangential impulse against the block's sliding, at most this times the "
+              "normal impulse of an impact (ground that gives way)",
+              r.ploughing);
   }
 };
 

@@ -144,17 +144,22 @@ def build(args, work, log):
     return terrain, blocks
 
 
-def scene(args, work, terrain, blocks, profile, materials):
-    path = os.path.join(work, f"{materials}-{profile.name}.yaml")
+def scene(args, work, terrain, blocks, profile, materials, fitted=None, name=None):
+    """The dda-run scene of `profile`: the classes' zones (with --material and the `fitted`
+    {zone: {property: value}} beside them) or the terrain file's defaults."""
+    path = os.path.join(work, f"{name or materials}-{profile.name}.yaml")
     with open(path, "w") as f:
         f.write(f"# Authume {profile.name}, {materials}: the data's drop points and orientations.\n"
                 f"schema_version: \"1.0\"\nterrain: {terrain}\nblock_file: {blocks}\n"
                 "block_selection: cycle\n")
+        if args.law != "scaled":
+            f.write(f"engine:\n  restitution: {args.law}\n")
         if materials == "classes":
             f.write("materials:\n")
             for zone, cls in ZONES.items():
                 extra = "".join(f", {kv.split('=', 1)[0]}: {kv.split('=', 1)[1]}"
                                 for c, kv in (o.split(":", 1) for o in args.material) if c == cls)
+                extra += "".join(f", {key}: {value:.6g}" for key, value in (fitted or {}).get(zone, {}).items())
                 f.write(f"  - {{name: {zone}, class: {cls}{extra}}}\n")
         points = ", ".join(f"[{p[0]:.4f}, {p[1]:.4f}]" for p in plan(profile.drops))
         f.write("release:\n  kind: point\n"
@@ -169,7 +174,7 @@ def scene(args, work, terrain, blocks, profile, materials):
     return path
 
 
-def calibration_files(work, profile):
+def calibration_files(args, work, profile):
     """The measured stops as calibrate's observed CSV (plan x, y in the terrain's input
     coordinates) and a calibrate settings file fitting the classes' three zones to them,
     compared by distance from the mean drop point (docs/calibration.md)."""
@@ -187,11 +192,29 @@ def calibration_files(work, profile):
                 "groups:\n"
                 f"  - name: {name}\n    observed: {observed}\n"
                 f"    origin: [{profile.origin[0]:.4f}, {profile.origin[1]:.4f}]   # m, the mean drop point\n"
-                "parameters:\n"
-                "  - {material: DTM_Gray_zone, parameter: restitution_mean, min: 0.1, max: 0.95}\n"
-                "  - {material: DTM_Gray_zone, parameter: restitution_scale, min: 3, max: 40}   # m/s\n"
-                "  - {material: DTM_Blue_zone, parameter: restitution_mean, min: 0.1, max: 0.95}\n"
-                "variables: distance\nrealizations: 64\nparticles: 30\ngenerations: 3\n")
+                "parameters:\n")
+        if args.law == "point":
+            f.write("  - {material: DTM_Gray_zone, parameter: ploughing, min: 0, max: 1}\n"
+                    "  - {material: DTM_Blue_zone, parameter: ploughing, min: 0, max: 1}\n"
+                    "  - {material: DTM_Blue_zone, parameter: restitution_mean, min: 0.1, max: 0.9}\n")
+        else:
+            f.write("  - {material: DTM_Gray_zone, parameter: restitution_mean, min: 0.1, max: 0.95}\n"
+                    "  - {material: DTM_Gray_zone, parameter: restitution_scale, min: 3, max: 40}   # m/s\n"
+                    "  - {material: DTM_Blue_zone, parameter: restitution_mean, min: 0.1, max: 0.95}\n")
+        f.write(f"variables: distance\nrealizations: {args.calibration[1]}\nparticles: {args.calibration[0]}\n"
+                f"generations: {args.calibration[2]}\n")
+
+
+def fitted_medians(summary_csv):
+    """{zone: {property: posterior median}} from calibrate's summary.csv."""
+    fitted = {}
+    with open(summary_csv) as f:
+        header = f.readline().strip().split(",")
+        for line in f:
+            row = dict(zip(header, line.strip().split(",")))
+            zone, prop = row["parameter"].rsplit(".", 1)
+            fitted.setdefault(zone, {})[prop] = float(row["P50"])
+    return fitted
 
 
 def read_run(run_file):
@@ -314,10 +337,21 @@ def main():
     p.add_argument("--density", type=float, default=2700.0, help="block density (kg/m^3, default 2700)")
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--threads", type=int, default=0, help="dda-run threads (0: all cores)")
-    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="passed to every dda-run")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="passed to every dda-run (not to calibrate: what both need belongs in the scene)")
+    p.add_argument("--calibrate", action="store_true",
+                   help="calibrate the classes' zones on each profile (calibrate-P*.yaml) and run both profiles with "
+                        "the posterior medians: about 10 min per profile on 2 cores")
+    p.add_argument("--calibration", type=int, nargs=3, default=[24, 64, 3],
+                   metavar=("PARTICLES", "REALIZATIONS", "GENERATIONS"),
+                   help="calibrate-P*.yaml's particles, realizations per simulation and generations (24 64 3)")
+    p.add_argument("--law", choices=["scaled", "point"], default="scaled",
+                   help="dda-run's restitution law (docs/dda.md, Impact-rebound); default scaled")
     p.add_argument("--material", action="append", default=[], metavar="CLASS:KEY=VALUE",
                    help="with the classes: a property of the zones of that class (e.g. soil:ploughing=0.3)")
     args = p.parse_args()
+    if args.calibrate and ("classes" not in args.materials or len(args.profiles) != 2):
+        fail("--calibrate needs the classes and both profiles")
     if args.realizations < 1:
         fail("--realizations must be at least 1")
     if not os.path.isdir(args.data):
@@ -331,19 +365,33 @@ def main():
         peer = rockable(args, profile.name)
         if peer is not None:
             results[("Rockable", profile.name)] = measure(profile, *peer)
+    threads = ["--threads", str(args.threads)] if args.threads > 0 else []
+
+    def simulate(path, key, profile):
+        run_file = os.path.splitext(path)[0] + ".h5"
+        cmd = [os.path.join(args.bin, "dda-run"), "-c", path, "-q", "-o", run_file] + threads
+        for kv in args.set:
+            cmd += ["--set", kv]
+        run(cmd, log)
+        results[key] = measure(profile, *read_run(run_file))
+
     for materials in args.materials:
         for profile in profiles:
             path = scene(args, args.out, terrain, blocks, profile, materials)
             if materials == "classes":
-                calibration_files(args.out, profile)
-            run_file = os.path.join(args.out, f"{materials}-{profile.name}.h5")
-            cmd = [os.path.join(args.bin, "dda-run"), "-c", path, "-q", "-o", run_file]
-            if args.threads > 0:
-                cmd += ["--threads", str(args.threads)]
-            for kv in args.set:
-                cmd += ["--set", kv]
-            run(cmd, log)
-            results[(materials, profile.name)] = measure(profile, *read_run(run_file))
+                calibration_files(args, args.out, profile)
+            simulate(path, (materials, profile.name), profile)
+    # Each profile's calibration predicts the other: its posterior medians beside the classes.
+    if args.calibrate:
+        for fit in profiles:
+            fit_dir = os.path.join(args.out, f"fit-{fit.name}")
+            run([os.path.join(args.bin, "calibrate"), "-c", os.path.join(args.out, f"calibrate-{fit.name}.yaml"),
+                 "-o", fit_dir] + threads, log)
+            fitted = fitted_medians(os.path.join(fit_dir, "summary.csv"))
+            for profile in profiles:
+                name = f"calibrated-on-{fit.name}"
+                path = scene(args, args.out, terrain, blocks, profile, "classes", fitted, name)
+                simulate(path, (f"calibrated on {fit.name}", profile.name), profile)
     text = table(results, args)
     with open(os.path.join(args.out, "table.md"), "w") as f:
         f.write(text)

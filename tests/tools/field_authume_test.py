@@ -141,6 +141,21 @@ def main():
     r = subprocess.run([os.path.join(args.bin, "calibrate"), "-c", os.path.join(out, "calibrate-P1.yaml"),
                         "--print-config"], capture_output=True, text=True)
     check(r.returncode == 0 and "variables: distance" in r.stdout, f"calibrate-P1.yaml: {r.stderr.strip()}")
+    # The contact-point law and each profile's calibration predicting both profiles.
+    out = os.path.join(args.out, "calibrated")
+    r = subprocess.run([sys.executable, SCRIPT, "--data", data, "--bin", args.bin, "--out", out, "--realizations", "16",
+                        "--threads", "2", "--materials", "classes", "--law", "point", "--calibrate",
+                        "--calibration", "4", "8", "2"], capture_output=True, text=True)
+    check(r.returncode == 0, f"authume.py --calibrate failed: {r.stderr.strip()}")
+    check("restitution: point" in open(os.path.join(out, "classes-P2.yaml")).read(), "scene without the law")
+    check("parameter: ploughing" in open(os.path.join(out, "calibrate-P1.yaml")).read(), "no ploughing fitted")
+    rows = [line.split("|")[1:3] for line in open(os.path.join(out, "table.md")).read().splitlines()[2:]]
+    keys = sorted((a.strip(), b.strip()) for a, b in rows)
+    check(keys == sorted((m, p) for m in ("classes", "calibrated on P1", "calibrated on P2") for p in ("P1", "P2")),
+          f"rows {keys}")
+    fitted = authume.fitted_medians(os.path.join(out, "fit-P1", "summary.csv"))
+    scene = open(os.path.join(out, "calibrated-on-P1-P2.yaml")).read()
+    check(f"ploughing: {fitted['DTM_Gray_zone']['ploughing']:.6g}" in scene, "P2 scene without P1's fitted medians")
     # Not the dataset: one line naming the file.
     r = subprocess.run([sys.executable, SCRIPT, "--data", args.out, "--bin", args.bin, "--out", out],
                        capture_output=True, text=True)

@@ -214,11 +214,16 @@ void finish_impact(const Model& model, State& s, const Separation& separation) {
     Vec3 w_law = e.spin_in;
     const bool acted = e.impulse > 0.0 && point_impact(v_law, w_law, e.impulse_moment / e.impulse, e.normal,
                                                        model.mass, inverse_inertia, e.restitution * sf, mu, e.ploughing);
+    // Neither point approaching along the tilted normal: the law has nothing to act on,
+    // and the raw rebound stands.
     if (!acted) {
       v_law = vin;
       w_law = e.spin_in;
-      point_impact(v_law, w_law, e.point_in, e.normal, model.mass, inverse_inertia, e.restitution * sf, mu,
-                   e.ploughing);
+      if (!point_impact(v_law, w_law, e.point_in, e.normal, model.mass, inverse_inertia, e.restitution * sf, mu,
+                        e.ploughing)) {
+        v_law = v;
+        w_law = w;
+      }
     }
     // No impact gains energy (Newton's restitution with friction can, when the slip
     // reverses): the rebound never holds more than the block brought in.

@@ -186,7 +186,7 @@ def calibration_files(args, work, profile):
             f.write(f"{x:.3f},{y:.3f}\n")
     path = os.path.join(work, f"calibrate-{name}.yaml")
     with open(path, "w") as f:
-        f.write(f"# Fits the zones' restitution to the measured stops of {name}; a starting point:\n"
+        f.write(f"# Fits the zones' materials to the measured stops of {name}; a starting point:\n"
                 f"#   calibrate -c {path} -o {os.path.join(work, 'fit-' + name)}\n"
                 f"scene: {os.path.join(work, 'classes-' + name + '.yaml')}\n"
                 "groups:\n"

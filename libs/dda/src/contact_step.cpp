@@ -639,6 +639,8 @@ double ContactStep<N>::end_approach() const {
 // (rebound_complete).
 template <int N>
 void ContactStep<N>::update_episode() {
+  // An impact in progress gathers where its contacts push (the contact-point law's point).
+  if (s_.episode.active && s_.episode.impact) add_impulse(s_, impulse_, impulse_moment_);
   const bool starts = any_closed_ && !s_.episode.active;
   const bool arrives = !starts && s_.episode.active && !s_.episode.impact && arrival_.triangle >= 0;
   if (starts || arrives) {
@@ -662,10 +664,7 @@ void ContactStep<N>::update_episode() {
     s_.position = before + keep * moved;
   } else if (s_.episode.active && s_.episode.impact && end_approach() < set_.impact_min_normal_speed &&
              rebound_complete(model_, s_, spring_energy_)) {
-    add_impulse(s_, impulse_, impulse_moment_);
     finish_impact(model_, s_);
-  } else if (s_.episode.active && s_.episode.impact) {
-    add_impulse(s_, impulse_, impulse_moment_);
   }
 }
 

@@ -27,6 +27,9 @@ Vec3 travel_axis(const Vec3& v_in, const Release& release) {
   return h.normalized();
 }
 
+// SPEC §4's speed scaling SF = 1 / (1 + (speed/K)²).
+double speed_factor(double speed, double k) { return 1.0 / (1.0 + (speed / k) * (speed / k)); }
+
 // The rebound of a rigid impact at one contact point r (from the centroid) on ground of
 // unit normal n (Stronge 2000, Impact Mechanics, ch. 2–4): the point leaves along n at e
 // times its approach speed, and friction stops its tangential slip, by an impulse within
@@ -166,7 +169,7 @@ void finish_impact(const Model& model, State& s, const Separation& separation) {
   double energy_ratio = 1.0;  // allowed kinetic energy over the impact's
   if (model.restitution == RestitutionLaw::scaled) {
     const double vin = e.velocity_in.norm();
-    const double sf = 1.0 / (1.0 + (vin / e.restitution_scale) * (vin / e.restitution_scale));
+    const double sf = speed_factor(vin, e.restitution_scale);
     const double cap = e.restitution * sf * vin;
     energy_ratio = (e.restitution * sf) * (e.restitution * sf);
     const double vout = v.norm();
@@ -206,7 +209,7 @@ void finish_impact(const Model& model, State& s, const Separation& separation) {
     // that does not approach); the ground carried the weight while the impact lasted.
     const Vec3 vin = e.velocity_in;
     const double vin_norm = vin.norm();
-    const double sf = 1.0 / (1.0 + (vin_norm / e.restitution_scale) * (vin_norm / e.restitution_scale));
+    const double sf = speed_factor(vin_norm, e.restitution_scale);
     const Eigen::Matrix3d rotation = s.orientation.toRotationMatrix();
     const Eigen::Matrix3d inverse_inertia = rotation * model.inertia.inverse() * rotation.transpose();
     const double mu = s.friction;
@@ -238,7 +241,7 @@ void finish_impact(const Model& model, State& s, const Separation& separation) {
     ++s.counters.impacts_rescaled;
   } else if (model.restitution == RestitutionLaw::normal_component) {
     const double vin_n = std::abs(e.velocity_in.dot(e.normal));
-    const double sf = 1.0 / (1.0 + (vin_n / e.restitution_scale) * (vin_n / e.restitution_scale));
+    const double sf = speed_factor(vin_n, e.restitution_scale);
     const double cap = e.restitution * sf * vin_n;
     const double vn = v.dot(e.normal);
     if (vn > cap) {

@@ -28,6 +28,9 @@ struct MaterialColumn {
   const char* name;
   double Material::*field;
   const char* unit;
+  // Added after the format's first version: absent from earlier files, read as the
+  // default, and left out of the fingerprint at its default so theirs stays as it was.
+  bool optional = false;
 };
 constexpr MaterialColumn kMaterialColumns[] = {
     {"restitution_mean", &Material::restitution_mean, "-"},
@@ -36,7 +39,7 @@ constexpr MaterialColumn kMaterialColumns[] = {
     {"friction_angle_mean_deg", &Material::friction_angle_mean_deg, "deg"},
     {"friction_coefficient_sd", &Material::friction_coefficient_sd, "-"},
     {"lateral_tilt_sd_deg", &Material::lateral_tilt_sd_deg, "deg"},
-    {"ploughing", &Material::ploughing, "-"},
+    {"ploughing", &Material::ploughing, "-", true},
 };
 
 }  // namespace
@@ -275,7 +278,7 @@ terrain::Terrain read_terrain_file(const std::string& path, TerrainFileInfo& inf
     for (std::size_t m = 0; m < names.size(); ++m) t.materials[m].class_name = classes[m];
   }
   for (const auto& c : kMaterialColumns) {
-    if (std::string_view(c.name) == "ploughing" && !g_mat.has(c.name)) continue;  // earlier files: 0
+    if (c.optional && !g_mat.has(c.name)) continue;
     const auto column = g_mat.read_doubles(c.name, {u64(names.size())});
     for (std::size_t m = 0; m < names.size(); ++m) t.materials[m].*(c.field) = column[m];
   }
@@ -332,9 +335,8 @@ std::string terrain_fingerprint(const terrain::Terrain& t) {
   f.bytes(t.material_of_triangle.data(), t.material_of_triangle.size() * sizeof(std::int32_t));
   for (const auto& m : t.materials) {
     f.bytes(m.name.data(), m.name.size());
-    // A column that holds its default leaves the fingerprint of earlier files as it was.
     for (const auto& c : kMaterialColumns)
-      if (std::string_view(c.name) != "ploughing" || m.*(c.field) != 0.0) f.value(m.*(c.field));
+      if (!c.optional || m.*(c.field) != Material{}.*(c.field)) f.value(m.*(c.field));
   }
   f.value(t.roughness.sigma);
   f.value(t.roughness.seed);
